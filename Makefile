@@ -1,0 +1,32 @@
+# Set-up and the two entry points named at the top of README.md.
+PYTHON ?= python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+
+.PHONY: demo test bench browser clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[test]'
+	touch $(STAMP)
+
+# Main job on the embedded default (simulated rig): 1-20 Vpp sweep at 400 Hz, 5 Nm.
+demo: $(STAMP)
+	$(VENV)/bin/labjoint simulate --sweep 1,2,4,8,12,16,20 --frequency 400 --torque 5 --out data/demo
+
+# Headless Chromium from Debian for the web-page tests (no browser download by a test tool).
+browser:
+	@command -v chromium >/dev/null 2>&1 || { \
+	  if [ "$$(id -u)" = 0 ]; then apt-get update -qq && apt-get install -y -qq chromium chromium-driver >/dev/null; \
+	  else sudo apt-get update -qq && sudo apt-get install -y -qq chromium chromium-driver >/dev/null; fi; }
+
+test: $(STAMP) browser
+	$(PY) -m pytest -n 2 -q
+
+bench: $(STAMP)
+	$(PY) -m benchmarks.run_all
+
+clean:
+	rm -rf $(VENV) data .pytest_cache

@@ -1,0 +1,9 @@
+"""Instrument interfaces and their backends (real driver, physics simulator).
+
+Backends are chosen by config through :func:`labjoint.hardware.factory.open_rig`;
+nothing outside the factory imports :mod:`labjoint.hardware.sim`.
+"""
+
+from labjoint.hardware.interfaces import DAQ, ChannelSpec, GeneratorSettings, SignalGenerator
+
+__all__ = ["DAQ", "ChannelSpec", "GeneratorSettings", "SignalGenerator"]

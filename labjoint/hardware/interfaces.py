@@ -1,0 +1,164 @@
+"""One interface per instrument: the signal generator and the DAQ.
+
+Every backend (PyVISA driver on a real or pyvisa-sim instrument, nidaqmx, the physics
+simulator) subclasses these; the abstract methods are enforced by :mod:`abc`.
+Units: volts, hertz, seconds; samples as float64 volts shaped (n_channels, n).
+"""
+
+from __future__ import annotations
+
+import abc
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from labjoint.errors import InputError
+
+SENSOR_KINDS = ("force", "capacitive", "nanocomposite", "imported", "voltage")
+QUANTITIES = ("force", "displacement", "voltage", "time")
+
+
+@dataclass(frozen=True)
+class ChannelSpec:
+    """One analog input channel and the sensor on it.
+
+    ``sensitivity`` converts volts to the physical unit (N/V or m/V).
+    ``calibration`` optionally replaces it by a table of (frequency_hz, units_per_volt)
+    pairs, interpolated at the run's excitation frequency (nanocomposite sensor).
+    """
+
+    name: str
+    sensor: str
+    quantity: str
+    unit: str
+    sensitivity: float
+    range_v: float = 5.0
+    coupling: str = "AC"
+    iepe: bool = False
+    physical_channel: str = ""
+    calibration: tuple[tuple[float, float], ...] = field(default_factory=tuple)
+
+    def __post_init__(self) -> None:
+        if not self.name or not self.name.replace("_", "").isalnum():
+            raise InputError(f"channel name {self.name!r} must be alphanumeric/underscore")
+        if self.sensor not in SENSOR_KINDS:
+            raise InputError(f"unknown sensor kind {self.sensor!r}; known: {SENSOR_KINDS}",
+                             field=f"channels.{self.name}.sensor")
+        if self.quantity not in QUANTITIES:
+            raise InputError(f"unknown quantity {self.quantity!r}; known: {QUANTITIES}",
+                             field=f"channels.{self.name}.quantity")
+        if not np.isfinite(self.sensitivity) or self.sensitivity == 0:
+            raise InputError("sensitivity must be finite and non-zero",
+                             field=f"channels.{self.name}.sensitivity")
+        if not (self.range_v > 0):
+            raise InputError("range must be positive", field=f"channels.{self.name}.range_v")
+        if self.coupling not in ("AC", "DC"):
+            raise InputError(f"coupling must be 'AC' or 'DC', got {self.coupling!r}",
+                             field=f"channels.{self.name}.coupling")
+
+    def units_per_volt(self, frequency_hz: float | None = None) -> float:
+        """Calibration factor at ``frequency_hz`` (table if given, else ``sensitivity``)."""
+        if self.calibration and frequency_hz is not None and np.isfinite(frequency_hz):
+            f, s = np.array(self.calibration, dtype=float).T
+            order = np.argsort(f)
+            return float(np.interp(frequency_hz, f[order], s[order]))
+        return float(self.sensitivity)
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["calibration"] = [list(p) for p in self.calibration]
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "ChannelSpec":
+        d = dict(d)
+        d["calibration"] = tuple(tuple(float(x) for x in p) for p in d.get("calibration", ()))
+        return cls(**d)
+
+
+@dataclass(frozen=True)
+class GeneratorSettings:
+    """What the function generator outputs: a sine of frequency, Vpp and offset."""
+
+    frequency_hz: float
+    amplitude_vpp: float
+    offset_v: float = 0.0
+    output: bool = False
+
+
+class SignalGenerator(abc.ABC):
+    """A function generator channel producing a sine."""
+
+    @abc.abstractmethod
+    def identify(self) -> str:
+        """Instrument identification string (``*IDN?``)."""
+
+    @abc.abstractmethod
+    def apply(self, frequency_hz: float, amplitude_vpp: float, offset_v: float = 0.0) -> GeneratorSettings:
+        """Set a sine, read the settings back, compare, and return what was read."""
+
+    @abc.abstractmethod
+    def set_output(self, on: bool) -> None:
+        """Switch the output on or off (and confirm by read-back)."""
+
+    @abc.abstractmethod
+    def read_settings(self) -> GeneratorSettings:
+        """Read the current settings back from the instrument."""
+
+    @abc.abstractmethod
+    def close(self) -> None:
+        """Leave the output OFF and release the instrument."""
+
+    def __enter__(self) -> "SignalGenerator":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class DAQ(abc.ABC):
+    """A multi-channel analog input device with a continuous hardware clock."""
+
+    @abc.abstractmethod
+    def configure(self, channels: list[ChannelSpec], sample_rate_hz: float) -> float:
+        """Set up channels and clock; return the actual sample rate the module offers."""
+
+    @property
+    @abc.abstractmethod
+    def channels(self) -> list[ChannelSpec]:
+        """The configured channels, in the row order of :meth:`read`."""
+
+    @property
+    @abc.abstractmethod
+    def sample_rate_hz(self) -> float:
+        """Actual sample rate."""
+
+    @abc.abstractmethod
+    def start(self) -> None:
+        """Start continuous acquisition."""
+
+    @abc.abstractmethod
+    def read(self, n_samples: int, out: np.ndarray | None = None) -> np.ndarray:
+        """Read the next ``n_samples`` per channel as volts, shape (n_channels, n).
+
+        Raises :class:`labjoint.errors.BufferOverrun` if samples were lost.
+        """
+
+    @property
+    @abc.abstractmethod
+    def samples_read(self) -> int:
+        """Total samples per channel delivered since :meth:`start` (the sample counter)."""
+
+    @abc.abstractmethod
+    def stop(self) -> None:
+        """Stop acquisition (idempotent)."""
+
+    @abc.abstractmethod
+    def close(self) -> None:
+        """Stop and release the device."""
+
+    def __enter__(self) -> "DAQ":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
