@@ -1,6 +1,6 @@
 """Instrument interfaces and their backends (real driver, physics simulator).
 
-Backends are chosen by config through :func:`labjoint.hardware.factory.open_rig`;
+Backends are chosen by config through :func:`labjoint.acquisition.rig.open_rig`;
 nothing outside the factory imports :mod:`labjoint.hardware.sim`.
 """
 

@@ -1,0 +1,79 @@
+"""`labjoint` command line: one subcommand per job; `--json` prints one JSON object.
+
+Errors go to stderr as one line with a non-zero exit code (2: bad input, 3: hardware,
+4: safety limit, 1: anything else).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from typing import Sequence
+
+from labjoint import __version__
+from labjoint.errors import HardwareError, InputError, LabjointError, LimitExceeded
+
+# subcommand -> (module in labjoint.cli, function, help)
+COMMANDS = {
+    "simulate": ("cmd_simulate", "run", "run a plan on the simulated rig and analyse it"),
+    "import": ("cmd_import", "run", "import CSV files (design.md format) into run files"),
+    "analyze": ("cmd_analyze", "run", "identify energy loss, damping and stiffness of runs"),
+    "runs": ("cmd_runs", "run", "query the run catalog"),
+    "fit": ("cmd_models", "fit", "fit a joint model to runs"),
+    "diagnose": ("cmd_models", "diagnose", "where a model fails and which effect is missing"),
+    "ladder": ("cmd_models", "ladder", "add effects until the model is adequate"),
+    "hw": ("cmd_hw", "run", "hardware: `labjoint hw check` lists instruments and DAQ devices"),
+    "daemon": ("cmd_daemon", "run", "run the headless acquisition daemon"),
+    "submit": ("cmd_daemon", "submit", "queue a plan (TOML/JSON) for the daemon"),
+    "torque": ("cmd_daemon", "torque", "confirm the new bolt torque so a paused plan continues"),
+    "serve": ("cmd_serve", "run", "run the REST service (and, by default, the daemon on the simulated rig)"),
+}
+
+
+def _add_common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.add_argument("--config", default=None, help="rig config TOML (default: the simulated rig)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="labjoint", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"labjoint {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for name, (mod, _fn, help_) in COMMANDS.items():
+        p = sub.add_parser(name, help=help_, description=help_)
+        _add_common(p)
+        module = importlib.import_module(f"labjoint.cli.{mod}")
+        getattr(module, f"add_{name}_arguments")(p)
+        p.set_defaults(_handler=(mod, _fn, name))
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    mod, fn, _name = args._handler
+    handler = getattr(importlib.import_module(f"labjoint.cli.{mod}"), fn)
+    try:
+        return int(handler(args) or 0)
+    except InputError as exc:
+        return _fail(exc, 2)
+    except LimitExceeded as exc:
+        return _fail(exc, 4)
+    except HardwareError as exc:
+        return _fail(exc, 3)
+    except LabjointError as exc:
+        return _fail(exc, 1)
+    except KeyboardInterrupt:
+        return _fail("interrupted", 130)
+
+
+def _fail(exc: object, code: int) -> int:
+    sys.stderr.write(f"labjoint: error: {exc}\n")
+    return code
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
