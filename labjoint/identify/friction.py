@@ -1,0 +1,336 @@
+"""Inputs of the stick-slip method, identified from runs (seed 002 section IV.A).
+
+- Friction coefficient, seed 002 Eq. 10: mu = f_sld / f_n from a friction test in
+  macro-slip (low frequency, low torque); f_sld is the sliding-plateau force of the
+  loop, f_n = (torque-to-normal-force ratio, 478 N/Nm by default) x torque.
+- Shear-layer stiffness K_t from the loop slope, seed 002 Eq. 9: K = 2 K_t.
+
+Every value is an :class:`Identified`: value, standard uncertainty (cycle-to-cycle
+scatter / sqrt(cycles), plus any stated input uncertainty) and the run it came from.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from dataclasses import asdict, dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from labjoint.errors import InputError
+from labjoint.signal import validate
+from labjoint.signal.filter import PAPER_CUTOFF_HZ, analysis_cutoff, lowpass
+from labjoint.signal.frequency import estimate_frequency
+from labjoint.signal.steady import detect_steady
+
+STIFFNESS_METHODS = ("secant", "lsq")
+DEFAULT_TORQUE_TO_NORMAL_N_PER_NM = 478.0   # seed 002 section IV.A
+
+
+@dataclass(frozen=True)
+class Identified:
+    """An identified quantity with its standard uncertainty and provenance."""
+
+    name: str
+    value: float
+    uncertainty: float
+    unit: str
+    source: str
+    method: str
+    n_cycles: int = 0
+    details: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def relative_uncertainty(self) -> float:
+        return abs(self.uncertainty / self.value) if self.value else float("inf")
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "Identified":
+        keys = {"name", "value", "uncertainty", "unit", "source", "method", "n_cycles", "details"}
+        missing = {"name", "value", "uncertainty", "unit", "source", "method"} - set(d)
+        if missing:
+            raise InputError(f"identified value lacks {sorted(missing)}", field="identified")
+        return cls(**{k: v for k, v in d.items() if k in keys})
+
+
+def normal_force(torque_nm: float, ratio_n_per_nm: float = DEFAULT_TORQUE_TO_NORMAL_N_PER_NM
+                 ) -> float:
+    """Bolt normal force (N) from tightening torque (seed 002: 478 N/Nm)."""
+    if not (np.isfinite(torque_nm) and torque_nm > 0):
+        raise InputError(f"bolt torque must be positive, got {torque_nm} Nm", field="torque_nm")
+    if not (np.isfinite(ratio_n_per_nm) and ratio_n_per_nm > 0):
+        raise InputError(f"torque-to-normal-force ratio must be positive, got {ratio_n_per_nm}",
+                         field="torque_to_normal_n_per_nm")
+    return float(ratio_n_per_nm * torque_nm)
+
+
+def _crossings(displacement: np.ndarray, sample_rate_hz: float, frequency_hz: float
+               ) -> np.ndarray:
+    """Sample indices of upward zero crossings of the centred record, chatter removed."""
+    u = np.asarray(displacement, float)
+    u = u - u.mean()
+    period = sample_rate_hz / frequency_hz
+    i = np.flatnonzero((u[:-1] < 0) & (u[1:] >= 0)) + 1
+    if i.size:
+        i = i[np.diff(i, prepend=-(10 * int(period) + 10)) >= 0.5 * period]
+    return i
+
+
+def cycle_labels(displacement: np.ndarray, sample_rate_hz: float, frequency_hz: float
+                 ) -> np.ndarray:
+    """Cycle index of every sample (-1 outside whole cycles), cut at upward zero crossings."""
+    i = _crossings(displacement, sample_rate_hz, frequency_hz)
+    labels = np.full(np.size(displacement), -1, np.int64)
+    if i.size < 2:
+        return labels
+    labels[i[0]:i[-1]] = np.repeat(np.arange(i.size - 1), np.diff(i))
+    return labels
+
+
+def _per_cycle_mean(values: np.ndarray, labels: np.ndarray, mask: np.ndarray, n: int
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    m = mask & (labels >= 0)
+    cnt = np.bincount(labels[m], minlength=n).astype(float)
+    s = np.bincount(labels[m], weights=values[m], minlength=n)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return s / cnt, cnt
+
+
+def _mean_sem(x: np.ndarray) -> tuple[float, float]:
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        return float("nan"), float("nan")
+    sem = float(np.std(x, ddof=1) / np.sqrt(x.size)) if x.size > 1 else float("nan")
+    return float(np.mean(x)), sem
+
+
+def loop_stiffness(displacement: np.ndarray, force: np.ndarray, sample_rate_hz: float,
+                   frequency_hz: float, method: str = "lsq") -> tuple[np.ndarray, np.ndarray]:
+    """Per-cycle loop stiffness (N/m) and amplitude U (m).
+
+    ``lsq`` (default, as :mod:`labjoint.identify.loop`): least-squares slope of force on
+    displacement over the cycle. seed 002 Eq. 9 defines K = F_i / u_i with F_i the
+    force AT displacement u_i, so at u = U it is the slope to the force where the
+    displacement peaks; for the fat loops the paper reports (W / (pi K U^2) ~ 0.4 in
+    Table 2) that is the in-phase, least-squares slope, while peak force over peak
+    displacement exceeds it by sqrt(1 + 0.4^2), 8 %.
+    ``secant``: peak-to-peak force over peak-to-peak displacement (Fig. 2's F / U).
+    """
+    if method not in STIFFNESS_METHODS:
+        raise InputError(f"stiffness method must be one of {STIFFNESS_METHODS}, got {method!r}",
+                         field="stiffness_method")
+    u = np.asarray(displacement, float)
+    f = np.asarray(force, float)
+    first = _crossings(u, sample_rate_hz, frequency_hz)
+    if first.size < 2:
+        raise InputError("record holds no whole cycle", field="displacement")
+    um, fm = u[first[0]:first[-1]], f[first[0]:first[-1]]
+    starts = first[:-1] - first[0]
+    u_pp = np.maximum.reduceat(um, starts) - np.minimum.reduceat(um, starts)
+    if method == "secant":
+        f_pp = np.maximum.reduceat(fm, starts) - np.minimum.reduceat(fm, starts)
+        k = f_pp / u_pp
+    else:
+        cnt = np.diff(first).astype(float)
+        su, sf = np.add.reduceat(um, starts), np.add.reduceat(fm, starts)
+        suu, suf = np.add.reduceat(um * um, starts), np.add.reduceat(um * fm, starts)
+        k = (suf - su * sf / cnt) / (suu - su * su / cnt)
+    return k, u_pp / 2
+
+
+def shear_layer_stiffness(displacement: np.ndarray, force: np.ndarray, sample_rate_hz: float,
+                          frequency_hz: float, *, source: str = "",
+                          method: str = "lsq") -> Identified:
+    """K_t = K_loop / 2 (seed 002 Eq. 9), mean over cycles, uncertainty = SEM."""
+    k, amp = loop_stiffness(displacement, force, sample_rate_hz, frequency_hz, method)
+    mean, sem = _mean_sem(k / 2)
+    if not (np.isfinite(mean) and mean > 0):
+        raise InputError(f"loop slope is not positive ({mean} N/m): check force sign/channels",
+                         field="force")
+    return Identified("shear_stiffness", mean, sem, "N/m", source, f"loop slope ({method}) / 2",
+                      int(k.size), {"loop_stiffness_n_per_m": 2 * mean,
+                                    "displacement_amplitude_m": float(np.mean(amp))})
+
+
+def _cycle_starts(labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First sample and length of every labelled cycle."""
+    idx = np.flatnonzero(labels >= 0)
+    lab = labels[idx]
+    first = idx[np.flatnonzero(np.diff(lab, prepend=-1))]
+    return first, np.bincount(lab)
+
+
+def sliding_force(displacement: np.ndarray, force: np.ndarray, sample_rate_hz: float,
+                  frequency_hz: float, *, rate_fraction: float = 0.15,
+                  min_slip_fraction: float = 0.25) -> tuple[float, float, dict[str, Any]]:
+    """Sliding force f_sld (N) of a macro-slip loop, with its SEM over cycles.
+
+    The level of the sliding plateau is read where each plateau ends, at the loop's
+    tips (displacement extremes): there the velocity is zero, so a rate-dependent
+    force (viscous, sensor lag) adds nothing, and the whole contact has slid before.
+    f_sld = (F at u_max - F at u_min) / 2 per cycle, which cancels a force offset.
+    The joint must really slide: the plateaus (samples whose |dF/dt| is below
+    ``rate_fraction`` of the cycle's largest rate) must cover at least
+    ``min_slip_fraction`` of the displacement travel, else InputError (micro-slip
+    loops flatten only at their tips). The plateau mean is reported as a cross-check.
+    """
+    u = np.asarray(displacement, float)
+    f = np.asarray(force, float)
+    if u.shape != f.shape:
+        raise InputError(f"force has {f.size} samples, displacement {u.size}", field="force")
+    lab = cycle_labels(u, sample_rate_hz, frequency_hz)
+    n = int(lab.max()) + 1
+    if n < 1:
+        raise InputError("record holds no whole cycle", field="displacement")
+    dfdt = np.gradient(f) * sample_rate_hz
+    dudt = np.abs(np.gradient(u) * sample_rate_hz)
+    m = lab >= 0
+    rate_max = np.zeros(n)
+    np.maximum.at(rate_max, lab[m], np.abs(dfdt[m]))
+    f_mid = _per_cycle_mean(f, lab, m, n)[0]
+    safe = np.maximum(lab, 0)
+    flat = m & (np.abs(dfdt) < rate_fraction * rate_max[safe])
+    travel_flat = np.bincount(lab[flat], weights=dudt[flat], minlength=n)
+    travel = np.bincount(lab[m], weights=dudt[m], minlength=n)
+    slip_fraction = float(np.nanmedian(travel_flat / travel))
+    if not slip_fraction >= min_slip_fraction:
+        raise InputError(
+            f"no sliding plateau: the joint slid over only {slip_fraction:.0%} of its travel "
+            f"(need {min_slip_fraction:.0%}); a friction test needs macro-slip "
+            "(lower torque, lower frequency or higher amplitude, seed 002 IV.A)",
+            field="force")
+    first, length = _cycle_starts(lab)
+    win = int(length.min())
+    rows = first[:, None] + np.arange(win)[None, :]
+    tip_hi = f[first + np.argmax(u[rows], axis=1)]
+    tip_lo = f[first + np.argmin(u[rows], axis=1)]
+    f_sld = (tip_hi - tip_lo) / 2
+    mean, sem = _mean_sem(f_sld)
+    f_up = _per_cycle_mean(f, lab, flat & (f > f_mid[safe]), n)[0]
+    f_lo = _per_cycle_mean(f, lab, flat & (f < f_mid[safe]), n)[0]
+    return mean, sem, {"slip_fraction": slip_fraction, "cycles": int(np.isfinite(f_sld).sum()),
+                       "offset_n": float(np.nanmean((tip_hi + tip_lo) / 2)),
+                       "plateau_mean_n": float(np.nanmean((f_up - f_lo) / 2))}
+
+
+def friction_coefficient(displacement: np.ndarray, force: np.ndarray, sample_rate_hz: float,
+                         frequency_hz: float, normal_force_n: float, *, source: str = "",
+                         normal_force_rel_uncertainty: float = 0.0,
+                         force_rel_uncertainty: float = 0.0) -> Identified:
+    """mu = f_sld / f_n (seed 002 Eq. 10) from a macro-slip friction-test record.
+
+    The uncertainty combines the cycle-to-cycle SEM of f_sld with the stated relative
+    uncertainties of the normal force (torque ratio) and of the force calibration.
+    """
+    if not (np.isfinite(normal_force_n) and normal_force_n > 0):
+        raise InputError(f"normal force must be positive, got {normal_force_n} N",
+                         field="normal_force_n")
+    f_sld, sem, info = sliding_force(displacement, force, sample_rate_hz, frequency_hz)
+    mu = f_sld / normal_force_n
+    rel = np.sqrt((sem / f_sld) ** 2 + normal_force_rel_uncertainty ** 2
+                  + force_rel_uncertainty ** 2)
+    info.update(sliding_force_n=f_sld, sliding_force_sem_n=sem, normal_force_n=normal_force_n)
+    return Identified("friction_coefficient", float(mu), float(abs(mu) * rel), "1", source,
+                      "seed 002 Eq. 10: sliding plateau / normal force", info["cycles"], info)
+
+
+def steady_span(displacement: np.ndarray, sample_rate_hz: float, frequency_hz: float,
+                rel_tol: float = 0.01) -> slice:
+    """Samples of the steady whole cycles (per-cycle amplitude settled, signal.detect_steady)."""
+    u = np.asarray(displacement, float)
+    lab = cycle_labels(u, sample_rate_hz, frequency_hz)
+    if lab.max() < 2:
+        raise InputError(f"holds fewer than 3 whole cycles at {frequency_hz:g} Hz",
+                         field="displacement")
+    first, _ = _cycle_starts(lab)
+    m = lab >= 0
+    amp = (np.maximum.reduceat(u[m], first - first[0]) - np.minimum.reduceat(u[m], first - first[0])) / 2
+    st = detect_steady(amp, rel_tol=rel_tol)
+    stop = first[st.stop] if st.stop < first.size else int(np.flatnonzero(m)[-1]) + 1
+    return slice(int(first[st.start]), int(stop))
+
+
+def identify_friction(run: Any, *, torque_to_normal_n_per_nm: float =
+                      DEFAULT_TORQUE_TO_NORMAL_N_PER_NM, cutoff_hz: float | None = PAPER_CUTOFF_HZ,
+                      normal_force_rel_uncertainty: float = 0.0,
+                      force_rel_uncertainty: float = 0.0) -> Identified:
+    """seed 002 Eq. 10 on a friction-test run (macro-slip, e.g. 100 Hz and 2 Nm).
+
+    The force is the run's joint force (the nanocomposite sensor through its
+    calibration at the run's frequency); the normal force is the run's
+    ``normal_force_n``, else ``torque_nm`` x ``torque_to_normal_n_per_nm``.
+    Steady cycles only, low-passed as in seed 002 (3 kHz).
+    """
+    md = run.metadata
+    n = md.get("normal_force_n")
+    if n is None:
+        torque = md.get("torque_nm")
+        if torque is None:
+            raise InputError("run gives neither normal_force_n nor torque_nm", field="torque_nm")
+        n = normal_force(float(torque), torque_to_normal_n_per_nm)
+    fs = run.sample_rate_hz
+    u = validate.signal(run.displacement, "displacement", min_samples=16)
+    F = validate.signal(run.force, "force", min_samples=16)
+    f = run.frequency_hz or estimate_frequency(u, fs, min_hz=3.0 * fs / u.size)
+    cutoff, _ = analysis_cutoff(fs, cutoff_hz)
+    if cutoff is not None:
+        u, F = lowpass(u - u.mean(), fs, cutoff), lowpass(F - F.mean(), fs, cutoff)
+    span = steady_span(u, fs, f)
+    return friction_coefficient(u[span], F[span], fs, f, float(n), source=run.name,
+                                normal_force_rel_uncertainty=normal_force_rel_uncertainty,
+                                force_rel_uncertainty=force_rel_uncertainty)
+
+
+# ---- where identified inputs are kept -------------------------------------------------
+
+IDENTIFIED_STORE = "identified.json"
+
+
+def _store_path(data_dir: str | Path) -> Path:
+    p = Path(data_dir)
+    return p if p.suffix == ".json" else p / IDENTIFIED_STORE
+
+
+def load_identified(data_dir: str | Path, name: str) -> Identified | None:
+    """The latest stored value called ``name`` (e.g. "friction_coefficient"), or None."""
+    p = _store_path(data_dir)
+    if not p.exists():
+        return None
+    try:
+        values = json.loads(p.read_text())["values"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise InputError(f"unreadable identified-values store: {exc}", file=str(p)) from None
+    hist = values.get(name) or []
+    return Identified.from_dict(hist[-1]) if hist else None
+
+
+def save_identified(data_dir: str | Path, value: Identified) -> Path:
+    """Append ``value`` to its history in ``<data_dir>/identified.json`` (atomic rewrite)."""
+    p = _store_path(data_dir)
+    data: dict[str, Any] = {"version": 1, "values": {}}
+    if p.exists():
+        try:
+            data = json.loads(p.read_text())
+            data.setdefault("values", {})
+        except (OSError, ValueError) as exc:
+            raise InputError(f"unreadable identified-values store: {exc}", file=str(p)) from None
+    data["values"].setdefault(value.name, []).append(
+        {**value.to_dict(), "stored": datetime.now(timezone.utc).isoformat(timespec="seconds")})
+    p.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", dir=p.parent)
+    try:
+        with os.fdopen(fd, "w") as fh:
+            json.dump(data, fh, indent=1, default=float)
+        os.replace(tmp, p)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return p

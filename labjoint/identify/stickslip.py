@@ -1,0 +1,413 @@
+"""Stick-slip-boundary identification, seed 002 section II.B (Eqs. 4-9), vectorised.
+
+For each rising quarter cycle u_1 = 0 < u_2 < ... < u_n = U (Eq. 5):
+
+- Eq. 6: mu int_{c_i}^a sigma 2 pi r dr = K_t u_i  ->  stick-slip boundary c_i
+  (closed-form polynomial integral; all samples at once by a table uniform in
+  sqrt(load) plus one Newton step, numba, see :mod:`.contact`);
+  c_i stays in the contact zone; K_t u_i above the whole patch's friction force
+  mu int sigma dA flags macro-slip and clamps c_i to the inner radius.
+- Eq. 7: W_di = 4 (2 pi mu du_i int_{c_i}^a sigma r dr) = 4 du_i f_sld(c_i), du_i = u_i - u_{i-1},
+  taken literally: the sliding force at the END of the step (right-endpoint sum).
+- Eq. 8: C_i = sum_{k=2}^{i} W_dk / (pi omega u_i^2); C_1 = 0 (no sliding at u = 0).
+- Eq. 9: K_i = (f_stk + f_sld) / u_i = 2 K_t (f_stk capped at f_max, Eq. 4).
+
+Note (why the paper's damping is nearly constant): while no macro-slip clamps c_i,
+Eq. 6 makes f_sld(c_i) = K_t u_i exactly, so W = 4 K_t sum u_i du_i ~ 2 K_t U^2 and
+C ~ 2 K_t / (pi omega), whatever mu and the pressure law are; these only set c(u) and
+the macro-slip limit. Sampled at 50 kS/s, 400 Hz, the right-endpoint sum is 4 % above
+2 K_t U^2, which with K = 2 K_t = 11.8 MN/m reproduces seed 002 Table 2 (0.672 mJ,
+1542 Ns/m at U = 7.4 um) to 1 %.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from labjoint.errors import InputError
+from labjoint.identify.contact import ContactPressure, horner, invert_loads
+from labjoint.identify.friction import Identified, normal_force, shear_layer_stiffness
+from labjoint.signal import validate
+from labjoint.signal.filter import PAPER_CUTOFF_HZ, analysis_cutoff, lowpass
+from labjoint.signal.frequency import estimate_frequency
+from labjoint.signal.steady import detect_steady
+
+
+def _check_inputs(k_t: float, mu: float, frequency_hz: float) -> None:
+    if not (np.isfinite(mu) and mu > 0):
+        raise InputError(f"friction coefficient must be positive, got {mu}",
+                         field="friction_coefficient")
+    if not (np.isfinite(k_t) and k_t > 0):
+        raise InputError(f"shear-layer stiffness K_t must be positive, got {k_t} N/m",
+                         field="shear_stiffness_n_per_m")
+    if not (np.isfinite(frequency_hz) and frequency_hz > 0):
+        raise InputError(f"excitation frequency must be positive, got {frequency_hz} Hz",
+                         field="frequency_hz")
+
+
+@dataclass
+class QuarterCurves:
+    """Eqs. 6-9 along one or more rising quarter cycles, stored flat.
+
+    Quarter k occupies ``[starts[k], starts[k+1])`` of every per-sample array
+    (``starts`` has one more entry than there are quarters). Units: m, J, N s/m, N/m, N.
+    """
+
+    displacement_m: np.ndarray
+    boundary_radius_m: np.ndarray
+    sliding_force_n: np.ndarray
+    energy_loss_j: np.ndarray        # cumulative: W(u_i) = sum_{k<=i} W_dk, full cycle
+    damping_ns_per_m: np.ndarray
+    stiffness_n_per_m: np.ndarray
+    macro_slip: np.ndarray
+    starts: np.ndarray
+
+    @property
+    def n_quarters(self) -> int:
+        return len(self.starts) - 1
+
+    @property
+    def ends(self) -> np.ndarray:
+        """Index of each quarter's last sample (u_n = U)."""
+        return self.starts[1:] - 1
+
+    def quarter(self, k: int) -> dict[str, np.ndarray]:
+        """The curves of quarter ``k`` as a dict of arrays."""
+        sl = slice(int(self.starts[k]), int(self.starts[k + 1]))
+        return {name: getattr(self, name)[sl] for name in
+                ("displacement_m", "boundary_radius_m", "sliding_force_n", "energy_loss_j",
+                 "damping_ns_per_m", "stiffness_n_per_m", "macro_slip")}
+
+    def totals(self) -> dict[str, np.ndarray]:
+        """Per quarter: amplitude U, energy loss per cycle W, damping C, macro-slip flag."""
+        e = self.ends
+        macro = np.logical_or.reduceat(self.macro_slip, self.starts[:-1]) \
+            if self.n_quarters else np.zeros(0, bool)
+        return {"displacement_amplitude_m": self.displacement_m[e],
+                "energy_loss_j": self.energy_loss_j[e],
+                "damping_ns_per_m": self.damping_ns_per_m[e],
+                "min_boundary_radius_m": self.boundary_radius_m[e],
+                "macro_slip": macro}
+
+
+def stick_slip_curves(displacement_m: np.ndarray, starts: np.ndarray | None, *,
+                      shear_stiffness_n_per_m: float, friction_coefficient: float,
+                      contact: ContactPressure, frequency_hz: float) -> QuarterCurves:
+    """Eqs. 6-9 on rising quarter cycles given flat; each must start at u_1 = 0 (Eq. 5).
+
+    ``starts``: first index of each quarter in ``displacement_m`` (None: one quarter).
+    The example is seed 002's reference case: K = 2 K_t = 11.8 MN/m, U = 7.4 um, 400 Hz
+    sampled at 50 kS/s.
+
+    >>> cp = ContactPressure(bolt_radius_m=4e-3, normal_force_n=2390.0)
+    >>> u = 7.4e-6 * np.sin(np.linspace(0, np.pi / 2, 32))
+    >>> q = stick_slip_curves(u, None, shear_stiffness_n_per_m=5.9e6,
+    ...                       friction_coefficient=0.168, contact=cp, frequency_hz=400.0)
+    >>> W, C = float(q.energy_loss_j[-1]), float(q.damping_ns_per_m[-1])
+    >>> abs(W / 0.672e-3 - 1) < 0.01, abs(C / 1542 - 1) < 0.01    # seed 002 Table 2
+    (True, True)
+    """
+    k_t, mu = float(shear_stiffness_n_per_m), float(friction_coefficient)
+    _check_inputs(k_t, mu, frequency_hz)
+    u = np.ascontiguousarray(displacement_m, dtype=float)
+    n = u.size
+    starts = np.array([0, n] if starts is None else np.append(starts, n), dtype=np.int64)
+    if n == 0 or np.any(np.diff(starts) < 1) or starts[0] != 0:
+        raise InputError("quarter-cycle starts must be increasing indices from 0",
+                         field="starts")
+    # Eq. 6 -> y_i = (c_i / r_b)^2 for every sample at once; macro-slip when K_t u_i
+    # exceeds mu * (whole-patch load): c_i then clamps to the inner radius.
+    y = np.empty(n)
+    macro = np.empty(n, dtype=np.bool_)
+    table, meta, coefs = contact.solver_arrays()
+    invert_loads(k_t * u / (mu * contact.load_scale), table, meta, coefs, 1, y, macro)
+    c = np.where(u > 0, contact.bolt_radius_m * np.sqrt(y), contact.a)
+    out = np.empty((4, n))
+    _eqs_7_to_9(u, starts, y, coefs, meta[2], mu * contact.load_scale, k_t,
+                mu * contact.total_force, 2.0 * np.pi * frequency_hz, out)
+    f_sld, w, damping, stiffness = out
+    return QuarterCurves(u, c, f_sld, w, damping, stiffness, macro, starts)
+
+
+@njit(cache=True)
+def _eqs_7_to_9(u, starts, y, coefs, g_top, mu_scale, k_t, f_max, omega, out):  # pragma: no cover
+    """Per sample: f_sld (Eq. 3 at c_i), cumulative W (Eq. 7), C (Eq. 8), K (Eq. 9)."""
+    k = 0
+    w = 0.0
+    for i in range(u.size):
+        if i == starts[k]:
+            w = 0.0                      # u_1 = 0 starts a quarter: nothing before it
+            du = 0.0
+            if k < starts.size - 1:
+                k += 1
+        else:
+            du = u[i] - u[i - 1]
+        g = 0.0
+        if u[i] > 0.0:
+            g = g_top - horner(coefs, 7, 14, y[i])
+        f_sld = mu_scale * g                                   # Eq. 3
+        w += 4.0 * du * f_sld                                  # Eq. 7
+        out[0, i] = f_sld
+        out[1, i] = w
+        if u[i] > 0.0:
+            out[2, i] = w / (np.pi * omega * u[i] * u[i])      # Eq. 8
+            out[3, i] = (min(k_t * u[i], f_max) + f_sld) / u[i]  # Eqs. 4, 9
+        else:
+            out[2, i] = 0.0
+            out[3, i] = 2.0 * k_t
+
+
+@dataclass
+class Quarters:
+    """Rising quarter cycles cut from a record: flat u (each starting at 0) and indices."""
+
+    displacement_m: np.ndarray
+    starts: np.ndarray          # first flat index of each quarter
+    crossing_sample: np.ndarray  # fractional sample index of each upward zero crossing
+    peak_sample: np.ndarray      # sample index of each quarter's maximum
+
+
+def rising_quarters(displacement_m: np.ndarray, sample_rate_hz: float,
+                    frequency_hz: float) -> Quarters:
+    """Cut every rising quarter cycle (upward zero crossing to the next maximum), Eq. 5.
+
+    The record is centred on its mean; u_1 = 0 is the interpolated crossing, followed by
+    the measured samples up to the cycle's maximum. Crossings closer than half a period
+    to the previous one (noise chatter) are dropped, as are quarters cut by the record end.
+    """
+    if not (np.isfinite(sample_rate_hz) and sample_rate_hz > 0):
+        raise InputError(f"sample rate must be positive, got {sample_rate_hz}",
+                         field="sample_rate_hz")
+    if not (np.isfinite(frequency_hz) and 0 < frequency_hz < sample_rate_hz / 8):
+        raise InputError(f"frequency must be in (0, fs/8), got {frequency_hz} Hz",
+                         field="frequency_hz")
+    u = np.asarray(displacement_m, dtype=float)
+    u = u - u.mean()
+    period = sample_rate_hz / frequency_hz
+    i = np.flatnonzero((u[:-1] < 0) & (u[1:] >= 0)) + 1     # u[i-1] < 0 <= u[i]
+    if i.size:
+        gaps = np.diff(i, prepend=-(10 * int(period) + 10))
+        i = i[gaps >= 0.5 * period]
+    win = int(np.ceil(0.5 * period))
+    i = i[i + win <= u.size]
+    if i.size == 0:
+        return Quarters(np.zeros(0), np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64))
+    peak = _peaks(u, i, win)
+    frac = u[i] / (u[i] - u[i - 1])                         # crossing at i - frac
+    lengths = peak - i + 2                                  # u_1 = 0 plus samples i..peak
+    starts = np.concatenate(([0], np.cumsum(lengths)[:-1])).astype(np.int64)
+    flat = np.empty(int(lengths.sum()))
+    _gather(u, i, peak, starts, flat)
+    return Quarters(flat, starts, i - frac, peak)
+
+
+@njit(cache=True)
+def _peaks(u, first, win):  # pragma: no cover
+    """Index of the maximum of u in [first_k, first_k + win) for every k."""
+    out = np.empty(first.size, np.int64)
+    for k in range(first.size):
+        best = first[k]
+        for j in range(first[k] + 1, first[k] + win):
+            if u[j] > u[best]:
+                best = j
+        out[k] = best
+    return out
+
+
+@njit(cache=True)
+def _gather(u, first, peak, starts, flat):  # pragma: no cover
+    """flat[starts_k] = 0 (u_1), then u[first_k .. peak_k]."""
+    for k in range(first.size):
+        p = starts[k]
+        flat[p] = 0.0
+        for j in range(first[k], peak[k] + 1):
+            p += 1
+            flat[p] = u[j]
+
+
+# ---- the pipeline on a run ------------------------------------------------------------
+
+#: Bolt radius used when neither the caller nor the run metadata gives one (M10, as the
+#: simulated rig). With sigma_s normalised to N it changes c(u) only, never W or C.
+DEFAULT_BOLT_RADIUS_M = 5e-3
+#: Run-metadata keys read for the contact geometry (SI), if present.
+GEOMETRY_KEYS = {"bolt_radius_m": "bolt_radius_m", "contact_radius_m": "contact_radius_m",
+                 "inner_radius_m": "contact_inner_radius_m", "head_radius_m": "bolt_head_radius_m"}
+SUMMARY_KEYS = ("displacement_amplitude_m", "energy_loss_j", "damping_ns_per_m",
+                "min_boundary_radius_m")
+
+
+def _as_identified(value: Any, name: str, unit: str, field: str) -> Identified:
+    if isinstance(value, Identified):
+        return value
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"must be a number or an Identified value, got {value!r}",
+                         field=field) from None
+    return Identified(name, v, 0.0, unit, "given", "given by the caller")
+
+
+@dataclass
+class StickSlipResult:
+    """The stick-slip pipeline's output for one run (all SI).
+
+    ``curves``: Eqs. 6-9 along every rising quarter; ``steady``: which quarters are
+    steady; ``summary``: mean and std over steady quarters; ``representative``: index
+    of the steady quarter whose energy loss is the median (its curves are stored).
+    """
+
+    run: str
+    frequency_hz: float
+    contact: ContactPressure
+    friction: Identified
+    shear_stiffness: Identified
+    curves: QuarterCurves
+    steady: np.ndarray
+    representative: int
+    summary: dict[str, Any] = field(default_factory=dict)
+
+    def curve(self) -> dict[str, np.ndarray]:
+        """c(u), W(u), C(u) (and f_sld, K, macro-slip) of the representative quarter."""
+        return self.curves.quarter(self.representative)
+
+    def processed(self) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
+        """(arrays, attrs, units) for ``labjoint.storage.write_processed(path, "stickslip", ...)``."""
+        c = self.curve()
+        tot = self.curves.totals()
+        arrays = {
+            "displacement": c["displacement_m"], "boundary_radius": c["boundary_radius_m"],
+            "energy_loss": c["energy_loss_j"], "damping": c["damping_ns_per_m"],
+            "sliding_force": c["sliding_force_n"], "stiffness": c["stiffness_n_per_m"],
+            "macro_slip": c["macro_slip"].astype(np.int8),
+            "quarter_amplitude": tot["displacement_amplitude_m"],
+            "quarter_energy_loss": tot["energy_loss_j"],
+            "quarter_damping": tot["damping_ns_per_m"], "quarter_steady": self.steady.astype(np.int8),
+        }
+        units = {"displacement": "m", "boundary_radius": "m", "energy_loss": "J",
+                 "damping": "N*s/m", "sliding_force": "N", "stiffness": "N/m",
+                 "quarter_amplitude": "m", "quarter_energy_loss": "J", "quarter_damping": "N*s/m"}
+        cp = self.contact
+        attrs = {"method": "seed 002 II.B stick-slip boundary (Eqs. 2-9)",
+                 "summary": self.summary, "friction_coefficient": self.friction.to_dict(),
+                 "shear_stiffness": self.shear_stiffness.to_dict(),
+                 "contact": {"bolt_radius_m": cp.bolt_radius_m, "contact_radius_m": cp.a,
+                             "inner_radius_m": cp.inner, "sigma_s_pa": cp.sigma_s,
+                             "sigma_s_mode": cp.sigma_s_mode, "normal_force_n": cp.normal_force_n,
+                             "head_stress_force_ratio": cp.force_ratio},
+                 "representative_quarter": int(self.representative)}
+        return arrays, attrs, units
+
+
+class StickSlipIdentifier:
+    """seed 002 II.B on a record: low-pass, rising quarters, Eqs. 6-9, steady mean.
+
+    Settings only: ``friction_coefficient`` (float or :class:`Identified`, e.g. from
+    :func:`labjoint.identify.friction.friction_coefficient`); ``shear_stiffness``
+    K_t (None: identified from the same run's loop slope, K_t = K / 2, Eq. 9, with
+    ``stiffness_method``); contact geometry (None: run metadata, else defaults);
+    ``torque_to_normal_n_per_nm`` (seed 002: 478) when the run gives only a torque.
+    After :meth:`fit`, ``result_`` holds a :class:`StickSlipResult`.
+    """
+
+    def __init__(self, friction_coefficient: float | Identified,
+                 shear_stiffness: float | Identified | None = None, *,
+                 bolt_radius_m: float | None = None, contact_radius_m: float | None = None,
+                 inner_radius_m: float | None = None, head_radius_m: float | None = None,
+                 sigma_s_mode: str = "force", torque_to_normal_n_per_nm: float = 478.0,
+                 stiffness_method: str = "lsq", cutoff_hz: float | None = PAPER_CUTOFF_HZ,
+                 rel_tol: float = 0.01) -> None:
+        self.friction_coefficient = friction_coefficient
+        self.shear_stiffness = shear_stiffness
+        self.bolt_radius_m = bolt_radius_m
+        self.contact_radius_m = contact_radius_m
+        self.inner_radius_m = inner_radius_m
+        self.head_radius_m = head_radius_m
+        self.sigma_s_mode = sigma_s_mode
+        self.torque_to_normal_n_per_nm = torque_to_normal_n_per_nm
+        self.stiffness_method = stiffness_method
+        self.cutoff_hz = cutoff_hz
+        self.rel_tol = rel_tol
+
+    def fit(self, run: Any) -> "StickSlipIdentifier":
+        """Identify from a :class:`labjoint.storage.run.Run` (SI units)."""
+        return self.fit_arrays(run.displacement, run.force, run.sample_rate_hz,
+                               run.frequency_hz, name=run.name, metadata=run.metadata)
+
+    def _contact(self, md: dict[str, Any]) -> ContactPressure:
+        n = md.get("normal_force_n")
+        if n is None or not np.isfinite(float(n)) or float(n) <= 0:
+            torque = md.get("torque_nm")
+            if torque is None:
+                raise InputError("run gives neither normal_force_n nor torque_nm",
+                                 field="torque_nm")
+            n = normal_force(float(torque), self.torque_to_normal_n_per_nm)
+        geo = {}
+        for attr, key in GEOMETRY_KEYS.items():
+            v = getattr(self, attr)
+            geo[attr] = v if v is not None else md.get(key)
+        if geo["bolt_radius_m"] is None:
+            geo["bolt_radius_m"] = DEFAULT_BOLT_RADIUS_M
+        return ContactPressure(normal_force_n=float(n), sigma_s_mode=self.sigma_s_mode, **geo)
+
+    def fit_arrays(self, displacement: np.ndarray, force: np.ndarray | None,
+                   sample_rate_hz: float, frequency_hz: float | None, *, name: str = "",
+                   metadata: dict[str, Any] | None = None) -> "StickSlipIdentifier":
+        """Identify from arrays: relative displacement (m), joint force (N, for K_t)."""
+        md = dict(metadata or {})
+        fs = validate.sample_rate(sample_rate_hz, "sample_rate_hz")
+        u = validate.signal(displacement, "displacement", min_samples=16)
+        mu = _as_identified(self.friction_coefficient, "friction_coefficient", "1",
+                            "friction_coefficient")
+        contact = self._contact(md)
+        f = (float(frequency_hz) if frequency_hz is not None
+             else estimate_frequency(u, fs, min_hz=3.0 * fs / u.size))
+        f = validate.positive(f, "frequency_hz")
+        cutoff, _rule = analysis_cutoff(fs, self.cutoff_hz)
+        u = u - u.mean()
+        uf = lowpass(u, fs, cutoff) if cutoff is not None else u
+        q = rising_quarters(uf, fs, f)
+        if q.starts.size < 2:
+            raise InputError(f"holds {q.starts.size} rising quarter cycles at {f:g} Hz; "
+                             "need at least 2", field="displacement")
+        ends = np.append(q.starts[1:], q.displacement_m.size) - 1
+        steady = detect_steady(q.displacement_m[ends], rel_tol=self.rel_tol).mask
+        if not steady.any():
+            raise InputError("no steady quarter cycles", field="displacement")
+        if self.shear_stiffness is None:
+            if force is None:
+                raise InputError("K_t must be given when no force is recorded",
+                                 field="shear_stiffness")
+            F = validate.signal(force, "force", min_samples=16)
+            validate.same_length(F, u, "force", "displacement")
+            k = np.flatnonzero(steady)
+            a = int(np.floor(q.crossing_sample[k[0]]))
+            b = int(min(u.size, np.ceil(q.crossing_sample[k[-1]] + fs / f) + 1))
+            Ff = lowpass(F - F.mean(), fs, cutoff) if cutoff is not None else F - F.mean()
+            kt = shear_layer_stiffness(uf[a:b], Ff[a:b], fs, f, source=name or "record",
+                                       method=self.stiffness_method)
+        else:
+            kt = _as_identified(self.shear_stiffness, "shear_stiffness", "N/m", "shear_stiffness")
+        curves = stick_slip_curves(q.displacement_m, q.starts, shear_stiffness_n_per_m=kt.value,
+                                   friction_coefficient=mu.value, contact=contact,
+                                   frequency_hz=f)
+        tot = curves.totals()
+        n_st = int(steady.sum())
+        ddof = 1 if n_st > 1 else 0
+        summary: dict[str, Any] = {"frequency_hz": f}
+        for key in SUMMARY_KEYS:
+            vals = tot[key][steady]
+            summary[key] = float(np.mean(vals))
+            summary[key + "_std"] = float(np.std(vals, ddof=ddof))
+        summary.update(stiffness_n_per_m=2.0 * kt.value, macro_slip_fraction=float(
+            np.mean(tot["macro_slip"][steady])), cycles=n_st,
+            friction_coefficient=mu.value, shear_stiffness_n_per_m=kt.value)
+        w = tot["energy_loss_j"]
+        idx = np.flatnonzero(steady)
+        rep = int(idx[np.argsort(w[idx])[idx.size // 2]])
+        self.result_ = StickSlipResult(name, f, contact, mu, kt, curves, steady, rep, summary)
+        return self

@@ -1,0 +1,270 @@
+"""Read run files: raw volts, physical units (calibration applied), chunked iteration.
+
+A file a writer holds open (or held when it died) is opened in SWMR-read mode, so a
+run still being written can be read;
+:meth:`RunFile.refresh` picks up what the writer has flushed since.
+Imported (CSV) runs store physical values with unity calibration, so ``volts`` and
+``physical`` return the same numbers for them.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterator
+
+import h5py
+import numpy as np
+
+from labjoint.errors import InputError
+from labjoint.hardware.interfaces import ChannelSpec
+from labjoint.storage import layout
+from labjoint.storage.run import Run
+
+
+def _s(v: Any) -> str:
+    if isinstance(v, bytes):
+        return v.decode().rstrip("\x00")
+    if isinstance(v, np.ndarray) and v.shape == ():
+        return _s(v[()])
+    return str(v)
+
+
+@dataclass
+class DataBlock:
+    """Samples ``start:stop`` of a run: time (s) and one array per channel."""
+
+    start: int
+    stop: int
+    time: np.ndarray
+    data: dict[str, np.ndarray]
+
+
+class RunFile:
+    """An open run file (use :func:`open_run`). Close it, or use it as a context manager."""
+
+    def __init__(self, path: Path, f: h5py.File) -> None:
+        self.path = path
+        self._f = f
+        try:
+            self._e = f["entry"]
+            self._data = self._e["data"]
+            self._ds = {k: v for k, v in self._data.items() if isinstance(v, h5py.Dataset)}
+            self.channels: list[ChannelSpec] = self._read_channels()
+            self._static = json.loads(_s(self._e["metadata_json"][()]))
+            self.name = _s(self._e["title"][()])
+            self.uid = _s(self._e["entry_identifier"][()])
+            self.source = _s(self._e.attrs.get("labjoint_source", ""))
+            self.refresh()
+        except (KeyError, ValueError, OSError, TypeError) as exc:
+            f.close()
+            raise InputError(f"damaged run file: {exc}", file=str(path)) from None
+
+    def _read_channels(self) -> list[ChannelSpec]:
+        inst = self._e["instrument"]
+        names = [_s(n) for n in self._data.attrs["labjoint_channels"]]
+        return [layout.read_sensor(inst[n]) for n in names]
+
+    # -- state that changes while a run is written ------------------------------
+    def refresh(self) -> None:
+        """Re-read what a live writer has flushed (sample count, status, events)."""
+        for key in ("status", "end_time", "n_samples", "acquisition/gaps",
+                    "acquisition/events", "acquisition/continuous"):
+            self._e[key].refresh()
+        for ds in self._ds.values():
+            ds.refresh()
+        self.status = _s(self._e["status"][()]).strip()
+        self.end_time = _s(self._e["end_time"][()])
+        self.n_samples = min(ds.shape[0] for ds in self._ds.values())
+        self.gaps = [(int(a), int(b)) for a, b in self._e["acquisition/gaps"][()]]
+        self.events = layout.parse_events(self._e["acquisition/events"][()])
+        self.metadata = self._metadata()
+
+    def _metadata(self) -> dict[str, Any]:
+        md = dict(self._static)
+        stops = [ev for ev in self.events if ev["kind"] == "stop"]
+        if stops and isinstance(stops[-1]["data"], dict):
+            last = stops[-1]["data"]
+            md.update(last.get("metadata") or {})
+            md["reason"] = last.get("reason", "")
+        md.update(name=self.name, uid=self.uid, status=self.status, end_time=self.end_time,
+                  n_samples=self.n_samples, source=self.source,
+                  gaps=[list(g) for g in self.gaps],
+                  continuous=bool(self._e["acquisition/continuous"][()]),
+                  markers=[{k: ev[k] for k in ("name", "sample", "data")}
+                           for ev in self.events if ev["kind"] == "marker"])
+        return md
+
+    # -- simple properties -------------------------------------------------------
+    @property
+    def sample_rate_hz(self) -> float:
+        return float(self.metadata["sample_rate_hz"])
+
+    @property
+    def frequency_hz(self) -> float | None:
+        f = self.metadata.get("frequency_hz")
+        return None if f is None else float(f)
+
+    @property
+    def channel_names(self) -> list[str]:
+        return [c.name for c in self.channels]
+
+    @property
+    def processed_names(self) -> list[str]:
+        """Names of the processed-result groups in the file."""
+        g = self._e.get("processed")
+        return [] if g is None else [k for k in g if not k.startswith(".")]
+
+    def channel(self, name: str) -> ChannelSpec:
+        """The :class:`ChannelSpec` of channel ``name``."""
+        for c in self.channels:
+            if c.name == name:
+                return c
+        raise InputError(f"no channel {name!r}; channels: {self.channel_names}",
+                         file=str(self.path), field=name)
+
+    # -- data --------------------------------------------------------------------
+    def _slice(self, start: int, stop: int | None) -> slice:
+        a, b, _ = slice(start, stop).indices(self.n_samples)
+        return slice(a, max(a, b))
+
+    def time(self, start: int = 0, stop: int | None = None) -> np.ndarray:
+        """Time axis (s) of samples ``start:stop``."""
+        return self._ds["time"][self._slice(start, stop)]
+
+    def volts(self, channel: str, start: int = 0, stop: int | None = None) -> np.ndarray:
+        """Raw stored values of ``channel`` (volts for acquired runs)."""
+        self.channel(channel)
+        return self._ds[channel][self._slice(start, stop)]
+
+    def physical(self, channel: str, start: int = 0, stop: int | None = None) -> np.ndarray:
+        """``channel`` in its physical unit: volts times the calibration at the run's frequency."""
+        spec = self.channel(channel)
+        return self.volts(channel, start, stop) * spec.units_per_volt(self.frequency_hz)
+
+    def iter_blocks(self, block_samples: int, channels: list[str] | None = None,
+                    overlap: int = 0, physical: bool = True) -> Iterator[DataBlock]:
+        """Consecutive blocks of ``block_samples`` (the last may be shorter), each starting
+        ``overlap`` samples before the previous one ended; reads one block at a time."""
+        if block_samples < 1:
+            raise InputError("block_samples must be >= 1", field="block_samples")
+        if not 0 <= overlap < block_samples:
+            raise InputError("overlap must be in [0, block_samples)", field="overlap")
+        names = self.channel_names if channels is None else list(channels)
+        for n in names:
+            self.channel(n)
+        read = self.physical if physical else self.volts
+        n_total, step, start = self.n_samples, block_samples - overlap, 0
+        while start < n_total:
+            stop = min(start + block_samples, n_total)
+            yield DataBlock(start, stop, self.time(start, stop),
+                            {n: read(n, start, stop) for n in names})
+            if stop == n_total:
+                break
+            start += step
+
+    def processed(self, group_name: str) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Arrays and attributes of ``/entry/processed/<group_name>``."""
+        g = self._e.get(f"processed/{group_name}")
+        if g is None or group_name.startswith("."):
+            raise InputError(f"no processed group {group_name!r}; have {self.processed_names}",
+                             file=str(self.path), field=group_name)
+        return _read_group(g), {k: _attr(v) for k, v in g.attrs.items() if k != "NX_class"}
+
+    def to_run(self, force: str = "joint") -> Run:
+        """The run in SI units: relative displacement and the joint (or reference) force."""
+        md = self.metadata
+        names = set(self.channel_names)
+        if "displacement_channels" in md:
+            disp = list(md["displacement_channels"])
+        elif "displacement" in names:
+            disp = ["displacement"]
+        else:
+            disp = ["disp_1", "disp_2"]
+        if force == "joint":
+            fch = md.get("joint_force_channel") or ("force" if "force" in names else "shear_nc")
+        elif force == "reference":
+            fch = md.get("reference_force_channel") or "force_ref"
+        else:
+            raise InputError(f"force must be 'joint' or 'reference', got {force!r}", field="force")
+        chans = {c: self.physical(c) for c in self.channel_names}
+        for c in [*disp, fch]:
+            if c not in chans:
+                raise InputError(f"run has no channel {c!r}; channels: {self.channel_names}",
+                                 file=str(self.path), field=c)
+        if len(disp) == 2:
+            displacement = chans[disp[0]] - chans[disp[1]]
+        elif len(disp) == 1:
+            displacement = chans[disp[0]].copy()
+        else:
+            raise InputError("displacement_channels must name one or two channels",
+                             file=str(self.path), field="displacement_channels")
+        return Run(name=self.name, time=self.time(), displacement=displacement,
+                   force=chans[fch].copy(), metadata=dict(md), channels=chans,
+                   path=str(self.path))
+
+    def close(self) -> None:
+        self._f.close()
+
+    def __enter__(self) -> "RunFile":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _attr(v: Any) -> Any:
+    if isinstance(v, bytes):
+        return v.decode()
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    return v
+
+
+def _read_group(g: h5py.Group) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in g.items():
+        if isinstance(v, h5py.Group):
+            out[k] = _read_group(v)
+        else:
+            val = v[()]
+            out[k] = _s(val) if isinstance(val, bytes) else val
+    return out
+
+
+def open_run(path: str | Path) -> RunFile:
+    """Open a run file for reading (works while it is being written).
+
+    Finished files are opened normally, so a truncated or damaged file fails at once
+    (SWMR readers retry checksum failures, expecting a writer to catch up).
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InputError("no such run file", file=str(p))
+    try:
+        f = h5py.File(p, "r")
+    except OSError as exc:
+        if "already open for write" not in str(exc):
+            raise InputError(f"not a readable HDF5 file: {exc}", file=str(p)) from None
+        try:  # a writer has it (or had it, and died): read it the SWMR way
+            f = h5py.File(p, "r", swmr=True)
+        except OSError as exc2:
+            raise InputError(f"not a readable HDF5 file: {exc2}", file=str(p)) from None
+    e = f.get("entry")
+    if not isinstance(e, h5py.Group) or "labjoint_format" not in e.attrs or "data" not in e:
+        f.close()
+        raise InputError("not a labjoint run file (no /entry with @labjoint_format)", file=str(p))
+    return RunFile(p, f)
+
+
+def read_run(path: str | Path, force: str = "joint") -> Run:
+    """Load a whole run in SI units; ``force`` is "joint" (interface sensor) or "reference".
+
+    Displacement is ``disp_1 - disp_2`` (metadata ``displacement_channels``), or the
+    single ``displacement`` channel of an imported run.
+    """
+    with open_run(path) as rf:
+        return rf.to_run(force=force)
