@@ -45,7 +45,14 @@ def build_parser() -> argparse.ArgumentParser:
     for name, (mod, _fn, help_) in COMMANDS.items():
         p = sub.add_parser(name, help=help_, description=help_)
         _add_common(p)
-        module = importlib.import_module(f"labjoint.cli.{mod}")
+        try:
+            module = importlib.import_module(f"labjoint.cli.{mod}")
+        except ModuleNotFoundError as exc:  # a command whose layer is not installed
+            if exc.name != f"labjoint.cli.{mod}":
+                raise
+            sub._name_parser_map.pop(name, None)
+            sub._choices_actions[:] = [a for a in sub._choices_actions if a.dest != name]
+            continue
         getattr(module, f"add_{name}_arguments")(p)
         p.set_defaults(_handler=(mod, _fn, name))
     return parser

@@ -240,3 +240,59 @@ def _assemble(per_cycle: dict[str, np.ndarray], bounds: np.ndarray, fs: float, f
         "steady_noise": steady.noise, "steady_note": steady.note, "warnings": warnings,
     }
     return result
+
+
+FILE_BLOCK_SAMPLES = 1 << 18
+#: Run metadata copied into a file analysis's result metadata.
+RUN_KEYS = ("excitation_vpp", "torque_nm", "normal_force_n", "plan", "plan_step", "status")
+
+
+def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = None,
+                 cutoff_hz: float | None = PAPER_CUTOFF_HZ, **kwargs: Any) -> LoopResult:
+    """:func:`analyze_blocks` streamed from a run file, so memory stays bounded.
+
+    Displacement is ``disp_1 - disp_2`` (or the single imported ``displacement``
+    channel), force the joint sensor (``force="joint"``) or the reference sensor.
+    """
+    from labjoint.storage import open_run
+
+    with open_run(path) as rf:
+        disp, fch = _roles(rf, force)
+        f = frequency_hz if frequency_hz is not None else rf.frequency_hz
+        step = FILE_BLOCK_SAMPLES
+
+        def blocks() -> Iterator[np.ndarray]:
+            for a in range(0, rf.n_samples, step):
+                b = a + step
+                u = rf.physical(disp[0], a, b)
+                if len(disp) == 2:
+                    u = u - rf.physical(disp[1], a, b)
+                yield np.stack([u, rf.physical(fch, a, b)])
+
+        result = analyze_blocks(blocks(), rf.sample_rate_hz, f, cutoff_hz, **kwargs)
+        result.metadata.update(run=rf.name, path=str(rf.path), force_channel=fch,
+                               **{k: rf.metadata.get(k) for k in RUN_KEYS if k in rf.metadata})
+        return result
+
+
+def _roles(rf: Any, force: str) -> tuple[list[str], str]:
+    """Displacement channel(s) and the force channel of an open run file."""
+    md, names = rf.metadata, set(rf.channel_names)
+    if "displacement_channels" in md:
+        disp = list(md["displacement_channels"])
+    elif "displacement" in names:
+        disp = ["displacement"]
+    else:
+        disp = ["disp_1", "disp_2"]
+    if force == "joint":
+        fch = md.get("joint_force_channel") or ("force" if "force" in names else "shear_nc")
+    elif force == "reference":
+        fch = md.get("reference_force_channel") or "force_ref"
+    else:
+        raise InputError(f"force must be 'joint' or 'reference', got {force!r}", field="force")
+    for c in [*disp, fch]:
+        rf.channel(c)
+    if len(disp) not in (1, 2):
+        raise InputError("displacement_channels must name one or two channels",
+                         file=str(rf.path), field="displacement_channels")
+    return disp, fch

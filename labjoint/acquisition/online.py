@@ -1,0 +1,92 @@
+"""Online analysis while acquiring: fundamental phasors and a per-cycle steady-state check.
+
+Kept deliberately simple (the full steady-state detector lives in ``labjoint.signal``,
+a higher layer the engine cannot use). The fundamental of a record is found by least
+squares on ``a cos(wt) + b sin(wt) + c``, which is exact for a window of any length
+(no leakage when a cycle is not a whole number of samples).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def fundamental(x: np.ndarray, sample_rate_hz: float, frequency_hz: float,
+                first_sample: int = 0) -> np.ndarray:
+    """Complex amplitude X of each row at ``frequency_hz``: x(t) ~ Re(X exp(i w t)) + c.
+
+    ``t = (first_sample + k) / sample_rate_hz``; ``|X|`` is the amplitude (peak), and
+    ``angle(X)`` the phase of a cosine at t = 0.
+
+    >>> t = np.arange(100) / 1000.0
+    >>> X = fundamental(np.array([3.0 * np.cos(2 * np.pi * 40 * t - 0.5) + 1.0]), 1000.0, 40.0)
+    >>> round(float(abs(X[0])), 9), round(float(np.angle(X[0])), 9)
+    (3.0, -0.5)
+    """
+    x = np.atleast_2d(np.asarray(x, dtype=float))
+    n = x.shape[1]
+    if n < 3:
+        raise ValueError(f"need at least 3 samples for a fundamental fit, got {n}")
+    w = 2.0 * np.pi * frequency_hz / sample_rate_hz
+    k = first_sample + np.arange(n, dtype=float)
+    basis = np.column_stack([np.cos(w * k), np.sin(w * k), np.ones(n)])
+    coef, *_ = np.linalg.lstsq(basis, x.T, rcond=None)
+    return coef[0] - 1j * coef[1]
+
+
+class CycleAmplitudes:
+    """Per-cycle fundamental amplitude of some channels, fed block by block.
+
+    Cycle ``k`` spans samples ``[s0 + round(k N), s0 + round((k + 1) N))`` with
+    ``N = fs / f`` and ``s0`` the first sample fed; ``scale`` turns volts into SI units.
+    """
+
+    def __init__(self, frequency_hz: float, sample_rate_hz: float, scale: np.ndarray) -> None:
+        self.frequency_hz = float(frequency_hz)
+        self.sample_rate_hz = float(sample_rate_hz)
+        self.scale = np.asarray(scale, dtype=float)
+        self.history: list[np.ndarray] = []
+        self._start: int | None = None
+        self._buf = np.empty((len(self.scale), 0))
+        self._buf_first = 0
+
+    @property
+    def samples_per_cycle(self) -> float:
+        return self.sample_rate_hz / self.frequency_hz
+
+    def _boundary(self, k: int) -> int:
+        return int(self._start + round(k * self.samples_per_cycle))
+
+    def feed(self, volts: np.ndarray, first_sample: int) -> int:
+        """Add a block (rows: the tracked channels); return how many cycles completed."""
+        volts = np.asarray(volts, dtype=float)
+        if self._start is None or first_sample != self._buf_first + self._buf.shape[1]:
+            self._start, self._buf, self._buf_first = first_sample, volts[:, :0], first_sample
+            self.history = []
+        self._buf = np.concatenate([self._buf, volts], axis=1)
+        done = 0
+        while True:
+            k = len(self.history)
+            a, b = self._boundary(k), self._boundary(k + 1)
+            if self._buf_first + self._buf.shape[1] < b:
+                return done
+            seg = self._buf[:, a - self._buf_first: b - self._buf_first]
+            X = fundamental(seg, self.sample_rate_hz, self.frequency_hz, first_sample=a)
+            self.history.append(np.abs(X) * np.abs(self.scale))
+            self._buf, self._buf_first = self._buf[:, b - self._buf_first:], b
+            done += 1
+
+    def drift(self, window: int) -> float:
+        """Largest relative change of the amplitude across the last ``window`` cycles,
+        from a least-squares line through them: |slope| (window - 1) / mean (inf if
+        fewer cycles). A line fit averages the noise of single cycles, which a max-min
+        range would not (its noise is about 3x larger over 10 cycles)."""
+        if len(self.history) < window:
+            return float("inf")
+        a = np.array(self.history[-window:])
+        k = np.arange(window) - (window - 1) / 2.0
+        slope = k @ a / (k @ k)
+        mean = a.mean(axis=0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = np.where(mean > 0, np.abs(slope) * (window - 1) / mean, np.inf)
+        return float(rel.max())

@@ -1,0 +1,358 @@
+"""Plans: generators of :mod:`~labjoint.acquisition.messages`, testable without hardware.
+
+Each plan validates its parameters when called (an :class:`~labjoint.errors.InputError`
+names the parameter) and yields messages; it never checks the rig's safety limits (the
+engine does, in one place). Plans that need feedback (``step_sine``) read the engine's
+answers from ``yield``; :func:`dry_run` drives any plan with a stand-in responder.
+
+Conditions come from seed 002 (400 Hz, 1-20 Vpp at 5 Nm: Table 3; 3/5/8 Nm at 400 Hz
+20 Vpp: Table 4; friction at 100 Hz, 2 Nm: Eq. 10) and seed 000 (step-sine at constant
+force around a resonance, up and down sweeps).
+
+>>> [type(m).__name__ for m in dwell(400, 2, n_cycles=10)]
+['Configure', 'Output', 'WaitSteady', 'Record', 'Output']
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+import re
+import tomllib
+from pathlib import Path
+from typing import Annotated, Any, Callable, Generator, Literal, Mapping
+
+import numpy as np
+from pydantic import Field, ValidationError, validate_call
+
+from labjoint.acquisition.messages import (Configure, Measure, Measurement, Message, Output,
+                                           Ramp, Record, SetTorque, WaitSteady)
+from labjoint.errors import InputError
+
+Plan = Generator[Message, Any, None]
+
+Hz = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+Vpp = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+Nm = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+Newton = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+Volt = Annotated[float, Field(allow_inf_nan=False)]
+Cycles = Annotated[int, Field(gt=0)]
+Window = Annotated[int, Field(ge=2)]
+Fraction = Annotated[float, Field(gt=0, lt=1)]
+
+#: Every plan by name (what ``load_plan`` accepts as ``plan = "..."``).
+PLANS: dict[str, Callable[..., Plan]] = {}
+
+#: Seed 002 Table 3 excitation levels (Vpp) and Table 4 torques (N*m).
+TABLE3_VPP = (1.0, 4.0, 8.0, 12.0, 16.0, 20.0)
+TABLE4_NM = (3.0, 5.0, 8.0)
+
+
+def _plan(check: Callable[..., None] | None = None):
+    """Register a plan; validate its arguments eagerly (pydantic), then ``check`` them."""
+
+    def deco(fn: Callable[..., Plan]) -> Callable[..., Plan]:
+        validated = validate_call(fn)
+
+        @functools.wraps(fn)
+        def wrapper(*args: Any, **kwargs: Any) -> Plan:
+            try:
+                gen = validated(*args, **kwargs)
+            except ValidationError as exc:
+                raise _input_error(exc, fn) from None
+            if check is not None:
+                check(*args, **kwargs)
+            return gen
+
+        PLANS[fn.__name__] = wrapper
+        return wrapper
+
+    return deco
+
+
+def _input_error(exc: ValidationError, fn: Callable) -> InputError:
+    err = exc.errors()[0]
+    loc = list(err["loc"])
+    params = [p for p in fn.__code__.co_varnames[: fn.__code__.co_argcount]]
+    if loc and isinstance(loc[0], int) and loc[0] < len(params):
+        loc[0] = params[loc[0]]
+    name = str(loc[0]) if loc else fn.__name__
+    name += "".join(f"[{x}]" for x in loc[1:])
+    return InputError(f"{fn.__name__}: {err['msg']}", field=name)
+
+
+def _tag(x: float) -> str:
+    """A number as a run-name fragment: 12.5 -> '12p5'."""
+    return format(float(x), "g").replace(".", "p")
+
+
+def _wait(max_cycles: int, tol: float, window: int) -> WaitSteady:
+    return WaitSteady(max_cycles=max_cycles, tol=tol, window=window)
+
+
+# ---- fixed-excitation plans -------------------------------------------------------
+
+@_plan()
+def dwell(frequency_hz: Hz, amplitude_vpp: Vpp, *, n_cycles: Cycles = 100,
+          torque_nm: Nm | None = None, offset_v: Volt = 0.0, steady_max_cycles: Cycles = 400,
+          steady_tol: Fraction = 0.02, steady_window: Window = 10) -> Plan:
+    """One steady run: sine on, wait for steady state, record ``n_cycles``, output off."""
+    if torque_nm is not None:
+        yield SetTorque(torque_nm)
+    yield Configure(frequency_hz, amplitude_vpp, offset_v)
+    yield Output(True)
+    yield _wait(steady_max_cycles, steady_tol, steady_window)
+    yield Record(f"dwell_{_tag(frequency_hz)}Hz_{_tag(amplitude_vpp)}Vpp", n_cycles=n_cycles,
+                 metadata={"plan": "dwell", "plan_step": 0})
+    yield Output(False)
+
+
+@_plan()
+def amplitude_sweep(amplitudes_vpp: Annotated[list[Vpp], Field(min_length=1)] = TABLE3_VPP, *,
+                    frequency_hz: Hz = 400.0, torque_nm: Nm = 5.0, n_cycles: Cycles = 100,
+                    steady_max_cycles: Cycles = 400, steady_tol: Fraction = 0.02,
+                    steady_window: Window = 10) -> Plan:
+    """Seed 002 Table 3: one run per excitation level at fixed frequency and torque; the
+    output stays on and the amplitude is ramped between levels."""
+    yield SetTorque(torque_nm)
+    yield Configure(frequency_hz, amplitudes_vpp[0])
+    yield Output(True)
+    for i, vpp in enumerate(amplitudes_vpp):
+        if i:
+            yield Ramp(vpp)
+        yield _wait(steady_max_cycles, steady_tol, steady_window)
+        yield Record(f"amplitude_sweep_{i:02d}_{_tag(vpp)}Vpp", n_cycles=n_cycles,
+                     metadata={"plan": "amplitude_sweep", "plan_step": i})
+    yield Output(False)
+
+
+@_plan()
+def torque_series(torques_nm: Annotated[list[Nm], Field(min_length=1)] = TABLE4_NM, *,
+                  frequency_hz: Hz = 400.0, amplitude_vpp: Vpp = 20.0, n_cycles: Cycles = 100,
+                  steady_max_cycles: Cycles = 400, steady_tol: Fraction = 0.02,
+                  steady_window: Window = 10) -> Plan:
+    """Seed 002 Table 4: one run per bolt torque; output off while the torque changes
+    (on a real rig the engine waits there for the operator)."""
+    for i, torque in enumerate(torques_nm):
+        yield SetTorque(torque)
+        yield Configure(frequency_hz, amplitude_vpp)
+        yield Output(True)
+        yield _wait(steady_max_cycles, steady_tol, steady_window)
+        yield Record(f"torque_series_{i:02d}_{_tag(torque)}Nm", n_cycles=n_cycles,
+                     metadata={"plan": "torque_series", "plan_step": i})
+        yield Output(False)
+
+
+@_plan()
+def friction_test(frequency_hz: Hz = 100.0, torque_nm: Nm = 2.0, amplitude_vpp: Vpp = 20.0, *,
+                  n_cycles: Cycles = 100, steady_max_cycles: Cycles = 400,
+                  steady_tol: Fraction = 0.02, steady_window: Window = 10) -> Plan:
+    """Seed 002 Eq. 10 test: low frequency, low torque, amplitude high enough for
+    macro-slip, so the interface slides and mu = f_sld / f_n can be read."""
+    yield SetTorque(torque_nm)
+    yield Configure(frequency_hz, amplitude_vpp)
+    yield Output(True)
+    yield _wait(steady_max_cycles, steady_tol, steady_window)
+    yield Record(f"friction_test_{_tag(frequency_hz)}Hz_{_tag(torque_nm)}Nm", n_cycles=n_cycles,
+                 metadata={"plan": "friction_test", "plan_step": 0})
+    yield Output(False)
+
+
+@_plan()
+def sensor_calibration(frequencies_hz: Annotated[list[Hz], Field(min_length=1)] = (
+                           200.0, 300.0, 400.0, 500.0, 600.0), *,
+                       amplitude_vpp: Vpp = 20.0, torque_nm: Nm = 5.0, n_cycles: Cycles = 100,
+                       steady_max_cycles: Cycles = 400, steady_tol: Fraction = 0.02,
+                       steady_window: Window = 10) -> Plan:
+    """Runs for calibrating the nanocomposite sensor against the reference force sensor
+    at each frequency (seed 002: 301 N/V at 400 Hz, 20 Vpp, 5 Nm); the calibration itself
+    is computed later by ``identify`` from runs tagged ``plan='sensor_calibration'``."""
+    yield SetTorque(torque_nm)
+    for i, f in enumerate(frequencies_hz):
+        yield Configure(f, amplitude_vpp)
+        if i == 0:
+            yield Output(True)
+        yield _wait(steady_max_cycles, steady_tol, steady_window)
+        yield Record(f"sensor_calibration_{i:02d}_{_tag(f)}Hz", n_cycles=n_cycles,
+                     metadata={"plan": "sensor_calibration", "plan_step": i})
+    yield Output(False)
+
+
+# ---- frequency-stepping plans -----------------------------------------------------
+
+def _check_step_sine(*args: Any, **kw: Any) -> None:
+    freqs = kw.get("frequencies_hz", args[0] if args else [])
+    if len(set(float(f) for f in freqs)) != len(freqs):
+        raise InputError("step_sine: frequencies must be distinct", field="frequencies_hz")
+
+
+@_plan(check=_check_step_sine)
+def step_sine(frequencies_hz: Annotated[list[Hz], Field(min_length=1)],
+              force_amplitude_n: Newton, *, initial_vpp: Vpp = 1.0,
+              directions: Annotated[list[Literal["up", "down"]], Field(min_length=1)] = ("up", "down"),
+              torque_nm: Nm | None = None, force_tol: Fraction = 0.03,
+              max_iterations: Annotated[int, Field(ge=0)] = 8,
+              max_step_ratio: Annotated[float, Field(gt=1, allow_inf_nan=False)] = 2.0,
+              max_vpp: Vpp | None = None, measure_cycles: Cycles = 20, n_cycles: Cycles = 100,
+              steady_max_cycles: Cycles = 400, steady_tol: Fraction = 0.02,
+              steady_window: Window = 10) -> Plan:
+    """Seed 000 step-sine: frequency steps around a resonance at constant force amplitude.
+
+    At each frequency the amplitude on the reference force channel is measured at the
+    drive frequency and Vpp is scaled by target/measured (the step ratio clipped to
+    ``max_step_ratio``; Vpp saturated at ``max_vpp`` and at the engine's limit) until it
+    is within ``force_tol`` or ``max_iterations`` corrections were made; then a steady run
+    is recorded. Sweeps run in ``directions`` order ('up' ascending, 'down' descending)
+    with the output kept on throughout, so the response stays on its branch and jumps
+    show; each step starts from the previous step's Vpp.
+    """
+    vpp = float(initial_vpp)
+    ceiling = math.inf if max_vpp is None else float(max_vpp)
+    if torque_nm is not None:
+        yield SetTorque(torque_nm)
+    step = 0
+    for direction in directions:
+        for f in sorted(frequencies_hz, reverse=(direction == "down")):
+            yield Configure(f, vpp)
+            if step == 0:
+                yield Output(True)
+            corrections = 0
+            while True:
+                steady = yield _wait(steady_max_cycles, steady_tol, steady_window)
+                m = yield Measure(measure_cycles)
+                if not isinstance(m, Measurement):
+                    raise TypeError("step_sine needs the engine's Measurement answers: run it "
+                                    "with RunEngine, or dry_run() with a responder")
+                force = m.reference_force_n
+                error = abs(force - force_amplitude_n) / force_amplitude_n
+                if error <= force_tol or corrections >= max_iterations:
+                    break
+                ratio = force_amplitude_n / force if force > 0 else max_step_ratio
+                ratio = min(max(ratio, 1.0 / max_step_ratio), max_step_ratio)
+                new = min(vpp * ratio, ceiling, m.max_vpp)
+                if new == vpp:  # saturated at the ceiling: no correction possible
+                    break
+                vpp = new
+                corrections += 1
+                yield Ramp(vpp)
+            yield Record(f"step_sine_{step:03d}_{direction}_{_tag(f)}Hz", n_cycles=n_cycles,
+                         metadata={"plan": "step_sine", "plan_step": step, "direction": direction,
+                                   "target_force_n": float(force_amplitude_n),
+                                   "measured_force_n": float(force), "force_error": float(error),
+                                   "force_converged": bool(error <= force_tol),
+                                   "corrections": corrections,
+                                   "steady_reached": bool(getattr(steady, "reached", False))})
+            step += 1
+    yield Output(False)
+
+
+def broadband_frequencies(f_start_hz: float, f_stop_hz: float, n_frequencies: int,
+                          spacing: str = "log") -> list[float]:
+    """The stepped-sine frequency grid of :func:`broadband` (log or linear spacing),
+    rounded to 6 significant digits.
+
+    >>> broadband_frequencies(100, 400, 3)
+    [100.0, 200.0, 400.0]
+    """
+    grid = (np.geomspace if spacing == "log" else np.linspace)(f_start_hz, f_stop_hz, n_frequencies)
+    return [float(f"{f:.6g}") for f in grid]
+
+
+def _check_broadband(*args: Any, **kw: Any) -> None:
+    start, stop = kw.get("f_start_hz", 50.0), kw.get("f_stop_hz", 1000.0)
+    if kw.get("frequencies_hz") is None and not stop > start:
+        raise InputError(f"broadband: f_stop_hz ({stop}) must exceed f_start_hz ({start})",
+                         field="f_stop_hz")
+
+
+@_plan(check=_check_broadband)
+def broadband(*, f_start_hz: Hz = 50.0, f_stop_hz: Hz = 1000.0,
+              n_frequencies: Annotated[int, Field(ge=2)] = 30,
+              spacing: Literal["log", "linear"] = "log",
+              frequencies_hz: Annotated[list[Hz], Field(min_length=1)] | None = None,
+              amplitude_vpp: Vpp = 0.5, torque_nm: Nm | None = None, n_cycles: Cycles = 50,
+              steady_max_cycles: Cycles = 400, steady_tol: Fraction = 0.02,
+              steady_window: Window = 10) -> Plan:
+    """Linear FRF at a low, constant excitation level by stepped sine (the generator only
+    makes sines): one steady run per frequency, from which
+    :func:`labjoint.acquisition.frf.frf_h1` estimates H1 = G_xf / G_ff point by point."""
+    freqs = (list(frequencies_hz) if frequencies_hz is not None
+             else broadband_frequencies(f_start_hz, f_stop_hz, n_frequencies, spacing))
+    if torque_nm is not None:
+        yield SetTorque(torque_nm)
+    for i, f in enumerate(freqs):
+        yield Configure(f, amplitude_vpp)
+        if i == 0:
+            yield Output(True)
+        yield _wait(steady_max_cycles, steady_tol, steady_window)
+        yield Record(f"broadband_{i:03d}_{_tag(f)}Hz", n_cycles=n_cycles,
+                     metadata={"plan": "broadband", "plan_step": i, "frf": "stepped_sine_h1"})
+    yield Output(False)
+
+
+# ---- loading and previewing -----------------------------------------------------------
+
+def load_plan(source: str | Path | Mapping[str, Any]) -> Plan:
+    """A plan from a TOML/JSON file or a mapping: ``plan = "<name>"`` plus its parameters.
+
+    Errors name the file and the field (``plan`` or the parameter).
+    """
+    where: str | None = None
+    if isinstance(source, Mapping):
+        data = dict(source)
+    else:
+        path = Path(source)
+        where = str(path)
+        data = _read_plan_file(path)
+    name = data.pop("plan", None)
+    if name is None:
+        raise InputError("missing the plan name (plan = \"...\")", file=where, field="plan")
+    if not isinstance(name, str) or name not in PLANS:
+        raise InputError(f"unknown plan {name!r}; known: {sorted(PLANS)}", file=where, field="plan")
+    try:
+        return PLANS[name](**data)
+    except InputError as exc:
+        raise InputError(exc.message, file=where, field=exc.field) from None
+
+
+def _read_plan_file(path: Path) -> dict[str, Any]:
+    suffix = path.suffix.lower()
+    if suffix not in (".toml", ".json"):
+        raise InputError(f"plan files are .toml or .json, got {suffix or 'no suffix'!r}",
+                         file=str(path))
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise InputError(f"cannot read plan file: {exc.strerror or exc}", file=str(path)) from None
+    if suffix == ".toml":
+        try:
+            data = tomllib.loads(raw.decode("utf-8"))
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            line = re.search(r"at line (\d+)", str(exc))
+            raise InputError(f"not valid TOML: {exc}", file=str(path),
+                             line=int(line.group(1)) if line else None) from None
+    else:
+        try:
+            data = json.loads(raw)
+        except json.JSONDecodeError as exc:
+            raise InputError(f"not valid JSON: {exc.msg}", file=str(path), line=exc.lineno) from None
+        except UnicodeDecodeError as exc:
+            raise InputError(f"not valid JSON: {exc}", file=str(path)) from None
+    if not isinstance(data, dict):
+        raise InputError("a plan file holds one table/object", file=str(path))
+    return data
+
+
+def dry_run(plan: Plan, respond: Callable[[Message], Any] | None = None) -> list[Message]:
+    """Every message of ``plan``, sending ``respond(msg)`` (default None) back for each."""
+    out: list[Message] = []
+    answer = None
+    while True:
+        try:
+            msg = plan.send(answer)
+        except StopIteration:
+            return out
+        out.append(msg)
+        answer = None if respond is None else respond(msg)
+

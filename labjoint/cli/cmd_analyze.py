@@ -1,0 +1,127 @@
+"""`labjoint analyze RUN... [--method loop|stickslip|both] [--json]`."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from labjoint.cli.output import Progress, emit_json, table
+from labjoint.errors import InputError
+
+#: design.md's analyze fields, in order.
+FIELDS = ("run", "frequency_hz", "displacement_amplitude_m", "force_amplitude_n",
+          "energy_loss_j", "damping_ns_per_m", "stiffness_n_per_m", "cycles")
+
+
+def add_analyze_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("runs", nargs="+", metavar="RUN", help="HDF5 run file or CSV file (import format)")
+    p.add_argument("--method", choices=["loop", "stickslip", "both"], default="loop",
+                   help="hysteresis loop (seed 002 Eq. 1), stick-slip boundary (Eqs. 2-9) or both")
+    p.add_argument("--force", choices=["joint", "reference"], default="joint",
+                   help="force sensor: the nanocomposite joint sensor (default) or the reference")
+    p.add_argument("--friction", type=float, default=None,
+                   help="friction coefficient for --method stickslip (default: the identified one)")
+    p.add_argument("--save", action="store_true", help="store results in each run file's processed group")
+
+
+def load_runs(paths: list[str]) -> list[Any]:
+    """Run files stay paths (streamed); CSV files are parsed into in-memory runs."""
+    out: list[Any] = []
+    for p in paths:
+        path = Path(p)
+        if not path.exists():
+            raise InputError("no such file", file=p)
+        out.append(csv_run(path) if path.suffix.lower() in (".csv", ".txt") else path)
+    return out
+
+
+def csv_run(path: Path) -> Any:
+    """A CSV file in the import format as a :class:`labjoint.storage.run.Run`."""
+    from labjoint.storage.csv_parse import parse_csv
+    from labjoint.storage.run import Run
+
+    parsed = parse_csv(path)
+    data = {c: parsed.values[:, i] for i, c in enumerate(parsed.columns)}
+    md = dict(parsed.metadata)
+    md.setdefault("sample_rate_hz", parsed.sample_rate_hz)
+    return Run(name=path.stem, time=parsed.column("time_s"),
+               displacement=parsed.column("displacement_m"), force=parsed.column("force_N"),
+               metadata=md, channels=data, path=None)
+
+
+def loop_row(item: Any, force: str, save: bool) -> dict[str, Any]:
+    from labjoint.identify.analyze import analyze_file, analyze_run
+
+    if isinstance(item, Path):
+        res = analyze_file(item, force=force)
+        name = res.metadata.get("run", item.stem)
+        extra = {k: res.metadata.get(k) for k in ("excitation_vpp", "torque_nm")}
+        if save:
+            from labjoint.storage import write_processed
+            arrays = {"energy_loss": res.energy_loss, "damping": res.damping,
+                      "stiffness_lsq": res.stiffness_lsq, "stiffness_secant": res.stiffness_secant,
+                      "displacement_amplitude": res.displacement_amplitude,
+                      "force_amplitude": res.force_amplitude, "steady": res.steady.astype("i1")}
+            write_processed(item, "loop", arrays, {k: v for k, v in res.summary.items()
+                                                   if isinstance(v, (int, float))},
+                            {"energy_loss": "J", "damping": "N s/m", "stiffness_lsq": "N/m",
+                             "stiffness_secant": "N/m", "displacement_amplitude": "m",
+                             "force_amplitude": "N", "steady": "1"})
+    else:
+        res = analyze_run(item)
+        name = item.name
+        extra = {k: item.metadata.get(k) for k in ("excitation_vpp", "torque_nm")}
+    row = {"run": name}
+    row.update({k: res.summary.get(k) for k in FIELDS if k != "run"})
+    row.update({k: v for k, v in res.summary.items() if k not in row})
+    row.update(extra)
+    return row
+
+
+def analyze_paths(paths: list[str], method: str = "loop", force: str = "joint",
+                  friction: float | None = None, save: bool = False, data_dir: str | None = None,
+                  progress: bool = False) -> list[dict[str, Any]]:
+    runs = load_runs(paths)
+    bar = Progress(len(runs), "analyze", enabled=progress)
+    rows = []
+    if method == "loop":
+        for item in runs:
+            rows.append(loop_row(item, force, save))
+            bar.advance(note=str(rows[-1]["run"]))
+        return rows
+    from labjoint.identify.methods import analyze_runs
+
+    for item in runs:
+        rows += analyze_runs([item], method, friction=friction, data_dir=data_dir, store=save)
+        bar.advance(note=str(rows[-1].get("run", "")))
+    return rows
+
+
+def print_loop_table(rows: list[dict[str, Any]]) -> None:
+    print(table(["run", "f Hz", "Vpp", "U um", "F N", "W mJ", "C Ns/m", "K MN/m", "cycles"],
+                [[r["run"], r.get("frequency_hz"), r.get("excitation_vpp"),
+                  _scale(r.get("displacement_amplitude_m"), 1e6), r.get("force_amplitude_n"),
+                  _scale(r.get("energy_loss_j"), 1e3), r.get("damping_ns_per_m"),
+                  _scale(r.get("stiffness_n_per_m"), 1e-6), r.get("cycles")] for r in rows]))
+
+
+def _scale(v: Any, k: float) -> Any:
+    return None if v is None else float(v) * k
+
+
+def run(args: argparse.Namespace) -> int:
+    data_dir = None
+    if args.method != "loop":
+        from labjoint.config import load_config
+        data_dir = load_config(args.config).rig.data_dir
+    rows = analyze_paths(args.runs, args.method, args.force, args.friction, args.save, data_dir,
+                         progress=not (args.json or args.quiet))
+    if args.json:
+        emit_json({"runs": rows})
+    elif args.method == "loop":
+        print_loop_table(rows)
+    else:
+        from labjoint.identify.methods import format_table
+        print(format_table(rows))
+    return 0
