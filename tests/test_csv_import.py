@@ -67,6 +67,18 @@ def test_round_trip_is_exact(tmp_path):
     assert [r.name for r in cat.query(torque_nm=5, source="imported")] == ["run"]
 
 
+def test_parsed_csv_gives_the_same_run_as_the_imported_file(tmp_path):
+    from labjoint.storage.csv_parse import parse_csv
+
+    src = _csv(tmp_path)
+    direct = parse_csv(src).to_run()
+    stored = read_run(import_csv(src, tmp_path / "data"))
+    for key in ("time", "displacement", "force"):
+        assert np.array_equal(getattr(direct, key), getattr(stored, key))
+    assert set(direct.channels) == set(stored.channels) == {"displacement", "force", "accel_g"}
+    assert direct.sample_rate_hz == stored.sample_rate_hz and direct.metadata["torque_nm"] == 5.0
+
+
 def test_metadata_rate_is_used_when_time_is_printed_coarsely(tmp_path):
     rows = _rows(300, fs=3000.0)
     src = _csv(tmp_path, rows, meta=("# sample_rate_hz: 3000",), fmt=lambda x: f"{x:.5f}")

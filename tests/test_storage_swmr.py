@@ -18,7 +18,7 @@ from labjoint.errors import InputError
 from labjoint.storage import Catalog, open_run, recover, recover_all
 from labjoint.storage.recover import clear_status_flags, lookup3
 from labjoint.storage.writer import RunWriter
-from test_storage_fixtures import FS, rig_channels
+from test_storage_fixtures import FS, rig_channels, walk_nexus
 
 READER = textwrap.dedent("""
     import json, sys
@@ -111,6 +111,7 @@ def test_kill_9_leaves_a_readable_file_that_recover_marks_incomplete(tmp_path):
     assert cat.get("killed").status == "incomplete" and cat.get("killed").n_samples == n
     with h5py.File(path, "r+"):
         pass  # writable again
+    assert walk_nexus(path) == []
     assert recover(path) is False  # only "running" files are touched
 
 

@@ -39,15 +39,8 @@ def load_runs(paths: list[str]) -> list[Any]:
 def csv_run(path: Path) -> Any:
     """A CSV file in the import format as a :class:`labjoint.storage.run.Run`."""
     from labjoint.storage.csv_parse import parse_csv
-    from labjoint.storage.run import Run
 
-    parsed = parse_csv(path)
-    data = {c: parsed.values[:, i] for i, c in enumerate(parsed.columns)}
-    md = dict(parsed.metadata)
-    md.setdefault("sample_rate_hz", parsed.sample_rate_hz)
-    return Run(name=path.stem, time=parsed.column("time_s"),
-               displacement=parsed.column("displacement_m"), force=parsed.column("force_N"),
-               metadata=md, channels=data, path=None)
+    return parse_csv(path).to_run()
 
 
 def loop_row(item: Any, force: str, save: bool) -> dict[str, Any]:

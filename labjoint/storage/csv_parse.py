@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from labjoint.errors import InputError
+from labjoint.storage.run import Run
 
 REQUIRED = ("time_s", "displacement_m", "force_N")
 KNOWN_KEYS = ("frequency_hz", "sample_rate_hz", "torque_nm", "excitation_vpp", "normal_force_n")
@@ -53,6 +54,21 @@ class ParsedCSV:
         """Values of the header column ``name`` (case-insensitive)."""
         low = [c.lower() for c in self.columns]
         return self.values[:, low.index(name.lower())]
+
+    def to_run(self) -> Run:
+        """The CSV as a :class:`Run` without storing it (channels named as an imported
+        run file's: ``displacement``, ``force`` and the extra columns; ``path`` None)."""
+        chans = {"displacement": self.column("displacement_m"), "force": self.column("force_N")}
+        for c in self.columns:
+            if c.lower() not in ("time_s", "displacement_m", "force_n"):
+                chans[c] = self.column(c)
+        md = dict(self.metadata)
+        md.update(sample_rate_hz=self.sample_rate_hz, source="imported",
+                  source_file=str(self.path), displacement_channels=["displacement"],
+                  joint_force_channel="force")
+        return Run(name=self.path.stem, time=self.column("time_s"),
+                   displacement=chans["displacement"], force=chans["force"],
+                   metadata=md, channels=chans, path=None)
 
 
 def unit_of(column: str) -> str:
@@ -161,7 +177,7 @@ def _values(body: str, columns: list[str], f: str, header_line: int) -> np.ndarr
     n_lines = body.count("\n") + 1
     try:
         arr = np.loadtxt(io.StringIO(body), delimiter=",", dtype=np.float64, ndmin=2,
-                         comments=None, quotechar='"')
+                         comments=None)
     except ValueError as exc:
         _scan(body, columns, f, header_line)
         m = _ROW_RE.search(str(exc))
@@ -185,7 +201,7 @@ def _scan(body: str, columns: list[str], f: str, header_line: int) -> None:
         lineno = header_line + 1 + i
         if not line.strip():
             raise InputError("empty line inside the data", file=f, line=lineno, column=columns[0])
-        cells = next(csv.reader([line]))
+        cells = line.split(",")
         if len(cells) != len(columns):
             col = columns[len(cells)] if len(cells) < len(columns) else f"#{len(cells)}"
             raise InputError(f"expected {len(columns)} values, got {len(cells)}",

@@ -63,7 +63,8 @@ class RunWriter:
     ``catalog`` (a :class:`labjoint.storage.catalog.Catalog`) is updated when a run
     starts and when it stops. Data are flushed when ``flush_interval_s`` has passed on
     ``clock`` since the last flush, checked on every document and by
-    :meth:`flush_if_due` (call it from a timer if blocks may stop arriving).
+    :meth:`flush_if_due` (call it periodically if blocks may stop arriving). Not
+    thread-safe: call it from one thread, like the documents it consumes.
     """
 
     def __init__(self, data_dir: str | Path, catalog: Any = None, flush_interval_s: float = 1.0,
