@@ -1,0 +1,417 @@
+"""The headless acquisition daemon: owns the rig, runs queued jobs, streams runs to disk.
+
+On start it takes the queue's lock (one daemon per queue), opens the rig and switches
+the generator output OFF (whatever a crashed predecessor left on), recovers run files
+a dead writer left "running" (they become "incomplete") and fails the jobs it left
+running ("daemon restarted"). Then it takes jobs from the queue one at a time: each
+plan runs on a :class:`~labjoint.acquisition.engine.RunEngine` whose documents go to a
+:class:`~labjoint.storage.RunWriter` (HDF5, SWMR, flushed at least every second; the
+catalog follows) and to a :class:`~labjoint.daemon.monitor.RunTracker` (sample counts,
+counter continuity). Samples never stay in memory beyond the block being written.
+
+A watcher thread polls the queue every ``poll_s`` while a job runs: a cancel request or
+an emergency stop aborts the run (output off at once, no ramp); it also publishes the
+job's progress and the daemon's status. SIGTERM/SIGINT stop the current run the same
+way and end :meth:`Daemon.run_forever` cleanly. The output is switched off (and read
+back) after every job and on every way out, whatever happened.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import signal
+import socket
+import threading
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, Callable
+
+from labjoint.acquisition.engine import RunEngine
+from labjoint.acquisition.plans import load_plan
+from labjoint.config import RigConfig
+from labjoint.daemon.gate import QueueGate
+from labjoint.daemon.lock import DaemonLock
+from labjoint.daemon.monitor import (RunTracker, WatchedGenerator, expected_records, job_outcome,
+                                    observe)
+from labjoint.daemon.queue import Job, JobQueue, utc_now
+from labjoint.errors import HardwareError
+from labjoint.storage import Catalog, RunWriter, recover_all
+
+log = logging.getLogger(__name__)
+
+#: How often the daemon's status is written to the queue database (s).
+PUBLISH_INTERVAL_S = 1.0
+
+
+def _open_rig(config: RigConfig) -> Any:
+    """:func:`labjoint.acquisition.rig.open_rig`, imported when first needed (it loads
+    the simulator or the instrument drivers)."""
+    from labjoint.acquisition.rig import open_rig
+
+    return open_rig(config)
+
+
+def default_paths(config: RigConfig, data_dir: str | Path | None = None,
+                  queue_db: str | Path | None = None) -> tuple[Path, Path, Path]:
+    """(data dir, queue db, catalog db): ``config.rig.data_dir`` (relative to the working
+    directory), ``<data_dir>/queue.sqlite`` and ``<data_dir>/catalog.sqlite``."""
+    d = Path(data_dir) if data_dir is not None else Path(config.rig.data_dir)
+    q = Path(queue_db) if queue_db is not None else d / "queue.sqlite"
+    return d, q, d / "catalog.sqlite"
+
+
+class Daemon:
+    """Runs the queue's jobs on the rig described by ``config``.
+
+    ``clock``/``sleep`` pace the engine's ramps; ``rig_factory(config) -> Rig`` replaces
+    :func:`~labjoint.acquisition.rig.open_rig` (tests inject faults with it);
+    ``operator_torque`` makes torque changes wait for the operator even on the
+    simulated rig (the confirmed torque is then applied to the simulation); by default
+    only a real rig waits. ``flush_interval_s`` defaults to one second minus one and a
+    half DAQ blocks, so flushes (checked on each block) are never more than 1 s apart.
+    """
+
+    def __init__(self, config: RigConfig, data_dir: str | Path | None = None,
+                 queue_db: str | Path | None = None, poll_s: float = 0.2,
+                 clock: Callable[[], float] = time.monotonic,
+                 sleep: Callable[[float], None] = time.sleep, *,
+                 rig_factory: Callable[[RigConfig], Any] | None = None,
+                 operator_torque: bool | None = None, flush_interval_s: float | None = None,
+                 worker_id: str | None = None) -> None:
+        self.config = config
+        self.data_dir, self.queue_db, self.catalog_db = default_paths(config, data_dir, queue_db)
+        self.poll_s, self.clock, self.sleep = float(poll_s), clock, sleep
+        self.rig_factory = rig_factory or _open_rig
+        self.operator_torque = operator_torque
+        self.flush_interval_s = flush_interval_s
+        self.worker_id = worker_id or f"{socket.gethostname()}:{os.getpid()}"
+        self.queue = JobQueue(self.queue_db)
+        self.catalog: Catalog | None = None
+        self.last_error: str | None = None
+        self.exit_reason = ""
+        self._lock = DaemonLock(f"{self.queue_db}.lock")
+        self._stop = threading.Event()
+        self._signalled: str | None = None
+        self._state = "stopped"
+        self._started = False
+        self._rig: Any = None
+        self._gen: WatchedGenerator | None = None
+        self._daq: Any = None
+        self._engine: RunEngine | None = None
+        self._gate: QueueGate | None = None
+        self._job: Job | None = None
+        self._tracker: RunTracker | None = None
+        self._abort_kind: str | None = None
+        self._last_publish = -1e300
+        self._thread: threading.Thread | None = None
+
+    # ---- life cycle -----------------------------------------------------------------
+    def start(self) -> None:
+        """Lock the queue, open the rig (output OFF), recover files and orphaned jobs."""
+        if self._started:
+            return
+        self._state = "starting"
+        self._lock.acquire()
+        try:
+            self._rig = self.rig_factory(self.config)
+            self._gen = WatchedGenerator(self._rig.generator)
+            self._daq = self._rig.daq
+            if not self._output_off("daemon start"):
+                raise HardwareError(f"cannot switch the generator output off: {self.last_error}")
+            self.data_dir.mkdir(parents=True, exist_ok=True)
+            self.catalog = Catalog(self.catalog_db)
+            for p in recover_all(self.data_dir, catalog=self.catalog):
+                log.warning("recovered %s: marked incomplete", p.name)
+            for job_id in self.queue.fail_orphans("daemon restarted"):
+                log.warning("job %s was left running by a dead daemon: failed", job_id)
+        except BaseException:
+            self._close_rig()
+            self._lock.release()
+            self._state = "stopped"
+            raise
+        self._started, self._state = True, "idle"
+        log.info("daemon %s started: %s rig, data in %s", self.worker_id,
+                 self.config.rig.backend, self.data_dir)
+        self._publish(force=True)
+
+    def run_forever(self, stop_event: threading.Event | None = None) -> None:
+        """Run jobs until :meth:`stop`, ``stop_event`` or SIGTERM/SIGINT (main thread)."""
+        if stop_event is not None:
+            self._stop = stop_event
+        else:
+            self._rearm()
+        previous = self._install_signals()
+        try:
+            self.start()
+            while not self._stopping():
+                if self.run_one() is None and not self._stopping():
+                    self._publish()
+                    self._stop.wait(self.poll_s)
+        finally:
+            try:
+                self._shutdown()
+            finally:
+                for s, h in previous.items():
+                    signal.signal(s, h)
+
+    def start_in_thread(self) -> threading.Thread:
+        """Start (errors raise here) and run :meth:`run_forever` in a daemon thread."""
+        if self._thread is not None and self._thread.is_alive():
+            return self._thread
+        self._rearm()
+        self.start()
+        t = threading.Thread(target=self.run_forever, name="labjoint-daemon", daemon=True)
+        self._thread = t
+        t.start()
+        return t
+
+    def _rearm(self) -> None:
+        """After an earlier stop, allow :meth:`run_forever` to run again."""
+        if not self._started and self._stop.is_set():
+            self._stop, self._signalled, self.exit_reason = threading.Event(), None, ""
+
+    def stop(self, reason: str = "daemon stopped") -> None:
+        """Abort the running job (output off) and make :meth:`run_forever` return."""
+        self.exit_reason = self.exit_reason or reason
+        self._abort_kind = self._abort_kind or "stop"
+        self._stop.set()
+        engine = self._engine
+        if engine is not None:
+            engine.emergency_stop(f"daemon stopping: {self.exit_reason}")
+
+    def emergency_stop(self, reason: str = "emergency stop") -> None:
+        """Output off now, abort the running job, start no job until the estop is cleared."""
+        self.queue.request_estop(reason)
+        self._abort_kind = self._abort_kind or "estop"
+        engine = self._engine
+        if engine is not None:
+            engine.emergency_stop(f"emergency stop: {reason}")
+        else:
+            self._output_off("emergency stop")
+        self._publish(force=True)
+
+    def close(self) -> None:
+        """Output OFF, rig closed, queue lock released (what :meth:`run_forever` does on
+        its way out; for callers driving :meth:`run_one` themselves)."""
+        self._shutdown()
+
+    def __enter__(self) -> "Daemon":
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @property
+    def rig(self) -> Any:
+        """The opened :class:`~labjoint.acquisition.rig.Rig` (None before start)."""
+        return self._rig
+
+    def _install_signals(self) -> dict[int, Any]:
+        if threading.current_thread() is not threading.main_thread():
+            return {}
+        return {s: signal.signal(s, self._on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
+
+    def _on_signal(self, signum: int, frame: Any) -> None:
+        # Only a plain attribute: a handler taking a lock the interrupted code holds would
+        # deadlock. The job's watcher thread (within poll_s) or the idle loop acts on it.
+        self._signalled = signal.Signals(signum).name
+
+    def _stopping(self) -> bool:
+        """Turn a received signal into :meth:`stop`; True once stopping."""
+        if self._signalled is not None and not self._stop.is_set():
+            self.stop(f"signal {self._signalled}")
+        return self._stop.is_set()
+
+    def _shutdown(self) -> None:
+        if not self._started:
+            return
+        self._state = "stopping"
+        off = self._output_off("daemon stopping")
+        self._close_rig()
+        self._state, self._started = "stopped", False
+        self.exit_reason = self.exit_reason or "stopped"
+        log.info("daemon stopped (%s); generator output %s", self.exit_reason,
+                 "OFF" if off else "state UNKNOWN")
+        try:
+            self._publish(force=True, output_off_confirmed=off)
+        finally:
+            self._lock.release()
+
+    def _close_rig(self) -> None:
+        rig, self._rig = self._rig, None
+        if rig is None:
+            return
+        try:
+            rig.close()
+        except Exception as exc:
+            self.last_error = f"closing the rig failed: {exc}"
+            log.error(self.last_error)
+
+    # ---- jobs -----------------------------------------------------------------------
+    def run_one(self) -> Job | None:
+        """Run the oldest queued job to its end and return it; None if none was started
+        (empty queue, emergency stop pending, or stopping)."""
+        self.start()
+        if self._stopping():
+            return None
+        estop = self.queue.estop_requested()
+        if estop is not None:
+            if self._gen is not None and self._gen.output is not False:
+                self._output_off("emergency stop pending")
+            return None
+        job = self.queue.claim_next(self.worker_id)
+        return None if job is None else self._execute(job)
+
+    def _execute(self, job: Job) -> Job:
+        log.info("job %s: plan %s", job.id, job.plan.get("plan"))
+        tracker, done = RunTracker(), threading.Event()
+        n_expected = expected_records(job.plan)
+        self._job, self._tracker, self._abort_kind = job, tracker, None
+        self._state = "running"
+        writer = RunWriter(self.data_dir, catalog=self.catalog,
+                           flush_interval_s=self._flush_interval())
+        status, message, error, pending = "failed", "", None, None
+        watcher = None
+        try:
+            engine = self._make_engine(job, [writer, tracker])
+            plan = observe(load_plan(dict(job.plan)), tracker, self._daq.sample_rate_hz)
+            plan.__name__ = str(job.plan.get("plan", "plan"))
+            watcher = threading.Thread(target=self._watch, name=f"job-{job.id[:8]}-watch",
+                                       args=(job.id, engine, tracker, n_expected, done),
+                                       daemon=True)
+            watcher.start()
+            prefix = f"{datetime.now(timezone.utc):%Y%m%dT%H%M%SZ}-{job.id[:8]}"
+            result = engine.run(plan, name_prefix=prefix)
+            status, message, error = job_outcome(result, tracker.n_gaps, self._cancelled(job.id))
+        except Exception as exc:  # plan code or a callback crashed: the engine cleaned up
+            error = f"{type(exc).__name__}: {exc}"
+            message = f"failed: {error}"
+            log.exception("job %s crashed", job.id)
+        except BaseException as exc:  # KeyboardInterrupt, SystemExit: finish, then re-raise
+            status, error, pending = "aborted", f"{type(exc).__name__}: {exc}", exc
+            message = f"aborted: {error}"
+        finally:
+            done.set()
+            if watcher is not None:
+                watcher.join()
+            try:
+                writer.close()  # a run that never got its RunStop is marked incomplete
+            except Exception as exc:
+                log.error("closing the run writer failed: %s", exc)
+            off = self._output_off(f"job {job.id} ended")
+            self._engine = self._gate = None
+            message += "; generator output OFF" if off else "; generator output state UNKNOWN"
+            final = self.queue.update(
+                job.id, status=status, finished_at=utc_now(), message=message, error=error,
+                runs=list(tracker.runs), gaps=list(tracker.gaps), waiting_for=None,
+                progress=1.0 if status == "done" else tracker.progress(n_expected))
+            self._job, self._state = None, "idle"
+            self._publish(force=True)
+        if pending is not None:
+            raise pending
+        log.info("job %s %s: %s", job.id, final.status, final.message)
+        return final
+
+    def _make_engine(self, job: Job, callbacks: list) -> RunEngine:
+        sim = getattr(self._rig, "sim", None)
+        on_operator = self.operator_torque if self.operator_torque is not None else sim is None
+        apply = getattr(sim, "set_torque", None) if on_operator else None
+        self._gate = QueueGate(self.queue, job.id, self.poll_s, apply_torque=apply)
+        self._engine = RunEngine(self._gen, self._daq, self.config.limits, callbacks,
+                                 clock=self.clock, sleep=self.sleep, torque_gate=self._gate,
+                                 rig=None if on_operator else sim, config=self.config)
+        return self._engine
+
+    def _cancelled(self, job_id: str) -> bool:
+        if self._abort_kind is not None:
+            return self._abort_kind == "cancel"
+        job = self.queue.get(job_id)  # the gate saw the cancel before the watcher did
+        return job is not None and job.cancel_requested
+
+    def _watch(self, job_id: str, engine: RunEngine, tracker: RunTracker,
+               n_expected: int | None, done: threading.Event) -> None:
+        """Poll cancel/estop/stop while the job runs; publish its progress."""
+        while not done.wait(self.poll_s):
+            try:
+                kind, reason = self._abort_request(job_id)
+                if kind is not None and engine.state != "idle":
+                    self._abort_kind = self._abort_kind or kind
+                    engine.emergency_stop(reason)
+                self.queue.update(job_id, progress=tracker.progress(n_expected),
+                                  runs=list(tracker.runs), gaps=list(tracker.gaps))
+                self._publish()
+            except Exception as exc:  # never let the watcher die while a run goes on
+                log.warning("job %s watcher: %s", job_id, exc)
+
+    def _abort_request(self, job_id: str) -> tuple[str | None, str]:
+        if self._stopping():
+            return "stop", f"daemon stopping: {self.exit_reason or 'stop requested'}"
+        estop = self.queue.estop_requested()
+        if estop is not None:
+            return "estop", f"emergency stop: {estop}"
+        job = self.queue.get(job_id)
+        if job is not None and job.cancel_requested:
+            return "cancel", "cancelled by the operator"
+        return None, ""
+
+    # ---- generator and status ---------------------------------------------------------
+    def _output_off(self, why: str) -> bool:
+        """Switch the output off and confirm by read-back; False (and logged) if not."""
+        gen = self._gen
+        if gen is None:
+            return False
+        try:
+            gen.set_output(False)
+            if gen.read_settings().output:
+                raise HardwareError("the generator still reports its output ON")
+        except Exception as exc:
+            self.last_error = f"output off failed ({why}): {type(exc).__name__}: {exc}"
+            log.error(self.last_error)
+            return False
+        log.info("generator output OFF (%s)", why)
+        return True
+
+    def _flush_interval(self) -> float:
+        if self.flush_interval_s is not None:
+            return float(self.flush_interval_s)
+        block_s = self.config.daq.block_samples / float(self._daq.sample_rate_hz)
+        return max(0.05, min(1.0, 1.0 - 1.5 * block_s))
+
+    def status(self) -> dict[str, Any]:
+        """Rig backend, generator settings/output, current job, run and samples, errors."""
+        job, tracker, engine, gate = self._job, self._tracker, self._engine, self._gate
+        state = self._state
+        if state == "running" and engine is not None and engine.state == "waiting":
+            state = "waiting_torque"
+        try:
+            estop = self.queue.estop_requested()
+        except Exception:
+            estop = None
+        return {
+            "state": state, "pid": os.getpid(), "worker_id": self.worker_id,
+            "rig_backend": self.config.rig.backend,
+            "generator": None if self._gen is None else self._gen.snapshot(),
+            "job": None if job is None else job.id,
+            "plan": None if job is None else job.plan.get("plan"),
+            "run": tracker.run if (job and tracker) else None,
+            "run_status": tracker.run_status if (job and tracker) else None,
+            "samples": tracker.samples if (job and tracker) else 0,
+            "runs": list(tracker.runs) if (job and tracker) else [],
+            "gaps": tracker.n_gaps if (job and tracker) else 0,
+            "waiting_for": None if gate is None else gate.pending,
+            "estop": estop, "last_error": self.last_error, "exit_reason": self.exit_reason,
+            "data_dir": str(self.data_dir), "queue_db": str(self.queue_db),
+        }
+
+    def _publish(self, force: bool = False, **extra: Any) -> None:
+        now = time.monotonic()
+        if not force and now - self._last_publish < PUBLISH_INTERVAL_S:
+            return
+        self._last_publish = now
+        try:
+            self.queue.set_daemon_status({**self.status(), **extra})
+        except Exception as exc:
+            log.warning("publishing the daemon status failed: %s", exc)
