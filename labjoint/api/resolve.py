@@ -1,0 +1,99 @@
+"""From a run name in a request to a file: through the catalog, never by joining strings.
+
+A request names a run; the name must match :data:`~labjoint.api.schemas.RUN_NAME`
+(no separators, no leading dot), is looked up in the catalog, and the catalog's path
+is resolved (symlinks followed) and must lie inside the data directory. Nothing a
+client sends is ever used to build a path.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import sqlite3
+import threading
+from pathlib import Path
+from typing import Any
+
+from labjoint.api.errors import ApiError, not_found
+from labjoint.api.schemas import RUN_NAME
+from labjoint.storage import Catalog, RunFile, RunRecord, open_run
+
+_NAME = re.compile(RUN_NAME)
+
+
+class RunResolver:
+    """Catalog lookups and safe paths for runs in ``data_dir``.
+
+    Single-run lookups (the hot path of the API) go through one read-only SQLite
+    connection per thread, kept open: opening and closing a connection per request
+    (what :meth:`Catalog.get` does) costs several times the query itself.
+    """
+
+    def __init__(self, data_dir: str | Path, catalog: Catalog) -> None:
+        self.data_dir = Path(data_dir).resolve()
+        self.catalog = catalog
+        self._local = threading.local()
+
+    def _connection(self) -> sqlite3.Connection:
+        con = getattr(self._local, "con", None)
+        if con is None:
+            con = sqlite3.connect(self.catalog.db_path, timeout=30.0)
+            con.execute("PRAGMA query_only = ON")
+            con.row_factory = sqlite3.Row
+            self._local.con = con
+        return con
+
+    def record(self, name: str) -> RunRecord:
+        """The catalog record of ``name`` (422 for a malformed name, 404 if unknown)."""
+        if not isinstance(name, str) or not _NAME.match(name):
+            raise ApiError(422, "invalid_run_name", f"run name {name!r} must match {RUN_NAME}")
+        row = self._connection().execute("SELECT * FROM runs WHERE name = ?", (name,)).fetchone()
+        if row is None:
+            raise not_found("run", name)
+        d = {k: row[k] for k in row.keys() if k != "extra"}
+        d["metadata"] = json.loads(row["extra"]) if row["extra"] else {}
+        return RunRecord(**d)
+
+    def path(self, name: str) -> Path:
+        """The run file of ``name``, verified to be inside the data directory."""
+        rec = self.record(name)
+        p = Path(rec.path)
+        if not p.is_absolute():
+            p = self.data_dir / p
+        p = p.resolve()
+        if not p.is_relative_to(self.data_dir):
+            raise ApiError(403, "outside_data_dir", f"run {name!r} is catalogued at a path "
+                           "outside the data directory; it is not served")
+        if not p.is_file():
+            raise ApiError(404, "file_missing", f"run {name!r} is in the catalog but its file "
+                           "is gone (rebuild the catalog)")
+        return p
+
+    def open(self, name: str) -> RunFile:
+        """The run file opened for reading (close it)."""
+        return open_run(self.path(name))
+
+
+def roles(rf: RunFile) -> dict[str, Any]:
+    """Channels holding the relative displacement and the joint/reference force.
+
+    Same rules as :meth:`labjoint.storage.reader.RunFile.to_run`: metadata
+    ``displacement_channels`` (two: disp_1 - disp_2, one: as is), else a ``displacement``
+    channel, else disp_1/disp_2; the joint force is ``joint_force_channel`` (else
+    ``force`` or ``shear_nc``).
+    """
+    md = rf.metadata
+    names = set(rf.channel_names)
+    if "displacement_channels" in md:
+        disp = [str(c) for c in md["displacement_channels"]]
+    elif "displacement" in names:
+        disp = ["displacement"]
+    else:
+        disp = ["disp_1", "disp_2"]
+    joint = md.get("joint_force_channel") or ("force" if "force" in names else "shear_nc")
+    reference = md.get("reference_force_channel") or "force_ref"
+    ok = 1 <= len(disp) <= 2 and all(c in names for c in disp)
+    return {"displacement": disp if ok else [],
+            "force": [joint] if joint in names else [],
+            "reference_force": [reference] if reference in names else []}

@@ -1,0 +1,91 @@
+"""Health, version, rig and instrument status, emergency stop."""
+
+from __future__ import annotations
+
+import logging
+import platform
+from datetime import datetime, timezone
+from typing import Any
+
+from fastapi import APIRouter, Depends, Request
+
+from labjoint import __version__
+from labjoint.api.auth import require_control, require_read
+from labjoint.api.errors import ApiError, errors_doc
+from labjoint.api.jobs import json_safe
+from labjoint.api.schemas import EStopRequest, EStopResult, Health, RigStatus, Version
+
+log = logging.getLogger(__name__)
+router = APIRouter(tags=["system"])
+
+
+def mode(request: Request) -> str:
+    st = request.app.state
+    return "embedded" if st.daemon is not None else "queue" if st.queue is not None else "none"
+
+
+@router.get("/health", response_model=Health, responses=errors_doc(), summary="Liveness")
+def health(request: Request) -> dict[str, Any]:
+    """Always open (no token): the service answers, its version and daemon mode."""
+    return {"status": "ok", "version": __version__, "daemon": mode(request),
+            "time": datetime.now(timezone.utc).isoformat()}
+
+
+@router.get("/version", response_model=Version, responses=errors_doc(), summary="Version",
+            dependencies=[Depends(require_read)])
+def version(request: Request) -> dict[str, Any]:
+    return {"version": __version__, "api_version": "v1", "python": platform.python_version(),
+            "openapi_url": request.app.openapi_url}
+
+
+@router.get("/rig", response_model=RigStatus, responses=errors_doc(),
+            summary="Rig and instrument status", dependencies=[Depends(require_read)])
+def rig(request: Request) -> dict[str, Any]:
+    """The daemon's view of the rig (generator settings and output, current job and run,
+    samples) and the number of plan jobs in each state."""
+    st = request.app.state
+    out: dict[str, Any] = {"mode": mode(request), "backend": st.backend, "daemon": None,
+                           "queue": None, "estop": None}
+    if st.daemon is not None:
+        out["daemon"] = json_safe(st.daemon.status())
+    elif st.queue is not None:
+        out["daemon"] = json_safe(st.queue.daemon_status())
+    if st.queue is not None:
+        out["queue"] = st.queue.counts()
+        out["estop"] = st.queue.estop_requested()
+    return out
+
+
+def _stopper(request: Request) -> Any:
+    st = request.app.state
+    if st.daemon is None and st.queue is None:
+        raise ApiError(503, "no_daemon", "this service runs without a daemon or job queue: "
+                       "there is nothing to stop from here")
+    return st
+
+
+@router.post("/estop", response_model=EStopResult, responses=errors_doc(503),
+             summary="Emergency stop", dependencies=[Depends(require_control)])
+def estop(request: Request, body: EStopRequest | None = None) -> dict[str, Any]:
+    """Output off at once (no ramp), the running plan ends 'aborted', and no plan starts
+    until the stop is cleared (``POST /estop/clear``). Needs a control token."""
+    st = _stopper(request)
+    reason = (body or EStopRequest()).reason
+    log.warning("emergency stop requested through the API: %s", reason)
+    if st.daemon is not None:
+        st.daemon.emergency_stop(reason)
+    else:
+        st.queue.request_estop(reason)
+    q = st.queue if st.queue is not None else st.daemon.queue
+    return {"estop": q.estop_requested(), "daemon": mode(request)}
+
+
+@router.post("/estop/clear", response_model=EStopResult, responses=errors_doc(503),
+             summary="Clear an emergency stop", dependencies=[Depends(require_control)])
+def estop_clear(request: Request) -> dict[str, Any]:
+    """Allow queued plans to start again after an emergency stop."""
+    st = _stopper(request)
+    q = st.queue if st.queue is not None else st.daemon.queue
+    log.warning("emergency stop cleared through the API")
+    q.clear_estop()
+    return {"estop": q.estop_requested(), "daemon": mode(request)}

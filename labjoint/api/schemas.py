@@ -1,0 +1,231 @@
+"""Request and response models of the REST API (published in the OpenAPI schema).
+
+Units are SI and named in the field (``_hz``, ``_m``, ``_n``, ``_nm``); times are ISO
+8601 UTC strings.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from labjoint.acquisition.plans import PLANS
+
+#: A run name as stored (see labjoint.storage.layout.check_run_name).
+RUN_NAME = r"^[A-Za-z0-9][A-Za-z0-9_.\-]{0,199}$"
+#: A job id: hex or a short identifier.
+JOB_ID = r"^[A-Za-z0-9_\-]{1,64}$"
+#: A model expression: effect names joined by '+'.
+MODEL_EXPR = r"^[a-z][a-z0-9_]*( *\+ *[a-z][a-z0-9_]*)*$"
+
+RunName = Annotated[str, Field(pattern=RUN_NAME, description="run name")]
+FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+
+
+class _In(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+# ---- system -----------------------------------------------------------------------
+
+class Health(BaseModel):
+    status: Literal["ok"]
+    version: str
+    daemon: Literal["embedded", "queue", "none"] = Field(
+        description="embedded: acquisition daemon in this process; queue: attached to a "
+                    "separate daemon through the job queue; none: read-only service")
+    time: str
+
+
+class Version(BaseModel):
+    version: str
+    api_version: Literal["v1"]
+    python: str
+    openapi_url: str
+
+
+class RigStatus(BaseModel):
+    mode: Literal["embedded", "queue", "none"]
+    backend: str | None = Field(None, description="'sim' or 'real' when known")
+    daemon: dict[str, Any] | None = Field(
+        None, description="the daemon's status: state, generator settings and output, "
+                          "current job and run, samples, estop, last error (in queue mode: "
+                          "as last published by the daemon, with updated_at)")
+    queue: dict[str, int] | None = Field(None, description="number of plan jobs by status")
+    estop: str | None = Field(None, description="reason of a pending emergency stop")
+
+
+class EStopRequest(_In):
+    reason: str = Field("emergency stop requested through the API", min_length=1,
+                        max_length=200)
+
+
+class EStopResult(BaseModel):
+    estop: str | None = Field(description="reason of the pending emergency stop, null if cleared")
+    daemon: Literal["embedded", "queue"] = Field(
+        description="embedded: output switched off in this process; queue: the daemon was "
+                    "told through the queue and stops within its poll interval")
+
+
+# ---- plans --------------------------------------------------------------------------
+
+PlanName = Literal[tuple(sorted(PLANS))]  # type: ignore[valid-type]
+
+
+class PlanSubmit(_In):
+    plan: PlanName = Field(description="plan name, see /plan-types")
+    parameters: dict[str, Any] = Field(default_factory=dict,
+                                       description="the plan's keyword arguments (SI units)")
+    submitted_by: str = Field("", max_length=100)
+
+
+class TorqueConfirm(_In):
+    torque_nm: float = Field(gt=0, le=1000, allow_inf_nan=False,
+                             description="bolt torque now applied (N m)")
+
+
+PlanStatus = Literal["queued", "running", "waiting_torque", "done", "failed", "cancelled",
+                     "aborted"]
+
+
+class PlanJob(BaseModel):
+    """A plan in the daemon's queue and what became of it."""
+
+    id: str
+    status: PlanStatus
+    plan: dict[str, Any] = Field(description="the plan name ('plan') and its parameters")
+    submitted_at: str
+    submitted_by: str = ""
+    started_at: str | None = None
+    finished_at: str | None = None
+    progress: float = Field(0.0, description="fraction of the plan's runs recorded")
+    message: str = ""
+    runs: list[str] = Field(default_factory=list, description="names of the runs recorded")
+    waiting_for: dict[str, Any] | None = Field(
+        None, description="while waiting_torque: what the operator must do")
+    error: str | None = None
+    worker: str | None = None
+    cancel_requested: bool = False
+    gaps: list[dict[str, Any]] = Field(default_factory=list,
+                                       description="sample-counter jumps seen")
+
+
+class PlanJobList(BaseModel):
+    items: list[PlanJob]
+    limit: int
+    offset: int
+    next_offset: int | None
+
+
+class PlanType(BaseModel):
+    name: str
+    description: str
+    parameters: dict[str, Any] = Field(description="parameter name -> default (null: required)")
+
+
+# ---- runs ---------------------------------------------------------------------------
+
+class RunSummary(BaseModel):
+    name: str
+    uid: str = ""
+    plan: str = ""
+    plan_step: Any = None
+    frequency_hz: float | None = None
+    excitation_vpp: float | None = None
+    torque_nm: float | None = None
+    normal_force_n: float | None = None
+    sample_rate_hz: float | None = None
+    n_samples: int | None = None
+    status: str = ""
+    start_time: str = ""
+    end_time: str = ""
+    source: str = ""
+    metadata: dict[str, Any] = Field(default_factory=dict)
+
+
+class RunList(BaseModel):
+    items: list[RunSummary]
+    limit: int
+    offset: int
+    next_offset: int | None = Field(description="offset of the next page, null on the last")
+
+
+class ChannelInfo(BaseModel):
+    name: str
+    sensor: str
+    quantity: str
+    unit: str
+    sensitivity: float | None
+    units_per_volt: float | None = Field(description="calibration applied at the run's frequency")
+    range_v: float | None
+    coupling: str
+    physical_channel: str
+
+
+class RunChannels(BaseModel):
+    name: str
+    status: str
+    n_samples: int
+    sample_rate_hz: float
+    duration_s: float
+    channels: list[ChannelInfo]
+    derived: dict[str, list[str]] = Field(
+        description="derived series: 'displacement' (relative, m) and 'force' (joint, N)")
+
+
+class Series(BaseModel):
+    name: str
+    unit: str
+    quantity: str
+    time_s: list[float | None]
+    values: list[float | None]
+
+
+class DataSlice(BaseModel):
+    run: str
+    start_sample: int
+    stop_sample: int
+    sample_rate_hz: float
+    bucket: int = Field(description="samples per min/max bucket; 1 = raw samples")
+    decimated: bool
+    series: list[Series]
+
+
+# ---- analyses and models ---------------------------------------------------------
+
+class AnalysisRequest(_In):
+    runs: list[RunName] = Field(min_length=1, max_length=200)
+    method: Literal["hysteresis", "stick_slip", "both"] = "hysteresis"
+    options: dict[str, Any] = Field(default_factory=dict,
+                                    description="keyword options of the pipeline")
+
+
+class ModelRequest(_In):
+    runs: list[RunName] = Field(min_length=1, max_length=200)
+    model: str = Field("linear_stiffness+viscous", pattern=MODEL_EXPR, max_length=400,
+                       description="effects joined by '+', see the effect vocabulary")
+    max_steps: int = Field(5, ge=1, le=20, description="ladder: most effects added")
+    options: dict[str, Any] = Field(default_factory=dict)
+
+
+class Job(BaseModel):
+    id: str
+    kind: str
+    status: Literal["queued", "running", "complete", "failed", "cancelled"]
+    request: dict[str, Any]
+    submitted_by: str = ""
+    submitted_at: str = ""
+    started_at: str | None = None
+    finished_at: str | None = None
+    progress: float = 0.0
+    message: str = ""
+    result: dict[str, Any] | None = None
+    error: dict[str, Any] | None = None
+
+
+class JobList(BaseModel):
+    items: list[Job]
+    limit: int
+    offset: int
+    next_offset: int | None
