@@ -1,0 +1,34 @@
+"""Joint models: the effects of the vocabulary, their sums, and fitting them to runs.
+
+Typical use (see each module for details)::
+
+    from labjoint.models import Model, ModelFitter, RunData
+    runs = [RunData.from_run(run, steady=mask) for run, mask in ...]
+    model = Model.parse("linear_stiffness+iwan")
+    result = ModelFitter(model).fit(fit_runs, validation=val_runs)
+    F = model.eval(result.params_, runs[0])
+    richer = ModelFitter(model + "viscous").fit(fit_runs, init=result)   # warm start
+"""
+
+from labjoint.models.composition import Model
+from labjoint.models.effects import REGISTRY, get_effect
+from labjoint.models.effects.base import (
+    Effect,
+    ForceEffect,
+    HystereticEffect,
+    InputEffect,
+    ModifierEffect,
+    SlipModifiers,
+)
+from labjoint.models.fit import ModelFitter, nrmse, split_runs
+from labjoint.models.inputs import ModelInputs, RunData, derivatives, estimate_frequency
+from labjoint.models.params import Parameter, Parameters
+from labjoint.models.result import FitResult
+from labjoint.models.summary import LoopSummary, RunLoop
+
+__all__ = [
+    "Model", "ModelFitter", "FitResult", "nrmse", "split_runs", "ModelInputs", "RunData",
+    "derivatives", "estimate_frequency", "Parameter", "Parameters", "LoopSummary", "RunLoop",
+    "REGISTRY", "get_effect", "Effect", "ForceEffect", "HystereticEffect", "InputEffect",
+    "ModifierEffect", "SlipModifiers",
+]
