@@ -115,3 +115,18 @@ def test_bad_fit_inputs_are_refused():
         ModelFitter("coulomb", params=p).fit(jenkins_runs(1, seed=0))
     with pytest.raises(InputError, match="multistart"):
         ModelFitter("coulomb", multistart=0).fit(jenkins_runs(1, seed=0))
+
+
+def test_refit_adding_an_input_effect_starts_neutral_and_cannot_end_worse():
+    runs = jenkins_runs(3, seed=70)
+    base = ModelFitter("coulomb").fit(runs)
+    more = ModelFitter("coulomb+backlash").fit(runs, init=base)
+    assert more.nrmse_ <= base.nrmse_ * (1 + 1e-9)
+    assert more.params_["backlash.gap"].value < 0.01 * 4e-6     # no gap in the data
+
+
+def test_fitter_constructor_only_stores_settings():
+    f = ModelFitter("coulomb", multistart=2, seed=5, max_nfev=10)
+    assert set(vars(f)) == {"model", "multistart", "seed", "max_nfev", "params", "solve_linear", "method"}
+    res = f.fit(jenkins_runs(1, seed=0))
+    assert f.result_ is res

@@ -23,7 +23,8 @@ FULL = {"linear_stiffness.k": 2e6, "viscous.c": 20.0, "iwan.F_S": 60.0, "iwan.K_
         "iwan.chi": -0.3, "iwan.beta": 0.2, "cubic_stiffness.k3": 1e14, "offset.F0": 1.5,
         "inertia.m": 0.05, "wear.E_w": 5.0, "asymmetric_slip.asym": 0.1, "backlash.gap": 1e-6,
         "channel_delay.tau": 7e-6}
-EXPR = "linear_stiffness+viscous+iwan+cubic_stiffness+offset+inertia+wear+asymmetric_slip+backlash+channel_delay"
+EXPR = ("linear_stiffness+viscous+iwan+cubic_stiffness+offset+inertia+wear+asymmetric_slip"
+        "+backlash+channel_delay")
 
 
 def test_parse_prefixes_parameters_and_adds():

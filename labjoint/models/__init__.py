@@ -24,11 +24,12 @@ from labjoint.models.fit import ModelFitter, nrmse, split_runs
 from labjoint.models.inputs import ModelInputs, RunData, derivatives, estimate_frequency
 from labjoint.models.params import Parameter, Parameters
 from labjoint.models.result import FitResult
-from labjoint.models.summary import LoopSummary, RunLoop
+from labjoint.models.summary import LoopSummary, RunLoop, noise_floor
 
 __all__ = [
     "Model", "ModelFitter", "FitResult", "nrmse", "split_runs", "ModelInputs", "RunData",
     "derivatives", "estimate_frequency", "Parameter", "Parameters", "LoopSummary", "RunLoop",
+    "noise_floor",
     "REGISTRY", "get_effect", "Effect", "ForceEffect", "HystereticEffect", "InputEffect",
     "ModifierEffect", "SlipModifiers",
 ]

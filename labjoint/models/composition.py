@@ -200,7 +200,8 @@ class Model:
         return forces
 
     def _histories(self, vals: Mapping[str, Mapping[str, float]], inputs: ModelInputs,
-                   solve: frozenset[str] = frozenset()) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+                   solve: frozenset[str] = frozenset()
+                   ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
         """Force history per effect, and the regressors (``basis``) of the force effects in
         ``solve`` instead of their forces."""
         x, mods = self._prepare(vals, inputs)

@@ -86,11 +86,9 @@ def nrmse(model: Model | str, params: Parameters | dict[str, Any],
 
 def split_runs(runs: Sequence[RunData], fit: Callable[[RunData], bool] | Collection[str]
                ) -> tuple[list[RunData], list[RunData]]:
-    """(fit runs, validation runs): ``fit`` is a predicate or a collection of run names.
-
-    >>> # e.g. fit on the 100 Hz runs, validate on the others:
-    >>> # fit_runs, val_runs = split_runs(runs, lambda r: r.frequency_hz == 100.0)
-    """
+    """(fit runs, validation runs): ``fit`` is a predicate or a collection of run names,
+    e.g. ``split_runs(runs, lambda r: r.frequency_hz == 100.0)`` fits on the 100 Hz runs
+    and validates on the others (seed 000 fits on one mode, validates on another)."""
     pred = fit if callable(fit) else (lambda r, names=set(fit): r.name in names)
     a = [r for r in runs if pred(r)]
     b = [r for r in runs if not pred(r)]
@@ -197,8 +195,9 @@ class _Problem:
         except (FloatingPointError, ZeroDivisionError, OverflowError):
             rest, B = np.full_like(self.y, np.nan), np.zeros((self.y.size, len(self.linear)))
         y = self.y - rest
-        if not np.all(np.isfinite(y)):
-            return np.full_like(self.y, 1e3 * (np.abs(self.y).max() + 1.0)), np.zeros(len(self.linear))
+        if not np.all(np.isfinite(y)):  # a failed evaluation: a large, finite residual
+            big = 1e3 * (np.abs(self.y).max() + 1.0)
+            return np.full_like(self.y, big), np.zeros(len(self.linear))
         th = self._solve(B, y)
         return y - B @ th, th
 
@@ -252,7 +251,8 @@ def _covariance(J: np.ndarray, ssr: float) -> tuple[np.ndarray, str]:
 
 
 class ModelFitter:
-    """Estimator: ``ModelFitter(model, ...).fit(runs) -> FitResult`` (settings only here).
+    """Estimator: ``ModelFitter(model, ...).fit(runs) -> FitResult`` (settings only here;
+    the last result is also kept as ``result_``).
 
     model: a :class:`Model` or an expression ``"a+b+c"``.
     multistart: number of starts (all polished), or "auto": up to 1 + 2 per effect whose
@@ -278,7 +278,8 @@ class ModelFitter:
         self.solve_linear = solve_linear
 
     def _start_params(self, model: Model, summary: LoopSummary,
-                      init: FitResult | Parameters | dict[str, float] | None) -> tuple[Parameters, set[str]]:
+                      init: FitResult | Parameters | dict[str, float] | None
+                      ) -> tuple[Parameters, set[str]]:
         p = model.make_params(runs=summary)
         warm: set[str] = set()
         if init is not None:
@@ -380,6 +381,7 @@ class ModelFitter:
         lb, ub = np.array([b[0] for b in bnds]), np.array([b[1] for b in bnds])
         # trf stalls on a start exactly at a bound (Coleman-Li scaling vanishes there):
         # start a little inside (NUDGE in scaled units, at most 1 % of the range)
+        x_raw = np.clip(x0, lb, ub)
         nudge = np.minimum(NUDGE, 0.01 * (ub - lb))
         x0 = np.clip(x0, lb + nudge, ub - nudge)
         costs: list[float] = []
@@ -388,6 +390,10 @@ class ModelFitter:
             costs.append(0.5 * float(np.sum(prob.residual(x0) ** 2)))
         else:
             x_best, ok, msg = self._multistart(model, prob, x0, lb, ub, warm, runs, costs)
+            if init is not None:  # keep the warm start itself if no start beat it
+                c_raw = 0.5 * float(np.sum(prob.residual(x_raw) ** 2))
+                if c_raw < min(costs):
+                    x_best, msg = x_raw, msg + "; the warm start was not improved on"
         v = prob.all_values(x_best)
         out = params.copy()
         for k, p in out.items():
@@ -405,9 +411,11 @@ class ModelFitter:
             out[k].stderr = s
         fit_n, fit_per = nrmse(model, out, runs)
         val_n, val_per = nrmse(model, out, val) if val else (None, {})
-        return FitResult(model=model, params_=out, varied_=tuple(names), stderr_=stderr,
-                         correlation_=corr, nrmse_=fit_n, run_nrmse_=fit_per,
-                         validation_nrmse_=val_n, validation_run_nrmse_=val_per,
-                         n_evals_=prob.n_evals, success_=ok, message_=msg + note,
-                         n_samples_=int(prob.y.size), ssr_=ssr, start_costs_=tuple(costs),
-                         fit_runs_=tuple(_labels(runs)), validation_runs_=tuple(_labels(val)))
+        self.result_ = FitResult(
+            model=model, params_=out, varied_=tuple(names), stderr_=stderr, correlation_=corr,
+            nrmse_=fit_n, run_nrmse_=fit_per, validation_nrmse_=val_n,
+            validation_run_nrmse_=val_per, n_evals_=prob.n_evals, success_=ok,
+            message_=msg + note, n_samples_=int(prob.y.size), ssr_=ssr,
+            start_costs_=tuple(costs), fit_runs_=tuple(_labels(runs)),
+            validation_runs_=tuple(_labels(val)))
+        return self.result_

@@ -284,6 +284,7 @@ class RunData:
     inputs: ModelInputs
     force: np.ndarray
     steady: np.ndarray
+    _frequency: float = field(init=False, repr=False, default=0.0)
 
     def __post_init__(self) -> None:
         f = _as_1d(self.force, "force")
@@ -295,6 +296,10 @@ class RunData:
             raise InputError(f"run '{self.inputs.name}' has no steady samples", field="steady")
         object.__setattr__(self, "force", f)
         object.__setattr__(self, "steady", m)
+        freq = self.inputs.frequency_hz
+        if freq is None:
+            freq = estimate_frequency(self.inputs.u[m], self.inputs.fs)
+        object.__setattr__(self, "_frequency", float(freq))
 
     @property
     def name(self) -> str:
@@ -302,8 +307,8 @@ class RunData:
 
     @property
     def frequency_hz(self) -> float:
-        f = self.inputs.frequency_hz
-        return f if f is not None else estimate_frequency(self.inputs.u[self.steady], self.inputs.fs)
+        """Excitation frequency (Hz): from the inputs, else estimated from the steady u."""
+        return self._frequency
 
     @classmethod
     def from_arrays(cls, u: Any, force: Any, fs: float | None = None, *, t: Any = None,

@@ -21,6 +21,11 @@ from labjoint.models.inputs import RunData, shift
 BRANCH_FRACTION = 0.1
 
 
+def _mean_finite(*xs: float) -> float:
+    ok = [x for x in xs if np.isfinite(x)]
+    return float(np.mean(ok)) if ok else float("nan")
+
+
 def _slope(x: np.ndarray, y: np.ndarray) -> float:
     if x.size < 3 or np.ptp(x) == 0:
         return float("nan")
@@ -73,8 +78,8 @@ def run_loop(run: RunData) -> RunLoop:
     travel = 2 * U
     up, dn = v > 0, v < 0
     near_lo, near_hi = u < lo + BRANCH_FRACTION * travel, u > hi - BRANCH_FRACTION * travel
-    stick = np.nanmean([_slope(u[up & near_lo], f[up & near_lo]), _slope(u[dn & near_hi], f[dn & near_hi])])
-    tip = np.nanmean([_slope(u[up & near_hi], f[up & near_hi]), _slope(u[dn & near_lo], f[dn & near_lo])])
+    stick = _mean_finite(_slope(u[up & near_lo], f[up & near_lo]), _slope(u[dn & near_hi], f[dn & near_hi]))
+    tip = _mean_finite(_slope(u[up & near_hi], f[up & near_hi]), _slope(u[dn & near_lo], f[dn & near_lo]))
     # per-cycle energies over the steady samples (chunks of one period)
     idx = np.flatnonzero(m)
     per = fs / freq
