@@ -43,7 +43,8 @@ def _err(r: httpx.Response, status: int) -> dict:
 def test_write_endpoints_need_a_control_token(http, method, path, body):
     e = _err(http.request(method, path, json=body), 401)
     assert "token" in e["message"]
-    e = _err(http.request(method, path, json=body, headers={"Authorization": "Bearer wrong-token-xx"}), 401)
+    wrong = {"Authorization": "Bearer wrong-token-xx"}
+    e = _err(http.request(method, path, json=body, headers=wrong), 401)
     assert e["message"] == "unknown API token"
     e = _err(http.request(method, path, json=body, headers=READ_AUTH), 403)
     assert "read-only" in e["message"]
@@ -113,7 +114,8 @@ def test_unknown_route_method_and_validation_errors_share_the_shape(http):
     assert "GET" in r.headers["allow"]
     e = _err(http.get("/runs", params={"limit": 0}), 422)
     assert e["details"][0]["loc"] == ["query", "limit"]
-    e = _err(http.post("/plans", content=b"{not json", headers={**AUTH, "content-type": "application/json"}), 422)
+    e = _err(http.post("/plans", content=b"{not json",
+                       headers={**AUTH, "content-type": "application/json"}), 422)
     assert e["code"] == "invalid_request"
 
 
@@ -155,7 +157,8 @@ def test_plan_queue_life_cycle(http):
     ({"plan": "dwell", "parameters": {"frequency_hz": -1, "amplitude_vpp": 2}}, "frequency_hz"),
     ({"plan": "dwell", "parameters": {"amplitude_vpp": 2}}, "frequency_hz"),
     ({"plan": "no_such_plan"}, "plan"),
-    ({"plan": "dwell", "parameters": {"frequency_hz": 400, "amplitude_vpp": 2, "bogus": 1}}, "bogus"),
+    ({"plan": "dwell", "parameters": {"frequency_hz": 400, "amplitude_vpp": 2, "bogus": 1}},
+     "bogus"),
 ])
 def test_bad_plans_are_422_naming_the_parameter(http, body, field):
     e = _err(http.post("/plans", json=body, headers=AUTH), 422)
@@ -174,5 +177,6 @@ def test_plan_types_list_every_plan_with_defaults(http):
     types = {p["name"]: p for p in http.get("/plan-types").json()}
     assert {"dwell", "amplitude_sweep", "torque_series", "step_sine"} <= set(types)
     sweep = types["amplitude_sweep"]["parameters"]
-    assert sweep["amplitudes_vpp"]["default"] == [1.0, 4.0, 8.0, 12.0, 16.0, 20.0]  # seed 002 Table 3
+    # seed 002 Table 3 levels
+    assert sweep["amplitudes_vpp"]["default"] == [1.0, 4.0, 8.0, 12.0, 16.0, 20.0]
     assert types["dwell"]["parameters"]["frequency_hz"]["required"] is True

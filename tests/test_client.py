@@ -46,7 +46,8 @@ def test_health_and_rig(lab):
 def test_runs_every_page_and_filters(lab):
     assert [r["name"] for r in lab.runs(limit=2, order="name")] == NAMES
     assert len(lab.runs(limit=2, all_pages=False)) == 2
-    assert [r["name"] for r in lab.runs(vpp_min=2.5, vpp_max=4.5, order="name")] == ["run_2", "run_3"]
+    mid = lab.runs(vpp_min=2.5, vpp_max=4.5, order="name")
+    assert [r["name"] for r in mid] == ["run_2", "run_3"]
     assert lab.run("run_4")["excitation_vpp"] == 5.0
     assert lab.channels("run_0")["n_samples"] == 6000
 

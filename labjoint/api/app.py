@@ -48,6 +48,11 @@ def create_app(settings: ApiSettings, daemon: Any = None, queue: Any = None,
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         yield
+        for hook in app.state.shutdown_hooks:   # e.g. stop an embedded daemon
+            try:
+                hook()
+            except Exception:
+                log.exception("shutdown hook %r failed", hook)
         jobs.shutdown(wait=False)
 
     app = FastAPI(title="labjoint", version=__version__, lifespan=lifespan,
@@ -59,6 +64,7 @@ def create_app(settings: ApiSettings, daemon: Any = None, queue: Any = None,
     st.settings, st.catalog, st.jobs = settings, catalog, jobs
     st.resolver = RunResolver(data_dir, catalog)
     st.daemon, st.queue, st.backend = daemon, queue, backend
+    st.shutdown_hooks = []  # callables run when the server shuts down
 
     install_error_handlers(app)
     app.add_middleware(BodySizeLimit, max_bytes=settings.max_request_bytes)
@@ -90,8 +96,16 @@ def _openapi(app: FastAPI) -> dict[str, Any]:
 
 
 def mount_web(app: FastAPI) -> bool:
-    """Serve the dashboard's static files at ``/`` if ``labjoint/web/static`` has an
-    ``index.html``; a no-op otherwise. True when mounted."""
+    """Serve the web dashboard at ``/`` when ``labjoint/web/static/index.html`` exists: by
+    :func:`labjoint.web.mount.mount_web` (page, its files, security headers), or as plain
+    static files if that module is missing. A no-op without the page; True when mounted.
+    """
+    try:
+        from labjoint.web.mount import mount_web as mount_dashboard
+    except ImportError:
+        mount_dashboard = None
+    if mount_dashboard is not None:
+        return bool(mount_dashboard(app))
     static = resources.files("labjoint").joinpath("web", "static")
     if not (static.is_dir() and static.joinpath("index.html").is_file()):
         return False

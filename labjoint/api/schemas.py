@@ -20,7 +20,6 @@ JOB_ID = r"^[A-Za-z0-9_\-]{1,64}$"
 MODEL_EXPR = r"^[a-z][a-z0-9_]*( *\+ *[a-z][a-z0-9_]*)*$"
 
 RunName = Annotated[str, Field(pattern=RUN_NAME, description="run name")]
-FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
 
 
 class _In(BaseModel):

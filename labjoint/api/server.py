@@ -70,15 +70,20 @@ class Service:
     daemon_thread: threading.Thread | None = field(default=None, repr=False)
     _thread: threading.Thread | None = field(default=None, repr=False)
 
+    def stop_daemon(self) -> None:
+        """Stop the embedded daemon (output off, run files closed) and wait for it."""
+        if self.daemon is not None:
+            self.daemon.stop("the REST service stopped")
+            if self.daemon_thread is not None:
+                self.daemon_thread.join(30.0)
+
     def run(self, sock: socket.socket | None = None) -> None:
-        """Serve until stopped (SIGINT/SIGTERM or :meth:`stop`); stops the daemon after."""
+        """Serve until stopped (SIGINT/SIGTERM or :meth:`stop`). The daemon is stopped
+        in the app's shutdown, before uvicorn re-raises a caught signal."""
         try:
             self.server.run(sockets=[sock] if sock is not None else None)
         finally:
-            if self.daemon is not None:
-                self.daemon.stop("the REST service stopped")
-                if self.daemon_thread is not None:
-                    self.daemon_thread.join(30.0)
+            self.stop_daemon()
 
     def start_in_thread(self, sock: socket.socket) -> None:
         """Serve on the bound ``sock`` from a background thread (tests, notebooks)."""
@@ -115,7 +120,9 @@ def build(config_path: str | Path | None = None, host: str | None = None,
         app = create_app(settings, daemon=dmn, queue=queue, backend=config.rig.backend)
         uv = uvicorn.Config(app, host=settings.host, port=settings.port, log_level=log_level,
                             access_log=False, timeout_graceful_shutdown=10)
-        return Service(uvicorn.Server(uv), app, settings, dmn, queue, generated, thread)
+        svc = Service(uvicorn.Server(uv), app, settings, dmn, queue, generated, thread)
+        app.state.shutdown_hooks.append(svc.stop_daemon)
+        return svc
     except BaseException:
         if dmn is not None:
             dmn.stop("the REST service failed to start")

@@ -129,7 +129,8 @@ class Client:
         """Confirm the bolt torque now applied, so a plan paused for it continues."""
         return self.request("POST", f"/plans/{job_id}/torque", json={"torque_nm": torque_nm})
 
-    def wait_plan(self, job_id: str, timeout: float = 3600.0, poll_s: float = 0.5) -> dict[str, Any]:
+    def wait_plan(self, job_id: str, timeout: float = 3600.0,
+                  poll_s: float = 0.5) -> dict[str, Any]:
         """Poll until the plan job has finished; the final job (TimeoutError after ``timeout``)."""
         return self._wait(lambda: self.plan(job_id), PLAN_FINISHED, timeout, poll_s)
 

@@ -73,7 +73,8 @@ def _submit(request: Request, operation: str, body: ModelRequest, scope: str) ->
 
 @router.post("/fit", response_model=Job, status_code=202, responses=errors_doc(501),
              summary="Fit a joint model (a job)")
-def fit(request: Request, body: ModelRequest, scope: str = Depends(require_control)) -> dict[str, Any]:
+def fit(request: Request, body: ModelRequest,
+        scope: str = Depends(require_control)) -> dict[str, Any]:
     """Fit ``model`` (effects joined by '+') to the runs; poll the returned job."""
     return _submit(request, "fit", body, scope)
 

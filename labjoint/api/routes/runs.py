@@ -41,9 +41,12 @@ def summary(rec: RunRecord) -> dict[str, Any]:
 @router.get("", response_model=RunList, responses=errors_doc(), summary="List runs")
 def list_runs(
     request: Request,
-    torque_nm: float | None = Query(None, gt=0, allow_inf_nan=False, description="bolt torque (N m)"),
-    vpp_min: float | None = Query(None, ge=0, allow_inf_nan=False, description="lowest excitation (Vpp)"),
-    vpp_max: float | None = Query(None, ge=0, allow_inf_nan=False, description="highest excitation (Vpp)"),
+    torque_nm: float | None = Query(None, gt=0, allow_inf_nan=False,
+                                    description="bolt torque (N m)"),
+    vpp_min: float | None = Query(None, ge=0, allow_inf_nan=False,
+                                  description="lowest excitation (Vpp)"),
+    vpp_max: float | None = Query(None, ge=0, allow_inf_nan=False,
+                                  description="highest excitation (Vpp)"),
     frequency_hz: float | None = Query(None, gt=0, allow_inf_nan=False),
     status: Literal[STATUSES] | None = Query(None),  # type: ignore[valid-type]
     plan: str | None = Query(None, max_length=64, pattern=r"^[A-Za-z0-9_\-]+$"),
