@@ -149,6 +149,10 @@ class Daemon:
                 if self.run_one() is None and not self._stopping():
                     self._publish()
                     self._stop.wait(self.poll_s)
+        except Exception as exc:  # the queue or the rig broke: stop (systemd restarts us)
+            self.last_error = self.exit_reason = f"{type(exc).__name__}: {exc}"
+            log.exception("daemon failed")
+            raise
         finally:
             try:
                 self._shutdown()

@@ -271,7 +271,11 @@ class JobQueue:
             return _job(self._row(con, job_id))
 
     def continue_torque(self, job_id: str, torque_nm: float) -> Job:
-        """Confirm the bolt torque now applied, so a job waiting for it continues."""
+        """Confirm the bolt torque now applied, so a job waiting for it continues.
+
+        A job paused by a plan's ``Pause`` (``waiting_for['kind'] == 'pause'``, real rig)
+        is continued the same way; the torque given is then only recorded in the message.
+        """
         try:
             t = float(torque_nm)
         except (TypeError, ValueError):
