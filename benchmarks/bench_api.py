@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import os
 import random
 import shutil
 import socket
@@ -72,6 +73,12 @@ def make_catalog(data_dir: Path, n_runs: int) -> list[str]:
     shutil.rmtree(template_dir)
     assert len(cat) == n_runs
     return names
+
+
+def _cpu_seconds(pid: int) -> float:
+    """User + system CPU time of process ``pid`` (Linux /proc)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def serve(data_dir: str, port: int) -> None:
@@ -152,7 +159,9 @@ def main() -> int:
                     if time.monotonic() > deadline or proc.poll() is not None:
                         raise RuntimeError("the API server did not start")
                     time.sleep(0.1)
+            cpu0 = _cpu_seconds(proc.pid)
             lat, wall = asyncio.run(load(port, names, args.clients, args.requests))
+            cpu = _cpu_seconds(proc.pid) - cpu0
         finally:
             proc.terminate()
             proc.wait(10)
@@ -162,6 +171,12 @@ def main() -> int:
           f"{len(lat)} requests: {len(lat) / wall:.0f} req/s")
     print(f"latency ms: p50 {q[50] * 1e3:.1f}  p90 {q[90] * 1e3:.1f}  p99 {q[99] * 1e3:.1f}  "
           f"max {lat[-1] * 1e3:.1f}")
+    n_all = args.clients * (args.requests + 20)
+    print(f"server CPU per request: {cpu / n_all * 1e3:.2f} ms (one process: at most "
+          f"{n_all / cpu:.0f} req/s; {args.clients} clients queue behind it, so an idle "
+          f"machine would give a mean latency near {args.clients * cpu / n_all * 1e3:.0f} ms)")
+    print(f"machine load during the run (1-min loadavg, {os.cpu_count()} CPUs): "
+          f"{os.getloadavg()[0]:.1f}")
     ratio = q[99] / TARGET_P99_S
     print(f"p99 / target (50 ms): {ratio:.2f} -> {'OK' if ratio <= 1 else 'OVER TARGET'}")
     return 0

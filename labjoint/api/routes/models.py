@@ -1,7 +1,10 @@
 """Models: fit, diagnose and ladder as jobs calling :mod:`labjoint.compare`.
 
-Until ``labjoint.compare`` provides ``fit``, ``diagnose`` and ``ladder`` the endpoints
-answer 501 with a clear message: never a made-up result.
+Each job calls ``labjoint.compare.<operation>(run_paths, model, **options)`` (``ladder``
+also gets ``max_steps``) with the runs' files, resolved inside the data directory, and
+returns the result's ``to_dict()``. Until ``labjoint.compare`` provides ``fit``,
+``diagnose`` and ``ladder`` the endpoints answer 501 with a clear message: never a
+made-up result.
 """
 
 from __future__ import annotations
@@ -16,7 +19,6 @@ from labjoint.api.auth import require_control, require_read, token_label
 from labjoint.api.errors import ApiError, errors_doc
 from labjoint.api.routes.analyses import get_job, job_page, runner
 from labjoint.api.schemas import JOB_ID, Job, JobList, ModelRequest
-from labjoint.storage import read_run
 
 router = APIRouter(prefix="/models", tags=["models"])
 OPERATIONS = ("fit", "diagnose", "ladder")
@@ -59,13 +61,11 @@ def _submit(request: Request, operation: str, body: ModelRequest, scope: str) ->
            "max_steps": body.max_steps, "options": body.options}
 
     def work(r: dict[str, Any], progress: Callable[[float, str], None]) -> dict[str, Any]:
-        progress(0.0, "reading runs")
-        runs = [read_run(p) for p in paths]
-        progress(0.1, f"{operation} {model}")
+        progress(0.0, f"{operation} {model}")
         kw = dict(r["options"])
         if operation == "ladder":
             kw["max_steps"] = r["max_steps"]
-        return as_result(fn(runs, model, **kw))
+        return as_result(fn([str(p) for p in paths], model, **kw))
 
     return runner(request).submit(f"model_{operation}", req, work,
                                   submitted_by=token_label(scope)).to_dict()

@@ -1,0 +1,68 @@
+"""Schemathesis against the published OpenAPI schema, through a real uvicorn: no 500,
+every response matches its schema (status codes, content types, bodies), auth enforced
+where declared. Plans are queued (no daemon runs them).
+
+``positive_data_acceptance`` is left out: plan parameters and analysis options are free
+mappings checked by the plan and pipeline code, so a schema-valid body may rightly get
+422 naming the bad parameter.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import httpx
+import pytest
+import schemathesis
+from hypothesis import HealthCheck, settings
+from schemathesis.checks import not_a_server_error
+from schemathesis.specs.openapi.checks import positive_data_acceptance
+
+from labjoint.api import ApiSettings, create_app
+from labjoint.daemon import JobQueue
+from labjoint.storage import Catalog
+from test_api_helpers import AUTH, CONTROL, READ, live_server, write_linear_run
+
+
+def _settings(data_dir: Path) -> ApiSettings:
+    return ApiSettings(data_dir=data_dir, control_tokens=[CONTROL], read_tokens=[READ],
+                       max_points=500)
+
+
+def _published_schema() -> dict:
+    """The schema as the service publishes it (the app is only built, not served)."""
+    with tempfile.TemporaryDirectory() as d:
+        return create_app(_settings(Path(d))).openapi()
+
+
+schema = schemathesis.openapi.from_dict(_published_schema())
+
+
+@pytest.fixture(scope="module")
+def base_url(tmp_path_factory):
+    d = tmp_path_factory.mktemp("schema")
+    cat = Catalog(d / "catalog.sqlite")
+    for name in ("a1", "b2"):
+        write_linear_run(d, cat, name, n=4000)
+    app = create_app(_settings(d), queue=JobQueue(d / "queue.sqlite"))
+    with live_server(app) as url:
+        assert httpx.get(url + "/openapi.json").json() == _published_schema()
+        yield url
+
+
+def _compare_missing(path: str) -> bool:
+    import labjoint.compare as compare
+    return path.startswith("/api/v1/models/") and not hasattr(compare, path.rsplit("/", 1)[1])
+
+
+@schema.parametrize()
+@settings(max_examples=20, deadline=None, database=None,
+          suppress_health_check=list(HealthCheck))
+def test_api_conforms_to_its_schema(case, base_url):
+    excluded = [positive_data_acceptance]
+    if _compare_missing(case.operation.path):   # documented 501 until labjoint.compare lands
+        excluded.append(not_a_server_error)
+    response = case.call_and_validate(base_url=base_url, headers=AUTH, excluded_checks=excluded)
+    assert response.status_code < 500 or (response.status_code == 501
+                                          and _compare_missing(case.operation.path))
