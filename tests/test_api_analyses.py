@@ -120,6 +120,54 @@ def test_model_endpoints_say_501_until_compare_exists(served):
     assert r.status_code == 422
 
 
+def test_model_jobs_call_compare_with_the_run_files(served, monkeypatch):
+    """The job plumbing, with a stand-in for labjoint.compare that really fits
+    F = k u + c du/dt by least squares on the files it is handed."""
+    import numpy as np
+
+    import labjoint.compare as compare
+    from labjoint.storage import read_run
+    http, d = served
+    calls = []
+
+    class Result:
+        def __init__(self, params):
+            self.params = params
+
+        def to_dict(self):
+            return {"params": self.params}
+
+    def fit(paths, model, **options):
+        calls.append((paths, model, options))
+        out = {}
+        for p in paths:
+            run = read_run(p)
+            u, f = run.displacement, run.force
+            v = np.gradient(u, 1 / run.sample_rate_hz)
+            (k, c), *_ = np.linalg.lstsq(np.stack([u, v], axis=1), f, rcond=None)
+            out[run.name] = {"k": k, "c": c}
+        return Result(out)
+
+    monkeypatch.setattr(compare, "fit", fit, raising=False)
+    monkeypatch.setattr(compare, "ladder", fit, raising=False)
+    r = http.post("/models/fit", json={"runs": ["lin_b"], "model": "linear_stiffness + viscous",
+                                       "options": {"multistart": 2}})
+    assert r.status_code == 202
+    job = _finished(http, "model", r.json()["id"])
+    assert job["status"] == "complete" and job["kind"] == "model_fit"
+    u, k, c = CASES["lin_b"]
+    assert job["result"]["params"]["lin_b"]["k"] == pytest.approx(k, rel=1e-3)
+    assert job["result"]["params"]["lin_b"]["c"] == pytest.approx(c, rel=1e-2)
+    paths, model, options = calls[0]
+    assert paths == [str((d / "lin_b.h5").resolve())]
+    assert model == "linear_stiffness+viscous" and options == {"multistart": 2}
+    r = http.post("/models/ladder", json={"runs": ["lin_a"], "max_steps": 3})
+    _finished(http, "model", r.json()["id"])
+    assert calls[1][2] == {"max_steps": 3}
+    listed = http.get("/models/jobs", params={"status": "complete"}).json()["items"]
+    assert {j["kind"] for j in listed} == {"model_fit", "model_ladder"}
+
+
 def test_unknown_jobs_are_404(served):
     http, _ = served
     assert http.get("/analyses/deadbeef").status_code == 404

@@ -1,0 +1,141 @@
+"""`labjoint fit|diagnose|ladder RUN... --model EXPR`: model comparison on the command line.
+
+RUN is an HDF5 run file or a CSV file in the import format (design.md). With ``--json``
+each prints the JSON object of the model-comparison contract; without it, the same as
+readable tables.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from labjoint.cli.output import Progress, emit_json, fmt, table
+
+
+def _pct(x: Any) -> str:
+    return "-" if x is None else f"{100 * float(x):.3g} %"
+
+
+def _x100(x: Any) -> float | None:
+    return None if x is None else 100.0 * float(x)
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("runs", nargs="+", metavar="RUN", help="HDF5 run files or CSV files (import format)")
+    p.add_argument("--model", required=True, metavar="EXPR",
+                   help="effects joined by '+', e.g. linear_stiffness+iwan")
+    p.add_argument("--validate", nargs="+", metavar="RUN", default=None,
+                   help="runs to validate on (names or files); default: hold out the highest "
+                        "frequency, or every 3rd run by amplitude with one frequency")
+    p.add_argument("--prime-cycles", default="auto",
+                   help="cycles of priming for records that start in steady state ('auto')")
+    p.add_argument("--seed", type=int, default=0, help="seed of the fitter's extra starts")
+
+
+def _judging(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--factor", type=float, default=1.5,
+                   help="adequate when NRMSE <= factor x noise floor (default 1.5)")
+    p.add_argument("--alpha", type=float, default=0.01, help="significance level (default 0.01)")
+    p.add_argument("--jobs", type=int, default=None, help="candidate refits in parallel (default 2)")
+    p.add_argument("--candidates", default=None, metavar="A,B,...",
+                   help="only try these effects (default: every effect not in the model)")
+
+
+def add_fit_arguments(p: argparse.ArgumentParser) -> None:
+    _common(p)
+
+
+def add_diagnose_arguments(p: argparse.ArgumentParser) -> None:
+    _common(p)
+    _judging(p)
+
+
+def add_ladder_arguments(p: argparse.ArgumentParser) -> None:
+    _common(p)
+    _judging(p)
+    p.add_argument("--max-steps", type=int, default=None, metavar="N",
+                   help="add at most N effects (default: until adequate)")
+    p.add_argument("--manual", action="store_true",
+                   help="no search: the steps are the prefixes of --model")
+    p.add_argument("--no-save", action="store_true", help="do not save the ladder in the run files")
+
+
+def _prime(v: str) -> int | str:
+    return v if v == "auto" else int(v)
+
+
+def _options(args: argparse.Namespace, judging: bool) -> dict[str, Any]:
+    o: dict[str, Any] = {"validate": args.validate, "prime_cycles": _prime(args.prime_cycles),
+                         "seed": args.seed}
+    if judging:
+        o.update(factor=args.factor, alpha=args.alpha, n_jobs=args.jobs,
+                 candidates=args.candidates)
+    return o
+
+
+def _progress(args: argparse.Namespace, label: str, total: int) -> Any:
+    bar = Progress(total, label, enabled=not args.quiet)
+    return lambda note: bar.advance(1, note)
+
+
+def fit(args: argparse.Namespace) -> int:
+    from labjoint.compare import fit_runs
+
+    res = fit_runs(args.runs, args.model, **_options(args, False))
+    if args.json:
+        emit_json(res)
+        return 0
+    print(f"model {res['model']}: NRMSE {_pct(res['nrmse'])}, noise floor {_pct(res['noise_floor'])}")
+    print(table(["parameter", "value", "stderr", "unit"],
+                [[k, v["value"], v["stderr"], v["unit"]] for k, v in res["parameters"].items()]))
+    print()
+    print(table(["run", "NRMSE %", "energy loss err %", "stiffness err %"],
+                [[r["run"], _x100(r["nrmse"]), r["energy_loss_error_pct"], r["stiffness_error_pct"]]
+                 for r in res["runs"]]))
+    return 0
+
+
+def diagnose(args: argparse.Namespace) -> int:
+    from labjoint.compare import diagnose_runs
+
+    res = diagnose_runs(args.runs, args.model, **_options(args, True),
+                        progress=_progress(args, "diagnose", 14))
+    if args.json:
+        emit_json(res)
+        return 0
+    print(f"model {res['model']}: NRMSE {_pct(res['nrmse'])}, noise floor "
+          f"{_pct(res['noise_floor'])}, adequate: {'yes' if res['adequate'] else 'no'}")
+    print(res["verdict"])
+    print("\nwhere it fails:")
+    for f in res["failures"]:
+        print(f"  [{f['where']}] {f['text']}")
+    print()
+    print(table(["effect", "NRMSE after %", "validation %", "significant", "p"],
+                [[c["effect"], _x100(c["nrmse_after"]), _x100(c["nrmse_after_validation"]),
+                  "yes" if c["significant"] else "no", fmt(c["p_value"], 2)]
+                 for c in res["candidates"]]))
+    for c in res["candidates"][:3]:
+        print(f"\n{c['effect']}: {c['evidence']}")
+        if "tie" in c:
+            print(f"  tie: {c['tie']['reason']}")
+    return 0
+
+
+def ladder(args: argparse.Namespace) -> int:
+    from labjoint.compare import ladder_runs
+
+    res = ladder_runs(args.runs, args.model, max_steps=args.max_steps, auto=not args.manual,
+                      save=not args.no_save, **_options(args, True),
+                      progress=_progress(args, "ladder", 14 * (args.max_steps or 3)))
+    if args.json:
+        emit_json(res)
+        return 0
+    print(table(["step", "model", "added", "NRMSE %", "validation %", "adequate"],
+                [[i, s["model"], s["added"] or "-", _x100(s["nrmse"]), _x100(s["nrmse_validation"]),
+                  "yes" if s["adequate"] else "no"] for i, s in enumerate(res["steps"])]))
+    print(f"\nnoise floor {_pct(res['noise_floor'])}; adequate: {'yes' if res['adequate'] else 'no'}"
+          f" ({res['stop_reason']})")
+    if res.get("saved"):
+        print(f"saved as processed group model_ladder_{res['key']} in {len(res['saved'])} run file(s)")
+    return 0

@@ -1,0 +1,190 @@
+"""The functions the CLI and the REST service call: fit, diagnose, ladder on runs.
+
+Each takes runs (run-file or CSV paths, :class:`~labjoint.storage.Run` objects or prepared
+runs) and a model expression, and returns the JSON-able dict of the CLI contract
+(design.md, model-comparison issue). ``full=True`` adds what the web page draws: residual
+maps, physics curves, measured-versus-model loops, the noise floor per run. The ``*_report``
+functions return the richer objects themselves.
+
+Options (keyword arguments, also the REST ``options``): ``validate`` (runs to judge on,
+names or paths; default: hold out the highest frequency, or every 3rd run by amplitude
+with one frequency), ``prime_cycles`` ("auto" or a number), ``multistart``, ``seed``,
+``factor`` (adequacy factor on the noise floor, default 1.5), ``alpha``, ``practical``,
+``min_rel``, ``tie_tol``, ``tie_corr`` (:mod:`.significance`), ``n_jobs`` (candidate
+refits in parallel), ``candidates`` (restrict the effects tried), ``warm`` (False: the
+naive serial refit from scratch), ``max_steps``, ``auto``, ``save`` (ladder).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from labjoint.compare.curves import PhysicsCurves, mean_loops, physics_curves
+from labjoint.compare.diagnosis import DiagnoseSettings, Diagnosis, diagnose_prepared, parameters_dict
+from labjoint.compare.jsonsafe import clean
+from labjoint.compare.ladders import Ladder, build_ladder
+from labjoint.compare.metrics import Evaluation, evaluate
+from labjoint.compare.noise import NoiseFloor, noise_floor
+from labjoint.compare.residuals import ResidualMaps, residual_maps
+from labjoint.compare.runs import PreparedRun, prepare_runs, split_by_names
+from labjoint.compare.significance import SignificanceSettings
+from labjoint.compare.store import save_ladder
+from labjoint.errors import InputError
+from labjoint.models import FitResult, Model, ModelFitter
+
+SIG_KEYS = ("alpha", "practical", "min_rel", "tie_tol", "tie_corr")
+
+
+def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | str = "auto"
+         ) -> tuple[list[PreparedRun], list[str] | None]:
+    """Prepared runs (validation runs named but not among ``runs`` are added) and the
+    validation run names."""
+    if isinstance(runs, (str, Path)) or not isinstance(runs, Iterable):
+        runs = [runs]
+    items = list(runs)
+    if not items:
+        raise InputError("no runs given", field="runs")
+    extra = []
+    if validate:
+        given = {str(x) for x in items} | {str(Path(str(x)).resolve()) for x in items
+                                          if isinstance(x, (str, Path))}
+        extra = [v for v in validate if isinstance(v, (str, Path)) and Path(str(v)).is_file()
+                 and str(Path(str(v)).resolve()) not in given and str(v) not in given]
+    prepared = prepare_runs(items + extra, prime_cycles=prime_cycles)
+    if not validate:
+        return prepared, None
+    _, val, _ = split_by_names(prepared, [str(v) for v in validate])
+    return prepared, [r.name for r in val]
+
+
+def settings_from(options: dict[str, Any]) -> DiagnoseSettings:
+    """DiagnoseSettings from keyword options; unknown or bad values raise InputError."""
+    sig = {}
+    for k in SIG_KEYS:
+        if k in options and options[k] is not None:
+            sig[k] = _positive(options[k], k)
+    cands = options.get("candidates")
+    if isinstance(cands, str):
+        cands = [c.strip() for c in cands.split(",") if c.strip()]
+    factor = _positive(options.get("factor", 1.5), "factor")
+    n_jobs = options.get("n_jobs")
+    if n_jobs is not None and (isinstance(n_jobs, bool) or not isinstance(n_jobs, int) or n_jobs < 1):
+        raise InputError(f"must be a whole number >= 1, got {n_jobs!r}", field="n_jobs")
+    return DiagnoseSettings(factor=factor, significance=SignificanceSettings(**sig),
+                            n_jobs=n_jobs, multistart=options.get("multistart", "auto"),
+                            seed=int(options.get("seed", 0)), warm=bool(options.get("warm", True)),
+                            candidates=tuple(cands) if cands else None)
+
+
+def _positive(v: Any, name: str) -> float:
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        raise InputError(f"must be a number, got {v!r}", field=name) from None
+    if not x > 0:
+        raise InputError(f"must be > 0, got {v!r}", field=name)
+    return x
+
+
+def _check(options: dict[str, Any], allowed: Iterable[str]) -> None:
+    unknown = sorted(set(options) - set(allowed))
+    if unknown:
+        raise InputError(f"unknown option(s) {unknown}; known: {sorted(allowed)}", field=unknown[0])
+
+
+COMMON = ("validate", "prime_cycles", "multistart", "seed", "full", "progress")
+DIAG = COMMON + SIG_KEYS + ("factor", "n_jobs", "candidates", "warm")
+
+
+@dataclass
+class FitReport:
+    """A model fitted to runs, evaluated on them, with the noise floor and curves."""
+
+    fit: FitResult
+    evaluation: Evaluation
+    noise: NoiseFloor
+    curves: PhysicsCurves
+    maps: ResidualMaps
+    validation_runs: list[str]
+
+    def to_dict(self, full: bool = False) -> dict[str, Any]:
+        d: dict[str, Any] = {
+            "model": self.fit.model.expr, "parameters": parameters_dict(self.fit),
+            "nrmse": self.evaluation.nrmse(), "noise_floor": self.noise.nrmse,
+            "runs": [r.to_dict() for r in self.evaluation.runs],
+            "fit_runs": list(self.fit.fit_runs_), "validation_runs": self.validation_runs,
+            "nrmse_validation": (self.evaluation.nrmse(self.validation_runs)
+                                 if self.validation_runs else None),
+            "success": self.fit.success, "message": self.fit.message,
+        }
+        if full:
+            d.update(curves=self.curves.to_dict(), maps=self.maps.to_dict(),
+                     loops=mean_loops(self.evaluation), noise=self.noise.to_dict(),
+                     correlation={"parameters": list(self.fit.varied_),
+                                  "matrix": self.fit.correlation_})
+        return d
+
+
+def fit_report(runs: Any, model: str | Model, **options: Any) -> FitReport:
+    """Fit ``model`` to the runs (all of them, or all but ``validate``)."""
+    _check(options, COMMON)
+    prepared, val = load(runs, options.get("validate"), options.get("prime_cycles", "auto"))
+    val = val or []
+    fit_r = [r for r in prepared if r.name not in set(val)]
+    val_r = [r for r in prepared if r.name in set(val)]
+    m = Model.parse(model)
+    fit = ModelFitter(m, multistart=options.get("multistart", "auto"),
+                      seed=int(options.get("seed", 0))).fit(
+        [r.data for r in fit_r], validation=[r.data for r in val_r] or None)
+    ev = evaluate(m, fit.params_, prepared)
+    nf = noise_floor(prepared)
+    return FitReport(fit, ev, nf, physics_curves(ev), residual_maps(ev, nf.by_run()), val)
+
+
+def fit_runs(runs: Any, model: str | Model, **options: Any) -> dict[str, Any]:
+    """`labjoint fit` JSON: model, parameters {value, stderr, unit}, nrmse, noise_floor, runs."""
+    full = bool(options.get("full", False))
+    return clean(fit_report(runs, model, **options).to_dict(full=full))
+
+
+def diagnose_report(runs: Any, model: str | Model, **options: Any) -> Diagnosis:
+    """Where ``model`` fails and which effect is missing (:mod:`.diagnosis`)."""
+    _check(options, DIAG)
+    prepared, val = load(runs, options.get("validate"), options.get("prime_cycles", "auto"))
+    return diagnose_prepared(prepared, model, validate=val, settings=settings_from(options),
+                             progress=options.get("progress"))
+
+
+def diagnose_runs(runs: Any, model: str | Model, **options: Any) -> dict[str, Any]:
+    """`labjoint diagnose` JSON: model, nrmse, noise_floor, adequate, failures, candidates."""
+    full = bool(options.get("full", False))
+    return clean(diagnose_report(runs, model, **options).to_dict(full=full))
+
+
+def ladder_report(runs: Any, model: str | Model, max_steps: int | None = None,
+                  auto: bool = True, **options: Any) -> tuple[Ladder, list[str], dict[str, str]]:
+    """The ladder, the run files it was saved to (``save``, default True) and the files
+    that could not take it (path -> reason)."""
+    save = bool(options.pop("save", True))
+    _check(options, DIAG)
+    prepared, val = load(runs, options.get("validate"), options.get("prime_cycles", "auto"))
+    lad = build_ladder(prepared, model, max_steps=max_steps, auto=bool(auto), validate=val,
+                       settings=settings_from(options), progress=options.get("progress"))
+    errors: dict[str, str] = {}
+    saved = save_ladder(lad.to_dict(), [r.path for r in prepared], errors) if save else []
+    return lad, saved, errors
+
+
+def ladder_runs(runs: Any, model: str | Model, max_steps: int | None = None, auto: bool = True,
+                **options: Any) -> dict[str, Any]:
+    """`labjoint ladder` JSON: steps [{model, added, nrmse}], noise_floor, adequate."""
+    full = bool(options.get("full", False))
+    lad, saved, errors = ladder_report(runs, model, max_steps, auto, **options)
+    d = lad.to_dict(full=full)
+    d["saved"] = saved
+    if errors:
+        d["not_saved"] = errors
+    return clean(d)

@@ -1,0 +1,291 @@
+"""Which effect is missing: refit the model with each candidate effect, judge on held-out runs.
+
+1. Split the runs: fit runs and validation runs (:func:`labjoint.compare.runs.default_split`
+   or named ones).
+2. Fit the model on the fit runs; evaluate it on all runs; the noise floor of all runs and
+   of the validation runs (:mod:`labjoint.compare.noise`); where it fails
+   (:mod:`labjoint.compare.residuals`, :mod:`labjoint.compare.describe`).
+3. Refit model + effect for every candidate (:mod:`labjoint.compare.candidates`), judge
+   each on the validation runs with the stated test (:mod:`labjoint.compare.significance`),
+   rank by validation NRMSE; refit the ``refine`` best from scratch as well (keeping the
+   better fit); judge the significant ones again against the baseline refitted from their
+   optimum without them (an ablation: the gain must come from the effect, not from moving
+   the baseline's own parameters); flag ties, attach evidence and explanation
+   (:mod:`labjoint.compare.evidence`).
+4. Adequate: pooled NRMSE <= ``factor`` x noise floor (default 1.5) and no significant
+   candidate. Otherwise the verdict names the best significant candidate, or says that
+   structure remains that no known effect explains.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from labjoint.compare.candidates import ablate, candidate_effects, refine, refit_candidates
+from labjoint.compare.curves import PhysicsCurves, physics_curves
+from labjoint.compare.describe import failures
+from labjoint.compare.evidence import evidence, explanation
+from labjoint.compare.metrics import Evaluation, evaluate
+from labjoint.compare.noise import NoiseFloor, noise_floor
+from labjoint.compare.residuals import ResidualMaps, residual_maps
+from labjoint.compare.runs import PreparedRun, default_split, split_by_names
+from labjoint.compare.significance import (PairedTest, SignificanceSettings, correlation,
+                                           is_significant, nrmse_se, paired_test)
+from labjoint.compare.ties import tie_reason
+from labjoint.models import FitResult, Model, ModelFitter
+
+DEFAULT_FACTOR = 1.5
+
+
+@dataclass(frozen=True)
+class DiagnoseSettings:
+    """Settings of a diagnosis (see the module docstring and :mod:`.significance`)."""
+
+    factor: float = DEFAULT_FACTOR
+    significance: SignificanceSettings = SignificanceSettings()
+    n_jobs: int | None = None
+    multistart: int | str = "auto"
+    seed: int = 0
+    warm: bool = True
+    candidates: tuple[str, ...] | None = None
+    refine: int = 2
+
+
+@dataclass
+class CandidateResult:
+    """One candidate effect refitted and judged."""
+
+    effect: str
+    fit: FitResult
+    evaluation: Evaluation
+    nrmse_after: float
+    nrmse_after_validation: float
+    test: PairedTest
+    significant: bool
+    reason: str
+    evidence: str = ""
+    explanation: str = ""
+    tie_with: list[str] = field(default_factory=list)
+    tie_reason: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {"effect": self.effect, "nrmse_after": self.nrmse_after,
+             "nrmse_after_validation": self.nrmse_after_validation,
+             "significant": self.significant, "p_value": self.test.p, "test": self.reason,
+             "evidence": self.evidence, "explanation": self.explanation,
+             "model": self.fit.model.expr,
+             "parameters": parameters_dict(self.fit)}
+        if self.tie_with:
+            d["tie"] = {"with": list(self.tie_with), "reason": self.tie_reason}
+        return d
+
+
+def parameters_dict(fit: FitResult) -> dict[str, dict[str, Any]]:
+    """``{"<effect>.<param>": {"value", "stderr", "unit"}}`` of a fit."""
+    out = {}
+    for k, p in fit.params_.items():
+        se = fit.stderr_.get(k)
+        out[k] = {"value": p.value, "stderr": None if se is None or not np.isfinite(se) else se,
+                  "unit": p.unit}
+    return out
+
+
+@dataclass
+class Diagnosis:
+    """Everything a diagnosis found; :meth:`to_dict` gives the CLI/REST JSON."""
+
+    model: Model
+    base: FitResult
+    evaluation: Evaluation
+    noise: NoiseFloor
+    noise_floor_validation: float
+    fit_runs: list[str]
+    validation_runs: list[str]
+    split_rule: str
+    maps: ResidualMaps
+    curves: PhysicsCurves
+    failures: list[dict[str, Any]]
+    candidates: list[CandidateResult]
+    not_applicable: dict[str, str]
+    adequate: bool
+    verdict: str
+    settings: DiagnoseSettings
+    timing_s: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def nrmse(self) -> float:
+        return self.evaluation.nrmse()
+
+    @property
+    def nrmse_validation(self) -> float:
+        return self.evaluation.nrmse(self.validation_runs)
+
+    @property
+    def best(self) -> CandidateResult | None:
+        sig = [c for c in self.candidates if c.significant]
+        return sig[0] if sig else None
+
+    def to_dict(self, full: bool = False) -> dict[str, Any]:
+        d: dict[str, Any] = {
+            "model": self.model.expr, "nrmse": self.nrmse, "noise_floor": self.noise.nrmse,
+            "adequate": self.adequate, "verdict": self.verdict, "factor": self.settings.factor,
+            "nrmse_validation": self.nrmse_validation,
+            "noise_floor_validation": self.noise_floor_validation,
+            "failures": self.failures,
+            "candidates": [c.to_dict() for c in self.candidates],
+            "not_applicable": dict(self.not_applicable),
+            "test": self.settings.significance.describe(),
+            "split": self.split_rule, "fit_runs": self.fit_runs,
+            "validation_runs": self.validation_runs,
+            "parameters": parameters_dict(self.base),
+            "runs": [r.to_dict() for r in self.evaluation.runs],
+            "timing_s": self.timing_s,
+        }
+        best = self.candidates[0] if self.candidates else None
+        if best is not None and best.tie_with:
+            d["tie"] = {"effects": [best.effect, *best.tie_with], "reason": best.tie_reason}
+        if full:
+            d["maps"] = self.maps.to_dict()
+            d["curves"] = self.curves.to_dict()
+            d["noise"] = self.noise.to_dict()
+        return d
+
+
+def pooled_floor(noise: NoiseFloor, ev: Evaluation, names: Sequence[str]) -> float:
+    """Noise-floor NRMSE pooled over the named runs."""
+    per = noise.by_run()
+    num = den = 0.0
+    for r in ev.subset(names):
+        x = per.get(r.name, np.nan)
+        if np.isfinite(x):
+            num += x * x * r.ssf
+            den += r.ssf
+    return float(np.sqrt(num / den)) if den > 0 else float("nan")
+
+
+def _judge(name: str, fit: FitResult, runs: list[PreparedRun], base_ev: Evaluation,
+           base_maps: ResidualMaps, val: list[str], floor_val: float,
+           s: SignificanceSettings, ablated: Evaluation | None = None) -> CandidateResult:
+    """Judge a candidate on the validation runs against the baseline, or against the
+    baseline refitted from the candidate's optimum (``ablated``) where that validates better."""
+    ev = evaluate(fit.model, fit.params_, runs, loops=False)
+    ref = base_ev
+    if ablated is not None and ablated.nrmse(val) < base_ev.nrmse(val):
+        ref = ablated
+    b = np.concatenate([r.cycle_sse() for r in ref.subset(val)])
+    c = np.concatenate([r.cycle_sse() for r in ev.subset(val)])
+    test = paired_test(b, c)
+    nv_base, nv = ref.nrmse(val), ev.nrmse(val)
+    sig, reason = is_significant(test, nv_base, nv, floor_val, s)
+    maps = residual_maps(ev)
+    against = "" if ref is base_ev else " (against the baseline refitted from its optimum)"
+    val_txt = (f"validation NRMSE {100 * nv_base:.3g} % -> {100 * nv:.3g} %{against} (noise "
+               f"floor {100 * floor_val:.3g} %), {reason}")
+    return CandidateResult(name, fit, ev, ev.nrmse(), nv, test, sig, reason,
+                           evidence(name, base_ev, ev, base_maps, maps, fit, val_txt),
+                           explanation(name))
+
+
+def _ties(cands: list[CandidateResult], base_ev: Evaluation, val: list[str], floor: float,
+          s: SignificanceSettings) -> None:
+    """Mark pairs that cannot be told apart on these data (:mod:`.significance`)."""
+    base_f = {r.name: r.model_force for r in base_ev.subset(val)}
+    ssf = sum(r.ssf for r in base_ev.subset(val))
+
+    def added(c: CandidateResult) -> np.ndarray:
+        return np.concatenate([(r.model_force - base_f[r.name])[r.run.steady]
+                               for r in c.evaluation.subset(val)])
+
+    useful = [c for c in cands if c.significant]
+    for i, a in enumerate(useful):
+        for bb in useful[i + 1:]:
+            test = paired_test(np.concatenate([r.cycle_sse() for r in a.evaluation.subset(val)]),
+                               np.concatenate([r.cycle_sse() for r in bb.evaluation.subset(val)]))
+            diff = abs(a.nrmse_after_validation - bb.nrmse_after_validation)
+            unc = max(2 * nrmse_se(test, a.nrmse_after_validation, bb.nrmse_after_validation, ssf),
+                      s.tie_tol * floor)
+            if diff > unc:
+                continue
+            rho = correlation(added(a), added(bb))
+            if rho < s.tie_corr:
+                continue
+            why = tie_reason(a.effect, bb.effect, a.nrmse_after_validation,
+                             bb.nrmse_after_validation, unc, rho)
+            for x, y in ((a, bb), (bb, a)):
+                if y.effect not in x.tie_with:
+                    x.tie_with.append(y.effect)
+                    x.tie_reason = why if not x.tie_reason else x.tie_reason
+
+
+def diagnose_prepared(runs: list[PreparedRun], model: Model | str, *,
+                      validate: Sequence[str] | None = None,
+                      settings: DiagnoseSettings = DiagnoseSettings(),
+                      base_fit: FitResult | None = None, noise: NoiseFloor | None = None,
+                      progress: Callable[[str], None] | None = None) -> Diagnosis:
+    """Diagnose ``model`` on prepared runs (module docstring)."""
+    model = Model.parse(model)
+    t0 = time.perf_counter()
+    fit_r, val_r, rule = split_by_names(runs, validate) if validate else default_split(runs)
+    fit_names, val_names = [r.name for r in fit_r], [r.name for r in val_r]
+    noise = noise or noise_floor(runs)
+    if base_fit is None:
+        base_fit = ModelFitter(model, multistart=settings.multistart, seed=settings.seed).fit(
+            [r.data for r in fit_r], validation=[r.data for r in val_r])
+    t1 = time.perf_counter()
+    if progress:
+        progress(f"fitted {model.expr}")
+    ev = evaluate(model, base_fit.params_, runs)
+    floor_val = pooled_floor(noise, ev, val_names)
+    maps = residual_maps(ev, noise.by_run())
+    curves = physics_curves(ev)
+    found = failures(ev, maps, curves, noise.nrmse, settings.factor)
+    names, skipped = candidate_effects(model, settings.candidates)
+    fits = refit_candidates(base_fit, model, names, [r.data for r in fit_r],
+                            [r.data for r in val_r], warm=settings.warm, n_jobs=settings.n_jobs,
+                            multistart=settings.multistart, seed=settings.seed, progress=progress)
+    sig_s = settings.significance
+    cands = [_judge(n, fits[n], runs, ev, maps, val_names, floor_val, sig_s) for n in names]
+    cands.sort(key=lambda c: c.nrmse_after_validation)
+    top = [c.effect for c in cands[:settings.refine]
+           if c.nrmse_after_validation < ev.nrmse(val_names)] if settings.warm else []
+    fd, vd = [r.data for r in fit_r], [r.data for r in val_r]
+    if top:
+        better = refine(fits, top, fd, vd, n_jobs=settings.n_jobs, seed=settings.seed)
+        for i, c in enumerate(cands):
+            if c.effect in top and better[c.effect] is not fits[c.effect]:
+                cands[i] = _judge(c.effect, better[c.effect], runs, ev, maps, val_names,
+                                  floor_val, sig_s)
+    for i, c in enumerate(cands):
+        if c.significant:
+            ab = ablate(c.fit, model, fd, vd, settings.seed)
+            cands[i] = _judge(c.effect, c.fit, runs, ev, maps, val_names, floor_val, sig_s,
+                              evaluate(model, ab.params_, runs, loops=False))
+    cands.sort(key=lambda c: c.nrmse_after_validation)
+    t2 = time.perf_counter()
+    _ties(cands, ev, val_names, floor_val, sig_s)
+    cands.sort(key=lambda c: (not c.significant, c.nrmse_after_validation))
+    near = ev.nrmse() <= settings.factor * noise.nrmse
+    best = next((c for c in cands if c.significant), None)
+    adequate = near and best is None
+    ratio = ev.nrmse() / noise.nrmse if noise.nrmse > 0 else float("inf")
+    if adequate:
+        verdict = (f"adequate: NRMSE {100 * ev.nrmse():.3g} % is {ratio:.3g}x the noise floor "
+                   f"(<= {settings.factor:g}x) and no candidate improves it significantly")
+    elif best is not None:
+        tie = f" (tied with {', '.join(best.tie_with)}: {best.tie_reason})" if best.tie_with else ""
+        verdict = (f"add {best.effect}: validation NRMSE {100 * ev.nrmse(val_names):.3g} % -> "
+                   f"{100 * best.nrmse_after_validation:.3g} %{tie}")
+    else:
+        verdict = (f"structure remains that no known effect explains: NRMSE "
+                   f"{100 * ev.nrmse():.3g} % is {ratio:.3g}x the noise floor and no candidate "
+                   "improves it significantly")
+    t3 = time.perf_counter()
+    return Diagnosis(model, base_fit, ev, noise, floor_val, fit_names, val_names, rule, maps,
+                     curves, found, cands, skipped, adequate, verdict, settings,
+                     {"base_fit": t1 - t0, "candidates": t2 - t1, "rest": t3 - t2,
+                      "total": t3 - t0})

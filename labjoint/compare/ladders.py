@@ -1,0 +1,172 @@
+"""The ladder: successive models (start, + effect, + effect, ...) with their metrics.
+
+Automatic mode: diagnose the current model (:mod:`labjoint.compare.diagnosis`); while it is
+not adequate and a candidate improves it significantly, add the best one (its warm refit
+becomes the next step's fit) and diagnose again, up to ``max_steps`` additions. A tie
+for best is broken by the lower validation NRMSE and recorded in the step.
+
+Manual mode: the steps are the successive prefixes of the given expression (``a``,
+``a+b``, ``a+b+c``; prefixes that are not valid models, e.g. a modifier before any
+hysteretic effect, are skipped), each fitted warm from the one before; the last step is
+diagnosed to decide adequacy.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from labjoint.compare.diagnosis import (DiagnoseSettings, Diagnosis, diagnose_prepared,
+                                       parameters_dict, pooled_floor)
+from labjoint.compare.metrics import evaluate
+from labjoint.compare.noise import noise_floor
+from labjoint.compare.runs import PreparedRun, default_split, split_by_names
+from labjoint.errors import InputError
+from labjoint.models import FitResult, Model, ModelFitter
+
+
+@dataclass
+class LadderStep:
+    """One rung: the model, the effect it added, its metrics and (auto mode) diagnosis."""
+
+    model: str
+    added: str | None
+    nrmse: float
+    nrmse_validation: float
+    adequate: bool
+    parameters: dict[str, Any]
+    verdict: str = ""
+    tie: dict[str, Any] | None = None
+    candidates: list[dict[str, Any]] = field(default_factory=list)
+    diagnosis: Diagnosis | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {"model": self.model, "added": self.added, "nrmse": self.nrmse,
+             "nrmse_validation": self.nrmse_validation, "adequate": self.adequate,
+             "verdict": self.verdict, "parameters": self.parameters,
+             "candidates": self.candidates}
+        if self.tie:
+            d["tie"] = self.tie
+        return d
+
+
+@dataclass
+class Ladder:
+    """Successive models and the noise floor they are judged against."""
+
+    start: str
+    steps: list[LadderStep]
+    noise_floor: float
+    noise_floor_validation: float
+    adequate: bool
+    stop_reason: str
+    runs: list[str]
+    fit_runs: list[str]
+    validation_runs: list[str]
+    split_rule: str
+    auto: bool
+    factor: float
+
+    @property
+    def key(self) -> str:
+        """Stable id of the ladder's question: runs, start model, mode and split."""
+        text = json.dumps([sorted(self.runs), self.start, self.auto, sorted(self.validation_runs)])
+        return hashlib.sha1(text.encode()).hexdigest()[:12]
+
+    def to_dict(self, full: bool = False) -> dict[str, Any]:
+        d = {"steps": [s.to_dict() for s in self.steps], "noise_floor": self.noise_floor,
+             "adequate": self.adequate, "start": self.start, "final_model": self.steps[-1].model,
+             "stop_reason": self.stop_reason, "noise_floor_validation": self.noise_floor_validation,
+             "factor": self.factor, "auto": self.auto, "key": self.key, "runs": self.runs,
+             "fit_runs": self.fit_runs, "validation_runs": self.validation_runs,
+             "split": self.split_rule}
+        if full and self.steps[-1].diagnosis is not None:
+            d["final_diagnosis"] = self.steps[-1].diagnosis.to_dict(full=True)
+        return d
+
+
+def _summary(dg: Diagnosis) -> list[dict[str, Any]]:
+    return [{"effect": c.effect, "nrmse_after": c.nrmse_after,
+             "nrmse_after_validation": c.nrmse_after_validation, "significant": c.significant}
+            for c in dg.candidates]
+
+
+def _step(dg: Diagnosis, added: str | None) -> LadderStep:
+    best = dg.candidates[0] if dg.candidates else None
+    tie = ({"effects": [best.effect, *best.tie_with], "reason": best.tie_reason}
+           if best is not None and best.tie_with else None)
+    return LadderStep(dg.model.expr, added, dg.nrmse, dg.nrmse_validation, dg.adequate,
+                      parameters_dict(dg.base), dg.verdict, tie, _summary(dg), dg)
+
+
+def prefixes(expr: str | Model) -> list[Model]:
+    """Valid models made of the first 1, 2, ... effects of ``expr``."""
+    model = Model.parse(expr)
+    out = []
+    for k in range(1, len(model.names) + 1):
+        try:
+            out.append(Model.parse("+".join(model.names[:k])))
+        except InputError:
+            continue
+    return out
+
+
+def build_ladder(runs: list[PreparedRun], model: Model | str, *, max_steps: int | None = None,
+                 auto: bool = True, validate: Sequence[str] | None = None,
+                 settings: DiagnoseSettings = DiagnoseSettings(),
+                 progress: Callable[[str], None] | None = None) -> Ladder:
+    """The ladder from ``model`` (module docstring)."""
+    model = Model.parse(model)
+    if max_steps is not None and (isinstance(max_steps, bool) or int(max_steps) < 0):
+        raise InputError(f"must be a whole number >= 0, got {max_steps!r}", field="max_steps")
+    fit_r, val_r, rule = split_by_names(runs, validate) if validate else default_split(runs)
+    val_names = [r.name for r in val_r]
+    noise = noise_floor(runs)
+    steps: list[LadderStep] = []
+    if auto:
+        fit: FitResult | None = None
+        current, added = model, None
+        while True:
+            dg = diagnose_prepared(runs, current, validate=val_names, settings=settings,
+                                   base_fit=fit, noise=noise, progress=progress)
+            steps.append(_step(dg, added))
+            if progress:
+                progress(f"step {len(steps)}: {current.expr} NRMSE {dg.nrmse:.4g}")
+            if dg.adequate:
+                stop = "adequate"
+                break
+            best = dg.best
+            if best is None:
+                stop = dg.verdict
+                break
+            if max_steps is not None and len(steps) - 1 >= int(max_steps):
+                stop = f"max_steps ({max_steps}) reached; next would be + {best.effect}"
+                break
+            current, fit, added = best.fit.model, best.fit, best.effect
+    else:
+        fit = None
+        chain = prefixes(model)
+        for i, m in enumerate(chain):
+            last = i == len(chain) - 1
+            fit = ModelFitter(m, multistart=settings.multistart, seed=settings.seed).fit(
+                [r.data for r in fit_r], validation=[r.data for r in val_r], init=fit)
+            added = None if i == 0 else next(n for n in m.names if n not in chain[i - 1].names)
+            if last:
+                dg = diagnose_prepared(runs, m, validate=val_names, settings=settings,
+                                       base_fit=fit, noise=noise, progress=progress)
+                steps.append(_step(dg, added))
+            else:
+                ev = evaluate(m, fit.params_, runs, loops=False)
+                steps.append(LadderStep(m.expr, added, ev.nrmse(), ev.nrmse(val_names),
+                                        ev.nrmse() <= settings.factor * noise.nrmse,
+                                        parameters_dict(fit)))
+        stop = "end of the given expression"
+    final = steps[-1]
+    ev_any = steps[-1].diagnosis.evaluation if steps[-1].diagnosis else None
+    floor_val = pooled_floor(noise, ev_any, val_names) if ev_any is not None else float("nan")
+    return Ladder(model.expr, steps, noise.nrmse, floor_val, final.adequate, stop,
+                  [r.name for r in runs], [r.name for r in fit_r], val_names, rule, auto,
+                  settings.factor)

@@ -1,0 +1,201 @@
+"""The noise floor: the NRMSE that measurement noise alone would leave.
+
+Method (cycle-to-cycle scatter, slow drift removed). The steady cycles of a run, from the
+displacement fundamental's upward zero crossings, are resampled to M points each (M: the
+nearest integer to the samples per cycle; the Catmull-Rom interpolation of
+:func:`labjoint.signal.cycles.cycles`) and taken in windows of ``WINDOW_CYCLES``
+consecutive cycles. At each of the M phase points a straight line over the window's cycles
+(the mean cycle plus a linear trend per phase) is the deterministic part; a slow drift
+(wear, thermal) moves the loop smoothly over the window and goes into the trend, where a
+plain scatter about the mean cycle would count it as noise. What is left scatters from
+cycle to cycle; its variance over the window, with (n_cycles - 2) M degrees of freedom,
+divided by the interpolation's noise gain (mean over the resampled points of the sum of
+the squared Catmull-Rom weights, < 1), estimates the white-noise variance of the raw
+samples.
+
+Measurement noise is stationary, while what else can scatter (a decaying start-up
+transient of the rig's low modes, a beat with a free vibration) comes and goes: windows
+whose scatter exceeds the quietest third's (pooled) by more than an F-test allows
+(one-sided, ``EXCESS_P``) are left out, and the noise variance is the scatter pooled over
+the windows that remain.
+
+Displacement noise reaches the residual through the model (F_model is evaluated on the
+measured displacement), approximately as the joint's stiffness times that noise, so the
+force-equivalent noise of a run is sigma_F^2 + k^2 sigma_u^2 with k the loop's
+least-squares stiffness (seed 002's loop slope) and sigma_u from the displacement's
+quietest window (:func:`quietest_variance`). The pooled noise floor is
+sqrt(sum_runs n_r sigma_r^2 / sum_runs sum F^2) over the same steady samples as the
+NRMSE (design.md).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from scipy import stats
+
+from labjoint.signal.cycles import cycles as resample_cycles
+
+if TYPE_CHECKING:
+    from labjoint.compare.runs import PreparedRun
+
+WINDOW_CYCLES = 8
+MIN_WINDOW_CYCLES = 5
+TREND_DEGREE = 2
+EXCESS_P = 1e-3
+RESOLUTION = 1e-7
+
+
+@dataclass(frozen=True)
+class RunNoise:
+    """Noise of one run: force and displacement std (N, m), force-equivalent std (N),
+    the run's noise-floor NRMSE and the number of cycles and windows used."""
+
+    name: str
+    force_std: float
+    displacement_std: float
+    equivalent_std: float
+    nrmse: float
+    n_cycles: int
+    n_windows: int
+
+
+def _gain(bounds: np.ndarray, m: int) -> float:
+    """Mean sum of squared Catmull-Rom weights at the resampled points (white-noise gain)."""
+    t = bounds[:-1, None] + np.arange(m)[None, :] * (np.diff(bounds)[:, None] / m)
+    s = t - np.floor(t)
+    w0 = 0.5 * s * (-1.0 + s * (2.0 - s))
+    w1 = 1.0 + 0.5 * s * s * (-5.0 + 3.0 * s)
+    w2 = 0.5 * s * (1.0 + s * (4.0 - 3.0 * s))
+    w3 = 0.5 * s * s * (s - 1.0)
+    return float(np.mean(w0 ** 2 + w1 ** 2 + w2 ** 2 + w3 ** 2))
+
+
+def _detrended(c: np.ndarray, degree: int) -> np.ndarray:
+    """Cycles (n, M) minus a polynomial of ``degree`` over the cycles at every phase point
+    (orthonormal basis from a QR of the small n x (degree + 1) Vandermonde matrix)."""
+    k = np.arange(c.shape[0]) - 0.5 * (c.shape[0] - 1)
+    q, _ = np.linalg.qr(np.vander(k, degree + 1))
+    return c - q @ (q.T @ c)
+
+
+def window_scatter(x: np.ndarray, groups: Sequence[np.ndarray], window_cycles: int = WINDOW_CYCLES
+                   ) -> list[tuple[float, int, int, int, int, float]]:
+    """(noise variance, degrees of freedom, group, first cycle, end cycle, mean square of the
+    signal) of each window (module docstring). ``groups``: fractional bounds of consecutive cycles (each group
+    n_cycles + 1 values, interpolation neighbours inside ``x``)."""
+    out = []
+    for gi, g in enumerate(groups):
+        n = g.size - 1
+        if n < MIN_WINDOW_CYCLES:
+            continue
+        m = max(8, int(round(float(np.mean(np.diff(g))))))
+        edges = np.linspace(0, n, max(1, n // window_cycles) + 1).round().astype(int)
+        for a, b in zip(edges[:-1], edges[1:]):
+            if b - a < MIN_WINDOW_CYCLES:
+                continue
+            bw = g[a:b + 1]
+            c = resample_cycles(x, bw, m, check=False)
+            r = _detrended(c, TREND_DEGREE)
+            dof = (b - a - TREND_DEGREE - 1) * m
+            out.append((float(np.sum(r * r)) / dof / _gain(bw, m), dof, gi, int(a), int(b),
+                        float(np.mean(c * c))))
+    return out
+
+
+def _stationary(win: list[tuple[float, int, int, int, int, float]]) -> np.ndarray:
+    """Per window: scatter within the F-test allowance of the quietest third's (a scatter
+    below ``RESOLUTION`` of the signal's rms counts as none)."""
+    var = np.array([w[0] for w in win])
+    dof = np.array([w[1] for w in win])
+    quiet = np.argsort(var)[:max(1, len(win) // 3)]
+    ref_dof = int(dof[quiet].sum())
+    ref = float(np.sum(var[quiet] * dof[quiet]) / ref_dof)
+    ref = max(ref, RESOLUTION ** 2 * max(w[5] for w in win))
+    return var <= ref * stats.f.ppf(1.0 - EXCESS_P, dof, ref_dof)
+
+
+def stationary_cycles(x: np.ndarray, groups: Sequence[np.ndarray],
+                      window_cycles: int = WINDOW_CYCLES) -> list[np.ndarray]:
+    """Per group, per cycle: False where the cycle lies in a window with excess scatter (a
+    transient), True otherwise (also where a group is too short to judge)."""
+    keep = [np.ones(g.size - 1, bool) for g in groups]
+    win = window_scatter(np.asarray(x, dtype=float), groups, window_cycles)
+    if win:
+        for w, ok in zip(win, _stationary(win)):
+            if not ok:
+                keep[w[2]][w[3]:w[4]] = False
+    return keep
+
+
+def scatter_variance(x: np.ndarray, groups: Sequence[np.ndarray],
+                     window_cycles: int = WINDOW_CYCLES) -> tuple[float, int, int]:
+    """Noise variance of ``x`` over the given cycles, windows with excess scatter left out
+    (module docstring): (variance, cycles used, windows used)."""
+    win = window_scatter(np.asarray(x, dtype=float), groups, window_cycles)
+    if not win:
+        return float("nan"), 0, 0
+    keep = _stationary(win)
+    var = np.array([w[0] for w in win])[keep]
+    dof = np.array([w[1] for w in win])[keep]
+    cyc = sum(w[4] - w[3] for w, k in zip(win, keep) if k)
+    return float(np.sum(var * dof) / dof.sum()), int(cyc), int(keep.sum())
+
+
+def quietest_variance(x: np.ndarray, groups: Sequence[np.ndarray],
+                      window_cycles: int = WINDOW_CYCLES) -> float:
+    """The smallest window scatter (for the displacement, whose own noise is far below a
+    transient's motion, so that a transient reaching every window inflates the F-test's
+    reference; the minimum of several estimates is biased low by ~sqrt(2/dof), a few %)."""
+    win = window_scatter(np.asarray(x, dtype=float), groups, window_cycles)
+    return min(w[0] for w in win) if win else float("nan")
+
+
+def run_noise(run: "PreparedRun", window_cycles: int = WINDOW_CYCLES) -> RunNoise:
+    """Noise of one run over its steady cycles (module docstring)."""
+    groups = run.cycle_bounds()
+    var_f, n_cyc, n_win = scatter_variance(run.data.force, groups, window_cycles)
+    var_u = quietest_variance(run.data.inputs.u, groups, window_cycles)
+    k = float(run.loop.summary["stiffness_n_per_m"])
+    var_eq = var_f + (k * k * var_u if np.isfinite(var_u) else 0.0)
+    f = run.data.force[run.steady]
+    rms = float(np.sqrt(np.mean(f * f))) if f.size else float("nan")
+    eq = float(np.sqrt(var_eq)) if np.isfinite(var_eq) else float("nan")
+    return RunNoise(run.name, float(np.sqrt(var_f)), float(np.sqrt(var_u)), eq,
+                    eq / rms if rms > 0 else float("nan"), n_cyc, n_win)
+
+
+@dataclass(frozen=True)
+class NoiseFloor:
+    """Pooled noise floor (NRMSE) of a set of runs and the per-run figures."""
+
+    nrmse: float
+    runs: tuple[RunNoise, ...]
+    method: str = ("cycle-to-cycle scatter: resampled steady cycles minus a per-phase linear "
+                   f"trend over windows of {WINDOW_CYCLES} cycles, windows with excess scatter "
+                   f"left out (F-test, p < {EXCESS_P:g}); force noise plus displacement noise "
+                   "times the loop stiffness")
+
+    def by_run(self) -> dict[str, float]:
+        return {r.name: r.nrmse for r in self.runs}
+
+    def to_dict(self) -> dict:
+        return {"nrmse": self.nrmse, "method": self.method,
+                "runs": [{"run": r.name, "nrmse": r.nrmse, "force_std_n": r.force_std,
+                          "displacement_std_m": r.displacement_std,
+                          "equivalent_std_n": r.equivalent_std} for r in self.runs]}
+
+
+def noise_floor(runs: Sequence["PreparedRun"], window_cycles: int = WINDOW_CYCLES) -> NoiseFloor:
+    """Pooled noise floor of ``runs`` (same steady samples and weighting as the NRMSE)."""
+    per = tuple(run_noise(r, window_cycles) for r in runs)
+    num = den = 0.0
+    for r, n in zip(runs, per):
+        f = r.data.force[r.steady]
+        if np.isfinite(n.equivalent_std):
+            num += f.size * n.equivalent_std ** 2
+            den += float(f @ f)
+    return NoiseFloor(float(np.sqrt(num / den)) if den > 0 else float("nan"), per)

@@ -1,0 +1,319 @@
+"""Runs prepared for model comparison: model inputs, steady samples, cycles, loop results.
+
+A run comes from an HDF5 run file, a CSV file in the import format (design.md) or a
+:class:`~labjoint.storage.run.Run` already in memory. Its steady state and cycles come
+from the hysteresis-loop pipeline (:func:`labjoint.identify.analyze_run`: cycle
+boundaries at the displacement fundamental's upward zero crossings, steady cycles by
+drift-following detection); the comparison uses whole steady cycles only.
+
+Steady cycles: those of the loop pipeline, minus windows of cycles whose force scatters
+from cycle to cycle more than measurement noise allows (a passing transient, e.g. a rig
+mode ringing after a start from rest; :func:`labjoint.compare.noise.stationary_cycles`).
+
+History. Every hysteretic model state starts relaxed at the first sample it is given
+(:mod:`labjoint.models.inputs`). A record that begins with a transient (the rig started
+from rest within it, steady state detected later) already holds the joint's history, so it
+is used as it is; a record that is steady from its first cycle (acquired after the
+engine's wait for steady state) is cropped to start at its first steady cycle and
+primed: its first steady cycle, continued backwards periodically for ``PRIME_CYCLES``
+periods, with an amplitude envelope rising smoothly from zero about the cycle's centre
+(midpoint of its displacement extremes) over the first ``PRIME_RAMP`` of them. Like the
+rig's own ramp-up, this starts the model relaxed at the loop's centre and grows centred
+loops, so it reaches the centred steady loop whatever the phase at which the record
+begins (a plain periodic continuation would relax the model wherever the continuation
+starts, off centre by up to a sample of travel, and shift its loop's mean force).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from labjoint.errors import InputError
+from labjoint.identify import LoopResult, analyze_run
+from labjoint.compare.noise import stationary_cycles
+from labjoint.models import ModelInputs, RunData
+from labjoint.storage import Run, read_run
+from labjoint.storage.csv_parse import parse_csv
+
+PRIME_CYCLES = 5
+PRIME_RAMP = 3
+CSV_SUFFIXES = (".csv", ".txt")
+
+
+def read_any(path: str | Path) -> Run:
+    """A run from an HDF5 run file or a CSV file in the import format (by suffix)."""
+    p = Path(path)
+    if p.suffix.lower() in CSV_SUFFIXES:
+        parsed = parse_csv(p)
+        t = parsed.column("time_s")
+        md = dict(parsed.metadata)
+        md.setdefault("sample_rate_hz", parsed.sample_rate_hz)
+        chans = {c: parsed.column(c) for c in parsed.columns}
+        return Run(name=p.stem, time=t, displacement=parsed.column("displacement_m"),
+                   force=parsed.column("force_N"), metadata=md, channels=chans, path=str(p))
+    return read_run(p)
+
+
+@dataclass(frozen=True, eq=False)
+class PreparedRun:
+    """One run ready for comparison (SI units).
+
+    ``data``: model inputs, measured force and the steady-sample mask; ``loop``: the
+    hysteresis-loop result (per-cycle energy, stiffness, amplitudes, cycle bounds);
+    ``cycle_ids``: indices (in ``loop``) of the steady cycles used; ``cycles``: their
+    (start, stop) sample indices; ``transient``: steady cycles of the loop pipeline left out
+    because their cycle-to-cycle scatter shows a passing transient; ``primed``:
+    number of priming cycles prepended to the model history; ``offset``: index in the
+    original record of sample 0 here (a primed record starts at its first steady cycle,
+    so the priming begins at the loop's centre crossing).
+    """
+
+    name: str
+    data: RunData
+    loop: LoopResult
+    cycle_ids: np.ndarray
+    cycles: np.ndarray
+    primed: int
+    offset: int = 0
+    transient: int = 0
+    path: str | None = None
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def frequency_hz(self) -> float:
+        return float(self.loop.frequency_hz)
+
+    @property
+    def fs(self) -> float:
+        return float(self.data.inputs.fs)
+
+    @property
+    def amplitude_m(self) -> float:
+        """Mean displacement amplitude over the steady cycles (m)."""
+        return float(self.loop.summary["displacement_amplitude_m"])
+
+    @property
+    def force_amplitude_n(self) -> float:
+        return float(self.loop.summary["force_amplitude_n"])
+
+    @property
+    def steady(self) -> np.ndarray:
+        return self.data.steady
+
+    @property
+    def n_cycles(self) -> int:
+        return int(self.cycles.shape[0])
+
+    def cycle_index(self) -> np.ndarray:
+        """Per sample: index of its steady cycle (-1 outside them)."""
+        idx = np.full(len(self.data.force), -1, dtype=np.int64)
+        for k, (a, b) in enumerate(self.cycles):
+            idx[a:b] = k
+        return idx
+
+    def phase(self) -> np.ndarray:
+        """Per sample: fraction of its cycle in [0, 1) from the displacement fundamental's
+        upward zero crossing (NaN outside the steady cycles)."""
+        ph = np.full(len(self.data.force), np.nan)
+        b = self.loop.bounds - self.offset
+        used = self._used_cycles()
+        for a, (s, e) in zip(used, self.cycles):
+            x = np.arange(s, e, dtype=float)
+            ph[s:e] = np.clip((x - b[a]) / (b[a + 1] - b[a]), 0.0, 1.0 - 1e-12)
+        return ph
+
+    def _used_cycles(self) -> np.ndarray:
+        return self.cycle_ids
+
+    def cycle_bounds(self) -> list[np.ndarray]:
+        """Fractional bounds (record indexing) of the steady cycles whose interpolation
+        neighbours lie inside the record, one array per group of consecutive cycles (for
+        :func:`labjoint.identify.loop.loop_metrics` and :func:`labjoint.signal.cycles`)."""
+        b = self.loop.bounds - self.offset
+        n = len(self.data.force)
+        ks = self._used_cycles()
+        ks = ks[(b[ks] >= 1.0) & (b[ks + 1] <= n - 3)]
+        if ks.size == 0:
+            return []
+        groups = np.split(ks, np.flatnonzero(np.diff(ks) > 1) + 1)
+        return [b[g[0]:g[-1] + 2] for g in groups]
+
+
+def steady_cycles(run: Run, loop: LoopResult) -> tuple[np.ndarray, int, bool]:
+    """Loop-pipeline steady cycles with interpolation neighbours inside the record, minus
+    the windows whose force scatter shows a passing transient
+    (:func:`labjoint.compare.noise.stationary_cycles`): (cycle indices, cycles left out,
+    whether the record begins with a transient)."""
+    b = loop.bounds
+    n = len(run.time)
+    ks = np.flatnonzero(loop.steady)
+    ks = ks[(b[ks] >= 1.0) & (b[ks + 1] <= n - 3)]
+    if ks.size == 0:
+        return ks, 0, False
+    groups = np.split(ks, np.flatnonzero(np.diff(ks) > 1) + 1)
+    keep = stationary_cycles(np.asarray(run.force, dtype=float), [b[g[0]:g[-1] + 2] for g in groups])
+    kept = np.concatenate([g[k] for g, k in zip(groups, keep)])
+    start = int(loop.steady_state.start) >= 1 or (kept.size > 0 and kept[0] > ks[0])
+    return kept, int(ks.size - kept.size), bool(start)
+
+
+def prepare_run(run: Run | str | Path, *, prime_cycles: int | str = "auto",
+                band_hz: float | None = None, min_cycles: int = 3) -> PreparedRun:
+    """Prepare one run: loop pipeline, steady cycles, model inputs (priming: module doc).
+
+    ``prime_cycles``: "auto" (module doc) or a number of cycles to prepend.
+    """
+    if isinstance(run, (str, Path)):
+        run = read_any(run)
+    if not isinstance(run, Run):
+        raise InputError(f"expected a run file path or a Run, got {type(run).__name__}", field="runs")
+    where = run.path or run.name
+    try:
+        loop = analyze_run(run, min_cycles=min_cycles)
+    except InputError as exc:
+        raise InputError(f"run '{run.name}': {exc.message}", file=run.path,
+                         field=exc.field) from None
+    n = len(run.time)
+    ids, transient, begins_transient = steady_cycles(run, loop)
+    if ids.size < min_cycles:
+        raise InputError(f"run '{run.name}' has {ids.size} usable steady cycles; at least "
+                         f"{min_cycles} are needed", file=where, field="steady")
+    spans = np.column_stack([np.ceil(loop.bounds[ids]), np.ceil(loop.bounds[ids + 1])]).astype(np.int64)
+    keep = np.zeros(n, bool)
+    for a, b in spans:
+        keep[a:b] = True
+    if prime_cycles == "auto":
+        prime = 0 if begins_transient else PRIME_CYCLES
+    else:
+        try:
+            prime = int(prime_cycles)
+        except (TypeError, ValueError):
+            raise InputError(f"must be 'auto' or a number, got {prime_cycles!r}",
+                             field="prime_cycles") from None
+        if prime < 0:
+            raise InputError("must be >= 0", field="prime_cycles")
+    md = dict(run.metadata)
+    md.setdefault("frequency_hz", loop.frequency_hz)
+    f = float(loop.frequency_hz)
+    fs = float(run.sample_rate_hz)
+    if prime == 0:
+        data = RunData.from_arrays(run.displacement, run.force, fs, steady=keep, frequency_hz=f,
+                                   name=run.name, band_hz=band_hz, metadata=md)
+        return PreparedRun(run.name, data, loop, ids, spans, 0, 0, transient, run.path, md)
+    off = int(spans[0, 0])
+    u = np.asarray(run.displacement[off:], dtype=float)
+    per = float(loop.bounds[ids[0] + 1] - loop.bounds[ids[0]])
+    head = ramped_prime(u, per, prime)
+    full = ModelInputs.from_record(np.concatenate([head, u]), fs, frequency_hz=f, name=run.name,
+                                   band_hz=band_hz, metadata=md)
+    inputs = replace(full, n_prime=head.size)
+    data = RunData(inputs, np.asarray(run.force[off:], dtype=float), keep[off:])
+    return PreparedRun(run.name, data, loop, ids, spans - off, prime, off, transient, run.path, md)
+
+
+def ramped_prime(u: np.ndarray, per: float, cycles: int, ramp: int = PRIME_RAMP) -> np.ndarray:
+    """``cycles`` periods of ``u``'s first cycle continued backwards (cubic, continuous
+    into u[0]), with a raised-cosine envelope from 0 to 1 over the first ``ramp`` periods
+    about the cycle's centre (module docstring)."""
+    k = int(np.ceil(per)) + 4
+    if u.size < k:
+        raise InputError(f"priming needs one full cycle ({k} samples)", field="steady")
+    m = int(round(cycles * per))
+    pos = np.mod(np.arange(-m, 0, dtype=float), per)
+    x = CubicSpline(np.arange(k, dtype=float), u[:k])(pos)
+    seg = u[:int(np.ceil(per))]
+    centre = 0.5 * (seg.max() + seg.min())
+    t = np.arange(m) / (min(ramp, cycles) * per)
+    env = np.where(t < 1.0, 0.5 - 0.5 * np.cos(np.pi * np.clip(t, 0.0, 1.0)), 1.0)
+    return centre + env * (x - centre)
+
+
+def prepare_runs(runs: Iterable[Run | str | Path | PreparedRun], **kwargs: Any) -> list[PreparedRun]:
+    """Prepare every run (already prepared ones pass through); names made unique."""
+    out: list[PreparedRun] = []
+    for r in runs:
+        out.append(r if isinstance(r, PreparedRun) else prepare_run(r, **kwargs))
+    if not out:
+        raise InputError("no runs given", field="runs")
+    seen: dict[str, int] = {}
+    for i, r in enumerate(out):
+        seen[r.name] = seen.get(r.name, 0) + 1
+        if seen[r.name] > 1:
+            new = f"{r.name}#{seen[r.name]}"
+            out[i] = replace(r, name=new, data=_renamed(r.data, new))
+    return out
+
+
+def _renamed(d: RunData, name: str) -> RunData:
+    return RunData(replace(d.inputs, name=name), d.force, d.steady)
+
+
+def default_split(runs: Sequence[PreparedRun], every: int = 3
+                  ) -> tuple[list[PreparedRun], list[PreparedRun], str]:
+    """(fit runs, validation runs, rule): hold out the highest frequency when the set has
+    two or more (frequency-dependent effects are judged by extrapolation in frequency,
+    seed 000: fit on one mode, validate on another); with one frequency, every ``every``-th
+    run in order of amplitude among all but the smallest and the largest (both ends stay in
+    the fit), starting from the second smallest."""
+    freqs = np.array([r.frequency_hz for r in runs])
+    levels = _levels(freqs)
+    if len(runs) < 2:
+        raise InputError("at least two runs are needed to fit on some and validate on others",
+                         field="runs")
+    if levels.max() >= 1:
+        top = levels == levels.max()
+        fit = [r for r, t in zip(runs, top) if not t]
+        val = [r for r, t in zip(runs, top) if t]
+        f = float(np.median(freqs[top]))
+        return fit, val, f"validation: the highest frequency ({f:g} Hz), held out"
+    order = np.argsort([r.amplitude_m for r in runs], kind="stable")
+    pick = np.zeros(len(runs), bool)
+    inner = order[1:-1] if len(runs) > 2 else order[1:]
+    pick[inner[::max(int(every), 2)]] = True
+    fit = [r for r, p in zip(runs, pick) if not p]
+    val = [r for r, p in zip(runs, pick) if p]
+    k = max(int(every), 2)
+    nth = {2: "2nd", 3: "3rd"}.get(k, f"{k}th")
+    return fit, val, (f"validation: every {nth} run by amplitude "
+                      "(one frequency only)")
+
+
+def _levels(freqs: np.ndarray, rel: float = 0.02) -> np.ndarray:
+    """Frequency class of each run (0, 1, ...): frequencies within ``rel`` are one class."""
+    order = np.argsort(freqs)
+    lev = np.zeros(freqs.size, np.int64)
+    k = 0
+    for i in range(1, freqs.size):
+        if freqs[order[i]] > freqs[order[i - 1]] * (1 + rel):
+            k += 1
+        lev[order[i]] = k
+    return lev
+
+
+def frequency_levels(runs: Sequence[PreparedRun]) -> np.ndarray:
+    """Frequency class per run (runs within 2 % share one)."""
+    return _levels(np.array([r.frequency_hz for r in runs]))
+
+
+def split_by_names(runs: Sequence[PreparedRun], validate: Sequence[str | Path]
+                   ) -> tuple[list[PreparedRun], list[PreparedRun], str]:
+    """(fit, validation, rule) with the validation runs named (run name, file name or path)."""
+    keys = {str(v) for v in validate} | {Path(str(v)).stem for v in validate} \
+        | {str(Path(str(v)).resolve()) for v in validate}
+    val, fit = [], []
+    for r in runs:
+        ids = {r.name}
+        if r.path:
+            ids |= {r.path, Path(r.path).stem, str(Path(r.path).resolve())}
+        (val if ids & keys else fit).append(r)
+    if not val:
+        raise InputError(f"none of {list(map(str, validate))} is among the runs", field="validate")
+    if not fit:
+        raise InputError("every run is a validation run; leave some to fit", field="validate")
+    return fit, val, "validation: runs named by --validate"

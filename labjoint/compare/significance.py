@@ -1,0 +1,108 @@
+"""Is a candidate's improvement real, and can two candidates be told apart?
+
+Test (stated): a one-sided paired t-test over the steady cycles of the validation runs.
+For each cycle c the squared residual summed over the cycle is computed for the
+baseline (B_c) and the candidate (C_c); cycles are the independent units (samples within
+a cycle are not: the residual is correlated along the loop), and pairing removes the
+cycle-to-cycle variation both models share. H0: mean(B_c - C_c) <= 0; t = mean / (sd /
+sqrt(n)), p from Student's t with n - 1 degrees of freedom.
+
+Practical threshold (stated): a deterministic improvement repeats in every cycle, so even
+a negligible one can reach a tiny p on many cycles; a candidate is significant only if
+also its validation NRMSE improvement is at least ``practical`` (default 0.1) of the
+baseline's gap to the validation noise floor, and at least ``min_rel`` (default 0.2) of
+that noise floor (near the floor, a gain smaller than a fifth of the noise is within what
+refitting an undetermined parameter can move by chance).
+
+Tie (stated): two candidates are tied when the difference of their validation NRMSEs is
+within its uncertainty, max(2 standard errors of the paired per-cycle test between them,
+``tie_tol`` x the noise floor), and what they add to the baseline's prediction is
+nearly the same on the data: correlation of the two changes of the model force above
+``tie_corr`` (default 0.95).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+
+@dataclass(frozen=True)
+class SignificanceSettings:
+    alpha: float = 0.01
+    practical: float = 0.1
+    min_rel: float = 0.2
+    tie_tol: float = 0.1
+    tie_corr: float = 0.95
+
+    def describe(self) -> str:
+        return (f"one-sided paired t-test of per-cycle validation residual energy (cycles as "
+                f"independent units), p < {self.alpha:g}, and improvement >= "
+                f"{self.practical:g} x the gap to the noise floor and >= {self.min_rel:g} x "
+                f"the noise floor; ties: NRMSE difference within max(2 SE, {self.tie_tol:g} x "
+                f"noise floor) and correlation of the added force > {self.tie_corr:g}")
+
+
+@dataclass(frozen=True)
+class PairedTest:
+    """Result of the paired per-cycle test (``mean``: mean of B_c - C_c, N^2)."""
+
+    t: float
+    p: float
+    n: int
+    mean: float
+    se: float
+
+
+def paired_test(base: np.ndarray, cand: np.ndarray) -> PairedTest:
+    """One-sided paired t-test that ``cand`` has less per-cycle residual energy than ``base``."""
+    d = np.asarray(base, float) - np.asarray(cand, float)
+    n = d.size
+    if n < 2:
+        return PairedTest(float("nan"), 1.0, n, float(d.mean()) if n else 0.0, float("inf"))
+    mean = float(d.mean())
+    sd = float(d.std(ddof=1))
+    se = sd / np.sqrt(n)
+    if se == 0.0:
+        t = float("inf") if mean > 0 else float("-inf") if mean < 0 else 0.0
+        p = 0.0 if mean > 0 else 1.0
+    else:
+        t = mean / se
+        p = float(stats.t.sf(t, n - 1))
+    return PairedTest(float(t), p, n, mean, float(se))
+
+
+def nrmse_se(test: PairedTest, nrmse_a: float, nrmse_b: float, ssf: float) -> float:
+    """Standard error, in NRMSE units, of the difference of two pooled NRMSEs from the
+    paired per-cycle test of their residual energies: N_a^2 - N_b^2 = dSSE / SSF, so
+    N_a - N_b = dSSE / (SSF (N_a + N_b)), dSSE summed over the ``test.n`` cycles."""
+    if nrmse_a + nrmse_b <= 0 or ssf <= 0 or not np.isfinite(test.se):
+        return float("inf")
+    return float(test.se * test.n / ((nrmse_a + nrmse_b) * ssf))
+
+
+def is_significant(test: PairedTest, base_nrmse: float, cand_nrmse: float, floor: float,
+                   s: SignificanceSettings) -> tuple[bool, str]:
+    """Significant (module docstring) and the reason in words with the numbers."""
+    gain = base_nrmse - cand_nrmse
+    gap = base_nrmse - floor
+    need = max(s.practical * max(gap, 0.0), s.min_rel * floor)
+    if not test.p < s.alpha:
+        return False, f"p = {test.p:.2g} >= {s.alpha:g}"
+    if not gain >= need:
+        return False, (f"p = {test.p:.2g}, but the improvement {100 * gain:.3g} % is below the "
+                       f"practical threshold {100 * need:.3g} %")
+    return True, f"p = {test.p:.2g} over {test.n} validation cycles, improvement {100 * gain:.3g} %"
+
+
+def correlation(a: np.ndarray, b: np.ndarray) -> float:
+    """Correlation (uncentred: a constant added force counts) of two changes of the model
+    force (0 if either is zero)."""
+    a = np.asarray(a, float)
+    b = np.asarray(b, float)
+    na, nb = float(np.sqrt(a @ a)), float(np.sqrt(b @ b))
+    if na == 0 or nb == 0:
+        return 0.0
+    return float(a @ b / (na * nb))
