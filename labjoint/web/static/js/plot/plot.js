@@ -1,0 +1,120 @@
+// Line and scatter plots on linear or log axes, with horizontal reference lines.
+//
+// plotXY({series: [{name, x, y, color, mode: 'line'|'points'|'both', dash, opacity,
+//   legend}], xlabel, ylabel, title, xlog, ylog, hlines: [{y, label, color}], id,
+//   width, height}) -> <svg data-plot=id data-points=N data-series=M>
+
+import { axis, drawFrame } from './axes.js';
+import { color, nextId, s } from './svg.js';
+
+const ok = (v, log) => v != null && Number.isFinite(v) && (!log || v > 0);
+
+function extent(series, key, log, extra = []) {
+  let lo = Infinity;
+  let hi = -Infinity;
+  for (const sr of series) {
+    for (const v of sr[key]) {
+      if (ok(v, log)) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
+    }
+  }
+  for (const v of extra) if (ok(v, log)) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
+  return lo <= hi ? [lo, hi] : [log ? 1 : 0, log ? 10 : 1];
+}
+
+function pathOf(sr, xa, ya, xlog, ylog) {
+  let d = '';
+  let pen = false;
+  let n = 0;
+  for (let i = 0; i < sr.x.length; i += 1) {
+    const x = sr.x[i];
+    const y = sr.y[i];
+    if (!ok(x, xlog) || !ok(y, ylog)) { pen = false; continue; }
+    d += `${pen ? 'L' : 'M'}${xa.map(x).toFixed(1)} ${ya.map(y).toFixed(1)}`;
+    pen = true;
+    n += 1;
+  }
+  return [d, n];
+}
+
+export function plotXY(o) {
+  const W = o.width || 640;
+  const H = o.height || 320;
+  const f = { x0: 70, x1: W - 14, y0: o.title ? 30 : 12, y1: H - 46 };
+  const series = (o.series || []).map((sr, i) => ({
+    mode: 'line', color: color(i), legend: true, ...sr, x: sr.x || [], y: sr.y || [],
+  }));
+  const hlines = o.hlines || [];
+  const [xlo, xhi] = o.xdomain || extent(series, 'x', o.xlog);
+  const [ylo, yhi] = o.ydomain || extent(series, 'y', o.ylog, hlines.map((l) => l.y));
+  const xa = axis(xlo, xhi, f.x0, f.x1, { log: o.xlog, pad: !o.xdomain });
+  if (o.xticks) xa.ticks = o.xticks;
+  const ya = axis(ylo, yhi, f.y1, f.y0, { log: o.ylog, n: 5 });
+  const root = s('svg', { viewBox: `0 0 ${W} ${H}`, class: 'plot', role: 'img',
+    'data-plot': o.id || '', 'aria-label': o.title || o.ylabel || '' });
+  drawFrame(root, f, xa, ya, o);
+  const clip = nextId('clip');
+  root.append(s('clipPath', { id: clip },
+    s('rect', { x: f.x0, y: f.y0, width: f.x1 - f.x0, height: f.y1 - f.y0 })));
+  const body = s('g', { 'clip-path': `url(#${clip})` });
+  root.append(body);
+  let total = 0;
+  for (const sr of series) {
+    const attrs = { stroke: sr.color, 'stroke-opacity': sr.opacity ?? 1 };
+    if (sr.mode === 'line' || sr.mode === 'both') {
+      const [d, n] = pathOf(sr, xa, ya, o.xlog, o.ylog);
+      total += n;
+      body.append(s('path', { ...attrs, d, class: 'series', 'stroke-width': sr.width || 1.5,
+        'stroke-dasharray': sr.dash || null, 'data-name': sr.name || '' }));
+    }
+    if (sr.mode === 'points' || sr.mode === 'both') {
+      const g = s('g', { fill: sr.color, 'fill-opacity': sr.opacity ?? 1, 'data-name': sr.name || '' });
+      let n = 0;
+      for (let i = 0; i < sr.x.length; i += 1) {
+        if (!ok(sr.x[i], o.xlog) || !ok(sr.y[i], o.ylog)) continue;
+        g.append(s('circle', { cx: xa.map(sr.x[i]).toFixed(1), cy: ya.map(sr.y[i]).toFixed(1), r: sr.r || 3.5 }));
+        n += 1;
+      }
+      if (sr.mode === 'points') total += n;
+      body.append(g);
+    }
+  }
+  for (const l of hlines) {
+    if (!ok(l.y, o.ylog)) continue;
+    const y = ya.map(l.y);
+    body.append(s('line', { x1: f.x0, x2: f.x1, y1: y, y2: y, class: 'hline', stroke: l.color || '#555' }));
+    body.append(s('text', { x: f.x1 - 4, y: y - 4, class: 'hline-label', 'text-anchor': 'end' }, l.label || ''));
+  }
+  legend(root, series.filter((sr) => sr.legend && sr.name), f, o.legendAt);
+  if (!total) {
+    root.append(s('text', { x: (f.x0 + f.x1) / 2, y: (f.y0 + f.y1) / 2, class: 'empty',
+      'text-anchor': 'middle' }, o.empty || 'no data'));
+  }
+  root.dataset.points = String(total);
+  root.dataset.series = String(series.length);
+  const [dx0, dx1] = extent(series, 'x', o.xlog);
+  const [dy0, dy1] = extent(series, 'y', o.ylog);
+  if (total) Object.assign(root.dataset, { xmin: dx0, xmax: dx1, ymin: dy0, ymax: dy1 });
+  return root;
+}
+
+// Legend box in a corner of the frame: at = 'tr' (default), 'tl', 'br' or 'bl'.
+export function legend(root, items, f, at = 'tr') {
+  if (!items.length) return;
+  const g = s('g', { class: 'legend' });
+  const w = Math.min(260, 26 + 6.5 * Math.max(...items.map((i) => i.name.length)));
+  const hgt = 8 + 16 * items.length;
+  const x0 = at[1] === 'l' ? f.x0 + 6 : f.x1 - w - 6;
+  const y0 = at[0] === 'b' ? f.y1 - hgt - 6 : f.y0 + 6;
+  g.append(s('rect', { x: x0, y: y0, width: w, height: hgt, class: 'legend-bg' }));
+  items.forEach((it, i) => {
+    const y = y0 + 12 + 16 * i;
+    if (it.mode === 'points') {
+      g.append(s('circle', { cx: x0 + 13, cy: y - 4, r: 3.5, fill: it.color }));
+    } else {
+      g.append(s('line', { x1: x0 + 6, x2: x0 + 20, y1: y - 4, y2: y - 4, stroke: it.color,
+        'stroke-width': 2.5, 'stroke-dasharray': it.dash || null }));
+    }
+    g.append(s('text', { x: x0 + 26, y, class: 'legend-text' }, it.name));
+  });
+  root.append(g);
+}

@@ -1,0 +1,191 @@
+// Model-comparison results drawn: fit summary and parameters, measured and model loops
+// per run, residual maps (amplitude x frequency heat map, residual against phase,
+// quadrants), dissipation and stiffness against amplitude (log axes), the candidates
+// and the ladder.
+
+import { h, table } from '../dom.js';
+import { barChart } from '../plot/bars.js';
+import { heatMap } from '../plot/heatmap.js';
+import { plotXY } from '../plot/plot.js';
+import { color } from '../plot/svg.js';
+import { fmt, paramDisplay, pct } from '../units.js';
+
+const scale = (xs, k) => (xs || []).map((v) => (v == null ? null : v * k));
+
+// The residual maps of a diagnosis: the object holding by_run/by_phase/by_quadrant,
+// at the top of the result or one level down.
+export function findMaps(result) {
+  if (!result || typeof result !== 'object') return null;
+  if (result.by_run || result.by_phase) return result;
+  for (const v of Object.values(result)) {
+    if (v && typeof v === 'object' && !Array.isArray(v) && (v.by_run || v.by_phase)) return v;
+  }
+  return null;
+}
+
+export function summary(fit, diag) {
+  const nr = fit?.nrmse ?? diag?.nrmse;
+  const floor = fit?.noise_floor ?? diag?.noise_floor;
+  const verdict = diag ? h('span', { class: `verdict ${diag.adequate ? 'good' : 'bad'}`, id: 'verdict' },
+    diag.adequate ? 'adequate' : 'not adequate') : null;
+  return h('div', {}, h('p', {}, h('strong', {}, fit?.model || diag?.model || ''), ' · NRMSE ',
+    h('strong', { id: 'nrmse' }, fmt(nr, 3)), ' · noise floor ', fmt(floor, 3),
+    floor ? ` (×${fmt(nr / floor, 3)})` : '', ' · ', verdict),
+  diag?.verdict ? h('p', { class: 'caption' }, diag.verdict) : null,
+  diag?.fit_runs ? h('p', { class: 'caption' }, `Fitted on ${diag.fit_runs.length} run(s), validated on `
+    + `${(diag.validation_runs || []).length}${diag.split ? ` (${diag.split})` : ''}.`) : null);
+}
+
+export function parameters(fit) {
+  const rows = Object.entries(fit.parameters || {}).map(([name, p]) => {
+    const d = paramDisplay(p.unit);
+    const se = p.stderr == null ? '–' : fmt(p.stderr * d.k, 2);
+    return [name, fmt(p.value * d.k), se, d.unit];
+  });
+  return table(['Parameter', 'Value', 'Std. error', 'Unit'], rows, { class: 'params', id: 'params' });
+}
+
+export function perRun(fit) {
+  const rows = (fit.runs || []).map((r) => [r.run, fmt(r.nrmse, 3), pct(r.energy_loss_error_pct),
+    pct(r.stiffness_error_pct)]);
+  return table(['Run', 'NRMSE', 'Energy-loss error', 'Stiffness error'], rows, { class: 'per-run' });
+}
+
+// Measured and model loop of each run (mean steady cycle), when the result carries them.
+export function loops(fit) {
+  const byRun = fit.loops || {};
+  const names = (fit.runs || []).map((r) => r.run).filter((n) => byRun[n]);
+  if (!names.length) {
+    return h('p', { class: 'note' }, 'The result carries no loop arrays (loops) to overlay.');
+  }
+  return h('div', { class: 'grid3' }, names.map((name, i) => {
+    const lp = byRun[name];
+    const close = (a) => (a && a.length ? [...a, a[0]] : []);   // one whole cycle: close it
+    const x = close(scale(lp.displacement_m, 1e6));
+    return h('figure', { class: 'small' }, plotXY({
+      id: `overlay-${i}`, title: name, height: 300, xlabel: 'relative displacement (µm)', ylabel: 'joint force (N)',
+      legendAt: 'tl', series: [
+        { name: 'measured', x, y: close(lp.force_measured_n), color: color(0), width: 2.5 },
+        { name: 'model', x, y: close(lp.force_model_n), color: color(1), dash: '6 3', width: 2 },
+      ],
+    }));
+  }));
+}
+
+// Heat map of NRMSE on the amplitude x frequency grid: one row per frequency class,
+// amplitude ranks across (each cell labelled by its run's amplitude).
+function gridMap(g) {
+  const freqs = g.frequencies_hz || [];
+  const cols = Math.max(0, ...(g.nrmse || []).map((r) => r.length));
+  // columns are amplitude ranks within each frequency: label a column by its amplitude
+  // when the rows agree (within 10 %), else by the range it spans
+  const labels = [];
+  for (let j = 0; j < cols; j += 1) {
+    const col = (g.amplitude_m || []).map((r) => r[j]).filter((v) => v != null).map((v) => v * 1e6);
+    const lo = Math.min(...col);
+    const hi = Math.max(...col);
+    labels.push(!col.length ? '–' : hi - lo <= 0.1 * hi ? fmt((lo + hi) / 2, 3) : `${fmt(lo, 2)}–${fmt(hi, 2)}`);
+  }
+  return heatMap({ id: 'residual-grid', x: labels,
+    y: freqs.map((f) => parseFloat(f.toPrecision(4))), z: g.nrmse, xlabel: 'displacement amplitude (µm)',
+    ylabel: 'frequency (Hz)', zlabel: 'NRMSE', height: 60 + 56 * Math.max(freqs.length, 2),
+    format: (v) => fmt(v, 2) });
+}
+
+export function residualMaps(maps, failures) {
+  const parts = [];
+  if (maps?.by_run) parts.push(h('figure', {}, h('h3', {}, 'By run: amplitude × frequency'), gridMap(maps.by_run)));
+  if (maps?.by_phase) {
+    const e = maps.by_phase.edges || [];
+    const mid = e.slice(0, -1).map((a, i) => 180 * (a + e[i + 1]));
+    parts.push(h('figure', {}, h('h3', {}, 'Against phase within the cycle'), plotXY({
+      id: 'residual-phase', height: 280, xlabel: 'phase from the upward centre crossing (°)', ylabel: 'residual / rms(F)',
+      xdomain: [0, 360], xticks: [0, 45, 90, 135, 180, 225, 270, 315, 360], legendAt: 'bl', series: [
+        { name: 'rms', x: mid, y: maps.by_phase.rms, mode: 'both', color: color(1) },
+        { name: 'mean (signed)', x: mid, y: maps.by_phase.mean, mode: 'both', color: color(0) }],
+    }), h('p', { class: 'caption' }, '90° and 270° are the reversals (largest |u|).')));
+  }
+  if (maps?.by_quadrant) {
+    parts.push(h('figure', {}, h('h3', {}, 'By quadrant of (displacement, velocity)'), barChart({
+      id: 'quadrants', height: 260, labels: (maps.by_quadrant.labels || []).map((l) => l.replace(' (', '\n(')),
+      values: maps.by_quadrant.nrmse, ylabel: 'NRMSE share', format: (v) => fmt(v, 2),
+    })));
+  }
+  const fails = (failures || []).map((f) => h('li', {}, h('strong', {}, f.where), ': ', f.text));
+  if (!parts.length && !fails.length) return h('p', { class: 'note' }, 'The diagnosis carries no residual maps.');
+  return h('div', {}, fails.length ? h('ul', { class: 'failures', id: 'failures' }, fails) : null,
+    h('div', { class: 'grid2' }, parts));
+}
+
+// Energy loss and loop stiffness against displacement amplitude (log-log), measured as
+// points and model as lines, one colour per frequency.
+export function physics(fit) {
+  const runs = (fit.runs || []).filter((r) => r.displacement_amplitude_m != null);
+  if (!runs.some((r) => r.energy_loss_measured_j != null)) {
+    return h('p', { class: 'note' }, 'The fit result carries no measured/model energy loss per run.');
+  }
+  const byF = new Map();
+  for (const r of runs) {
+    const key = Math.round(r.frequency_hz ?? 0);
+    if (!byF.has(key)) byF.set(key, []);
+    byF.get(key).push(r);
+  }
+  const mk = (field, k) => {
+    const series = [];
+    [...byF.entries()].forEach(([f, rs], i) => {
+      rs.sort((a, b) => a.displacement_amplitude_m - b.displacement_amplitude_m);
+      const x = rs.map((r) => r.displacement_amplitude_m * 1e6);
+      series.push({ name: `measured ${f} Hz`, x, y: rs.map((r) => r[`${field}_measured${field === 'energy_loss' ? '_j' : '_n_per_m'}`] * k), mode: 'points', color: color(i) });
+      series.push({ name: `model ${f} Hz`, x, y: rs.map((r) => r[`${field}_model${field === 'energy_loss' ? '_j' : '_n_per_m'}`] * k), mode: 'both', r: 2, color: color(i), dash: '6 3' });
+    });
+    return series;
+  };
+  // the measured values set the scale: a model far below them (no slip yet) leaves the
+  // plot at the bottom instead of squeezing the measurements into a few pixels
+  const domain = (series) => {
+    const pos = (sr) => sr.y.filter((v) => v > 0 && Number.isFinite(v));
+    const meas = series.filter((sr) => sr.mode === 'points').flatMap(pos);
+    const all = series.flatMap(pos);
+    if (!meas.length) return undefined;
+    return [Math.max(Math.min(...all), Math.min(...meas) / 100), Math.max(...all)];
+  };
+  const energy = mk('energy_loss', 1e3);
+  const stiff = mk('stiffness', 1e-6);
+  return h('div', { class: 'grid2' },
+    h('figure', {}, plotXY({ id: 'dissipation', xlog: true, ylog: true, height: 300, legendAt: 'tl', xlabel: 'displacement amplitude (µm)',
+      ylabel: 'energy loss per cycle (mJ)', series: energy, ydomain: domain(energy) })),
+    h('figure', {}, plotXY({ id: 'stiffness', xlog: true, ylog: true, height: 300, legendAt: 'bl', xlabel: 'displacement amplitude (µm)',
+      ylabel: 'loop stiffness (MN/m)', series: stiff, ydomain: domain(stiff) })));
+}
+
+const firstSentence = (t) => (t.match(/^.*?[.!?](\s|$)/) || [t])[0];
+
+export function candidates(diag, onAdd, busy) {
+  const list = diag?.candidates || [];
+  if (!list.length) return h('p', { class: 'note' }, 'No candidate effect left to try.');
+  return h('ol', { class: 'candidates', id: 'candidates' }, list.map((c) => h('li', {
+    class: c.significant ? 'significant' : '', 'data-effect': c.effect },
+  h('div', { class: 'cand-head' }, h('strong', {}, c.effect),
+    h('span', { class: `status ${c.significant ? 'done' : ''}` }, c.significant ? 'significant' : 'not significant'),
+    `NRMSE after ${fmt(c.nrmse_after, 3)}`,
+    c.nrmse_after_validation != null ? ` · on validation runs ${fmt(c.nrmse_after_validation, 3)}` : null,
+    h('button', { class: 'small add-effect', 'data-effect': c.effect, disabled: busy, onclick: () => onAdd(c.effect) },
+      `Add ${c.effect} and refit`)),
+  c.explanation ? h('p', { class: 'cand-why' }, firstSentence(c.explanation)) : null,
+  c.tie ? h('p', { class: 'caption' }, `Cannot be told apart from ${c.tie.with.join(', ')} on these data: ${c.tie.reason}`) : null,
+  h('details', {}, h('summary', {}, 'Explanation and evidence'),
+    c.explanation ? h('p', {}, c.explanation) : null,
+    c.test ? h('p', { class: 'caption' }, `Test: ${c.test}`) : null,
+    c.evidence ? h('p', { class: 'caption' }, typeof c.evidence === 'string' ? c.evidence : JSON.stringify(c.evidence)) : null))));
+}
+
+export function ladderChart(steps, noiseFloor) {
+  return h('figure', {}, barChart({
+    id: 'ladder', labels: steps.map((s, i) => (i === 0 || !s.added ? `${i}: ${s.model}` : `${i}: +${s.added}`)),
+    values: steps.map((s) => s.nrmse), ylabel: 'NRMSE', ylog: steps.some((s) => s.nrmse > 0)
+      && Math.max(...steps.map((s) => s.nrmse), noiseFloor || 0) / Math.min(...steps.map((s) => s.nrmse), noiseFloor || Infinity) > 8,
+    hlines: noiseFloor ? [{ y: noiseFloor, label: `noise floor ${fmt(noiseFloor, 3)}`, color: '#b3261e' }] : [],
+    format: (v) => fmt(v, 3),
+  }), table(['Step', 'Model', 'Added', 'NRMSE'], steps.map((s, i) => [String(i), s.model, s.added || '–', fmt(s.nrmse, 3)]),
+    { class: 'ladder-steps' }));
+}

@@ -1,0 +1,162 @@
+// Models: choose runs and a model expression, fit and diagnose it, add a missing effect
+// from the ranked candidates and refit; the ladder of NRMSE per step against the noise
+// floor grows by one step each time.
+
+import { api, runJob } from '../api.js';
+import { h, note, section } from '../dom.js';
+import { selectedRuns, setSelectedRuns } from './runs.js';
+import * as draw from './modelplots.js';
+
+// Kept while the tab lives, so leaving the view and coming back shows the same work.
+const state = { model: 'linear_stiffness+viscous', fit: null, diag: null, ladder: [], noiseFloor: null, busy: false };
+
+async function effects() {
+  const resp = await fetch('/web/effects.json');
+  return resp.ok ? resp.json() : [];
+}
+
+function runPicker(runs, ticked) {
+  const box = h('div', { class: 'run-pick', id: 'run-pick' });
+  for (const r of runs) {
+    const cb = h('input', { type: 'checkbox', value: r.name, checked: ticked.has(r.name) });
+    cb.addEventListener('change', () => setSelectedRuns(picked(box)));
+    box.append(h('label', {}, cb, `${r.name}`, h('span', { class: 'count' },
+      ` ${r.frequency_hz ?? '–'} Hz · ${r.excitation_vpp ?? '–'} Vpp · ${r.torque_nm ?? '–'} N m`)));
+  }
+  if (!runs.length) box.append(h('p', { class: 'note' }, 'No complete run yet.'));
+  return box;
+}
+
+function picked(box) {
+  return [...box.querySelectorAll('input[type=checkbox]:checked')].map((x) => x.value);
+}
+
+export async function show(el) {
+  const [runList, vocab] = await Promise.all([
+    api('/runs', { query: { status: 'complete', order: '-start_time', limit: 500 } }), effects()]);
+  const known = new Set(runList.items.map((r) => r.name));
+  const ticked = new Set(selectedRuns().filter((n) => known.has(n)));
+  const pick = runPicker(runList.items, ticked);
+  const expr = h('input', { id: 'model-expr', type: 'text', value: state.model, size: 50, spellcheck: 'false',
+    'aria-label': 'model expression' });
+  const chips = h('div', { class: 'chips' }, vocab.map((e) => h('button', { type: 'button', class: 'chip',
+    title: `${e.kind}: ${e.params.map((p) => `${p.name} (${p.unit})`).join(', ')}`,
+    onclick: () => { expr.value = expr.value.trim() ? `${expr.value.trim()}+${e.name}` : e.name; } }, e.name)));
+  const limit = h('details', { id: 'limit' }, h('summary', {}, 'Try only some candidate effects (faster)'),
+    h('div', { class: 'chips' }, vocab.map((e) => h('label', { class: 'chip' },
+      h('input', { type: 'checkbox', value: e.name }), ` ${e.name}`))),
+    h('p', { class: 'caption' }, 'None ticked: every effect of the vocabulary that fits the model is tried.'));
+  const msg = h('p', { hidden: true, id: 'models-msg' });
+  const fitBtn = h('button', { id: 'fit' }, 'Fit and diagnose');
+  const ladderBtn = h('button', { id: 'auto-ladder', class: 'secondary' }, 'Automatic ladder');
+  const out = {
+    summary: h('div', { id: 'fit-summary' }), params: h('div'), perRun: h('div'), loops: h('div', { id: 'overlays' }),
+    maps: h('div', { id: 'maps' }), physics: h('div', { id: 'physics' }), cands: h('div'), ladder: h('div', { id: 'ladder-box' }),
+  };
+
+  function render() {
+    const { fit, diag } = state;
+    out.summary.replaceChildren(fit || diag ? draw.summary(fit, diag) : h('p', { class: 'note' }, 'Choose runs and a model, then fit.'));
+    out.params.replaceChildren(fit ? draw.parameters(fit) : '');
+    out.perRun.replaceChildren(fit ? draw.perRun(fit) : '');
+    out.loops.replaceChildren(fit ? draw.loops(fit) : '');
+    out.maps.replaceChildren(diag ? draw.residualMaps(draw.findMaps(diag), diag.failures) : '');
+    out.physics.replaceChildren(fit ? draw.physics(fit) : '');
+    out.cands.replaceChildren(diag ? draw.candidates(diag, addEffect, state.busy) : '');
+    out.ladder.replaceChildren(state.ladder.length ? draw.ladderChart(state.ladder, state.noiseFloor)
+      : h('p', { class: 'note' }, 'The ladder starts with the first fit.'));
+    results.forEach((x, i) => { x.hidden = !(fit || diag || (i === 0 && state.ladder.length)); });
+    [fitBtn, ladderBtn].forEach((b) => { b.disabled = state.busy; });
+  }
+
+  state.render = render;   // a job outlives a visit to another view: redraw the current one
+
+  async function work(label, fn) {
+    if (state.busy) return;
+    state.busy = true;
+    render();
+    note(msg, `${label}…`, 'busy');
+    try {
+      await fn((job) => note(msg, `${label}… ${Math.round(100 * (job.progress || 0))} % ${job.message || ''}`, 'busy'));
+      note(msg, '');
+    } catch (err) {
+      note(msg, err.message, 'error');
+    } finally {
+      state.busy = false;
+      state.render();
+    }
+  }
+
+  // Options of every comparison job: the arrays the page draws (full) and, if any are
+  // ticked, the only candidate effects to try.
+  function options() {
+    const only = [...limit.querySelectorAll('input:checked')].map((x) => x.value);
+    return only.length ? { full: true, candidates: only } : { full: true };
+  }
+
+  // Fit and diagnose `model` on the ticked runs; a new ladder, or one more step.
+  function fitDiagnose(model, added) {
+    const runs = picked(pick);
+    return work(`Fitting ${model} and trying the candidates`, async (progress) => {
+      if (!runs.length) throw new Error('tick at least one run');
+      const diag = await runJob('/models/diagnose', '/models/jobs', { runs, model, options: options() }, progress);
+      // a diagnosis fits the model itself; the plain fit only for what it does not carry
+      const fit = diag.parameters && diag.runs && diag.loops ? diag
+        : await runJob('/models/fit', '/models/jobs', { runs, model, options: { full: true } }, progress);
+      state.model = diag.model || model;
+      expr.value = state.model;
+      state.fit = { ...fit, ...(diag.parameters ? { parameters: diag.parameters, runs: diag.runs } : {}),
+        loops: diag.loops || fit.loops, curves: diag.curves || fit.curves };
+      state.diag = diag;
+      state.noiseFloor = diag.noise_floor ?? fit.noise_floor ?? state.noiseFloor;
+      const step = { model: state.model, added: added || null, nrmse: diag.nrmse ?? fit.nrmse };
+      state.ladder = added ? [...state.ladder, step] : [step];
+    });
+  }
+
+  function addEffect(effect) {
+    const cand = (state.diag?.candidates || []).find((c) => c.effect === effect);
+    return fitDiagnose(cand?.model || `${state.model}+${effect}`, effect);
+  }
+
+  fitBtn.addEventListener('click', () => fitDiagnose(expr.value.replace(/\s+/g, '')));
+  ladderBtn.addEventListener('click', () => work('Automatic ladder', async (progress) => {
+    const runs = picked(pick);
+    if (!runs.length) throw new Error('tick at least one run');
+    const res = await runJob('/models/ladder', '/models/jobs', { runs, model: expr.value.replace(/\s+/g, ''),
+      options: options() }, progress);
+    state.ladder = res.steps || [];
+    state.noiseFloor = res.noise_floor ?? state.noiseFloor;
+    const diag = res.final_diagnosis;
+    if (diag) {
+      const fit = diag.loops ? diag
+        : await runJob('/models/fit', '/models/jobs', { runs, model: diag.model, options: { full: true } }, progress);
+      state.diag = diag;
+      state.fit = { ...diag, loops: fit.loops };
+    }
+    if (state.ladder.length) {
+      state.model = state.ladder[state.ladder.length - 1].model;
+      expr.value = state.model;
+    }
+  }));
+
+  const results = [
+    h('div', { class: 'grid2' }, section('Missing effects, most promising first', out.cands),
+      section('Ladder: NRMSE per step', out.ladder)),
+    section('Measured and model loops', out.loops),
+    section('Where the model fails: residual maps', out.maps),
+    section('Dissipation and stiffness against amplitude', out.physics),
+    h('div', { class: 'grid2' }, section('Parameters', out.params), section('Per run', out.perRun))];
+  el.append(h('h1', {}, 'Models'),
+    section('Runs and model', h('div', { class: 'models-form' },
+      h('div', {}, h('h3', {}, 'Runs'), pick, h('div', { class: 'toolbar' },
+        h('button', { type: 'button', class: 'secondary small', onclick: () => {
+          pick.querySelectorAll('input').forEach((c) => { c.checked = true; });
+          setSelectedRuns(picked(pick));
+        } }, 'Tick all'))),
+      h('div', {}, h('h3', {}, 'Model: effects joined by +'), expr, chips,
+        limit, h('div', { class: 'toolbar' }, fitBtn, ladderBtn), msg, out.summary))),
+    ...results);
+  render();
+  return null;
+}

@@ -1,0 +1,37 @@
+// Both identification methods side by side in the shape of seed 002 Table 2:
+// property, unit, stick-slip-boundary algorithm, hysteresis loop, difference in %.
+
+import { h, table } from '../dom.js';
+import { fmt, pct } from '../units.js';
+
+const diff = (loop, ss) => (loop && ss != null && Number.isFinite(ss) ? (loop - ss) / loop * 100 : null);
+
+function pm(v, sd, k) {
+  if (v == null) return '–';
+  return sd != null && Number.isFinite(sd) ? `${fmt(v * k)} ± ${fmt(sd * k, 2)}` : fmt(v * k);
+}
+
+export function identificationTable(r) {
+  const ss = (key) => r[`stickslip_${key}`];
+  const rows = [
+    ['Energy loss', 'mJ', fmt(ss('energy_loss_j') * 1e3), pm(r.energy_loss_j, r.energy_loss_j_std, 1e3),
+      pct(r.energy_loss_diff_pct ?? diff(r.energy_loss_j, ss('energy_loss_j')))],
+    ['Joint damping', 'Ns/m', fmt(ss('damping_ns_per_m')), pm(r.damping_ns_per_m, r.damping_ns_per_m_std, 1),
+      pct(r.damping_diff_pct ?? diff(r.damping_ns_per_m, ss('damping_ns_per_m')))],
+    ['Joint stiffness', 'MN/m', fmt(ss('stiffness_n_per_m') * 1e-6),
+      pm(r.stiffness_n_per_m, r.stiffness_n_per_m_std, 1e-6), pct(diff(r.stiffness_n_per_m, ss('stiffness_n_per_m')))],
+    ['Displacement amplitude', 'µm', fmt(ss('displacement_amplitude_m') * 1e6),
+      pm(r.displacement_amplitude_m, r.displacement_amplitude_m_std, 1e6), '–'],
+    ['Force amplitude', 'N', '–', pm(r.force_amplitude_n, r.force_amplitude_n_std, 1), '–'],
+    ['Steady cycles', '', fmt(ss('cycles')), fmt(r.cycles ?? r.n_cycles), '–'],
+  ];
+  const extra = [];
+  if (r.friction_coefficient != null) {
+    extra.push(`friction coefficient μ = ${fmt(r.friction_coefficient, 3)} ± ${fmt(r.friction_coefficient_uncertainty, 2)} (${r.friction_source || '–'})`);
+  }
+  if (ss('min_boundary_radius_m') != null) extra.push(`smallest stick-slip boundary radius ${fmt(ss('min_boundary_radius_m') * 1e3)} mm`);
+  if (ss('macro_slip_fraction') != null) extra.push(`macro-slip fraction ${pct(100 * ss('macro_slip_fraction'))}`);
+  if (r.warnings && r.warnings.length) extra.push(`warnings: ${r.warnings.join('; ')}`);
+  return h('div', {}, table(['Joint property', 'Unit', 'Joint identification algorithm (stick-slip)', 'Hysteresis loop', 'Diff. (%)'],
+    rows, { class: 'table2', id: 'table2' }), extra.length ? h('p', { class: 'caption' }, extra.join(' · ')) : null);
+}

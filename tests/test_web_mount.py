@@ -1,0 +1,85 @@
+"""The dashboard as served: page, scripts and styles from the package with a same-origin
+CSP, nothing fetched from elsewhere, every ES-module import resolvable, API 404s intact."""
+
+from __future__ import annotations
+
+import re
+
+import httpx
+import pytest
+from fastapi import FastAPI
+from fastapi.staticfiles import StaticFiles
+from starlette.routing import Mount
+
+from labjoint.api import ApiSettings, create_app
+from labjoint.vocabulary import EFFECTS
+from labjoint.web.mount import mount_web, static_dir
+from test_api_helpers import live_server
+
+STATIC = static_dir()
+IMPORT = re.compile(r"""^\s*import\s[^'"]*['"]([^'"]+)['"]""", re.M)
+URL = re.compile(r"""(?:https?:)?//[a-z0-9.-]+\.[a-z]{2,}""", re.I)
+SVG_NS = "http://www.w3.org/2000/svg"
+
+
+@pytest.fixture()
+def client(tmp_path):
+    app = create_app(ApiSettings(data_dir=tmp_path / "data"))   # mounts the dashboard itself
+    with live_server(app) as url, httpx.Client(base_url=url) as c:
+        yield c
+
+
+def test_page_and_assets_are_served_same_origin_only(client):
+    r = client.get("/")
+    assert r.status_code == 200 and r.headers["content-type"].startswith("text/html")
+    csp = r.headers["content-security-policy"]
+    assert "default-src 'self'" in csp and "script-src 'self'" in csp
+    assert r.headers["x-content-type-options"] == "nosniff"
+    for src in re.findall(r'(?:src|href)="(/static/[^"]+)"', r.text):
+        asset = client.get(src)
+        assert asset.status_code == 200, src
+        assert "content-security-policy" in asset.headers
+    js = client.get("/static/js/main.js")
+    assert js.headers["content-type"].split(";")[0] == "text/javascript"
+
+
+def test_unknown_api_paths_keep_json_errors(client):
+    r = client.get("/api/v1/no-such-thing")
+    assert r.status_code == 404
+    assert r.headers["content-type"].startswith("application/json")
+    assert client.get("/static/js/nope.js").status_code == 404
+
+
+def test_effect_catalog_is_the_vocabulary(client):
+    effects = client.get("/web/effects.json").json()
+    assert [e["name"] for e in effects] == list(EFFECTS)
+    iwan = next(e for e in effects if e["name"] == "iwan")
+    assert [p["name"] for p in iwan["params"]] == [p.name for p in EFFECTS["iwan"].params]
+
+
+def test_mount_is_idempotent_and_replaces_a_plain_root_mount():
+    app = FastAPI()
+    app.mount("/", StaticFiles(directory=str(STATIC), html=True), name="web")
+    assert mount_web(app)
+    n = len(app.router.routes)
+    assert mount_web(app) and len(app.router.routes) == n
+    assert not any(isinstance(r, Mount) and r.path == "" for r in app.router.routes)
+    assert {"/", "/web/effects.json", "/static"} <= {getattr(r, "path", None) for r in app.router.routes}
+
+
+def test_no_file_refers_to_another_origin():
+    files = [p for p in STATIC.rglob("*") if p.is_file()]
+    assert any(p.suffix == ".js" for p in files) and any(p.suffix == ".css" for p in files)
+    for p in files:
+        text = p.read_text().replace(SVG_NS, "")
+        assert not URL.findall(text), f"{p.relative_to(STATIC)} refers to {URL.findall(text)}"
+        assert "@import" not in text and "@font-face" not in text, p
+
+
+def test_every_module_import_resolves_to_a_shipped_file():
+    modules = list((STATIC / "js").rglob("*.js"))
+    assert len(modules) >= 10
+    for m in modules:
+        for spec in IMPORT.findall(m.read_text()):
+            assert spec.startswith("."), f"{m.name} imports a bare specifier {spec!r}"
+            assert (m.parent / spec).resolve().is_file(), f"{m.name}: {spec} is missing"
