@@ -92,6 +92,8 @@ class RigConfig(_Strict):
     daq: DAQConfig
     limits: LimitsConfig = Field(default_factory=LimitsConfig)
     sim: dict[str, Any] = Field(default_factory=dict)
+    #: the REST service's settings, validated by labjoint.api.settings (a higher layer)
+    api: dict[str, Any] = Field(default_factory=dict)
     source: str = ""
 
     def normal_force_n(self, torque_nm: float) -> float:
