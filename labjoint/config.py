@@ -10,7 +10,8 @@ import tomllib
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import (BaseModel, ConfigDict, Field, ValidationError, ValidationInfo,
+                      field_validator)
 
 from labjoint.errors import ConfigError
 from labjoint.hardware.interfaces import ChannelSpec
@@ -77,13 +78,70 @@ class LimitsConfig(_Strict):
     ramp_vpp_per_s: float = Field(40.0, gt=0)
 
 
+#: Contact-zone outer radius over bolt radius, a = 3.5 r_b (seed 002 Eq. 2 / Sec. II.B).
+CONTACT_RATIO = 3.5
+
+
 class RigSection(_Strict):
+    """Backend, channel roles, data directory and the rig's geometry (SI units).
+
+    The geometry is written into every run's metadata by the run engine, so the
+    identification pipelines read it from the file: the stick-slip method (seed 002
+    Eqs. 2-9) the bolt radius r_b and contact radius a; the sensor calibration the mass
+    of beam 1 between the reference force sensor and the joint and that beam's support
+    stiffness/damping (to remove F = m a + k_s x + c_s v from the reference force); the
+    friction test (Eq. 10) the torque-to-normal-force ratio. Defaults are seed 002's
+    (478 N/Nm, a = 3.5 r_b) and the simulated rig's (M10 bolt r_b = 5 mm, 1 kg beams,
+    support 1e5 N/m and 100 N s/m); measure them on a real rig.
+    """
+
     backend: Literal["sim", "real"] = "sim"
-    torque_to_normal_n_per_nm: float = Field(478.0, gt=0)
+    torque_to_normal_n_per_nm: float = Field(478.0, gt=0, allow_inf_nan=False)
     joint_force_channel: str = "shear_nc"
     reference_force_channel: str = "force_ref"
     displacement_channels: tuple[str, str] = ("disp_1", "disp_2")
     data_dir: str = "data"
+    bolt_radius_m: float = Field(5.0e-3, gt=0, allow_inf_nan=False,
+                                 description="bolt radius r_b (m)")
+    contact_radius_m: float | None = Field(
+        None, gt=0, allow_inf_nan=False,
+        description="contact-zone outer radius a (m); default 3.5 r_b (seed 002)")
+    beam_mass_kg: float = Field(1.0, gt=0, allow_inf_nan=False,
+                                description="beam-1 mass between reference sensor and joint (kg)")
+    beam_support_stiffness_n_per_m: float = Field(
+        1.0e5, ge=0, allow_inf_nan=False, description="beam-1 support stiffness (N/m), 0: free")
+    beam_support_damping_ns_per_m: float = Field(
+        100.0, ge=0, allow_inf_nan=False, description="beam-1 support damping (N s/m), 0: none")
+
+    @field_validator("contact_radius_m")
+    @classmethod
+    def _contact_inside_pressure_zero(cls, a: float | None, info: ValidationInfo) -> float | None:
+        rb = info.data.get("bolt_radius_m")
+        if a is not None and rb is not None and not (rb < a <= CONTACT_RATIO * rb):
+            raise ValueError(f"contact radius a = {a} m must lie in (r_b, {CONTACT_RATIO} r_b] = "
+                             f"({rb}, {CONTACT_RATIO * rb}] m: Eq. 2's pressure is zero "
+                             "beyond 3.5 r_b (seed 002)")
+        return a
+
+    @property
+    def contact_radius(self) -> float:
+        """Contact-zone outer radius a (m): the configured one, else 3.5 r_b."""
+        return (CONTACT_RATIO * self.bolt_radius_m if self.contact_radius_m is None
+                else float(self.contact_radius_m))
+
+    def geometry(self) -> dict[str, float]:
+        """The run-metadata keys the identification pipelines read (SI units).
+
+        >>> g = RigSection().geometry()
+        >>> g["contact_radius_m"], g["torque_to_normal_n_per_nm"]
+        (0.0175, 478.0)
+        """
+        return {"bolt_radius_m": float(self.bolt_radius_m),
+                "contact_radius_m": self.contact_radius,
+                "beam_mass_kg": float(self.beam_mass_kg),
+                "beam_support_stiffness_n_per_m": float(self.beam_support_stiffness_n_per_m),
+                "beam_support_damping_ns_per_m": float(self.beam_support_damping_ns_per_m),
+                "torque_to_normal_n_per_nm": float(self.torque_to_normal_n_per_nm)}
 
 
 class RigConfig(_Strict):

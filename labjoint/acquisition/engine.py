@@ -37,7 +37,7 @@ import time
 import uuid
 from dataclasses import asdict, dataclass, field
 from datetime import datetime, timezone
-from typing import Any, Callable, Iterator, Sequence
+from typing import Any, Callable, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -50,9 +50,10 @@ from labjoint.acquisition.messages import (Checkpoint, Configure, Measure, Outpu
 from labjoint.acquisition.sampling import SamplingMixin
 from labjoint.config import LimitsConfig, RigConfig
 from labjoint.errors import ConfigError, HardwareError, InputError, LimitExceeded
-from labjoint.hardware.interfaces import DAQ, GeneratorSettings, SignalGenerator
+from labjoint.hardware.interfaces import DAQ, ChannelSpec, GeneratorSettings, SignalGenerator
 
-__all__ = ["FLOOR_VPP", "PlanResult", "RunEngine", "stop_on_signals", "utc_now"]
+__all__ = ["FLOOR_VPP", "PlanResult", "RunEngine", "channel_calibrations", "stop_on_signals",
+           "utc_now"]
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +63,62 @@ DEFAULT_TORQUE_RATIO = 478.0  # N per N*m, seed 002
 def utc_now() -> str:
     """Current UTC time, ISO 8601."""
     return datetime.now(timezone.utc).isoformat()
+
+
+def channel_calibrations(channels: Sequence[ChannelSpec], frequency_hz: float,
+                         sources: Mapping[str, Sequence[Mapping[str, Any]]] | None = None
+                         ) -> dict[str, dict[str, Any]]:
+    """Per channel, the factor a run at ``frequency_hz`` is read with, and where it came from.
+
+    The reader converts volts with ``ChannelSpec.units_per_volt`` at the run's
+    ``frequency_hz`` (the generator's read-back frequency): the channel's calibration
+    table interpolated linearly there (held at the nearest end outside the table), else
+    its ``sensitivity``. ``points`` are the table entries that factor comes from (one
+    if it matches a point or lies outside the table, else the two around it), each with
+    its provenance from ``sources`` (e.g. the calibration runs) when known.
+
+    >>> spec = ChannelSpec("nc", "nanocomposite", "force", "N", 301.0,
+    ...                    calibration=((300.0, 280.0), (500.0, 300.0)))
+    >>> c = channel_calibrations([spec], 400.0, {"nc": [{"frequency_hz": 300.0, "runs": ["a"]}]})
+    >>> c["nc"]["factor"], c["nc"]["interpolation"], c["nc"]["points"][0]["runs"]
+    (290.0, 'linear', ['a'])
+    """
+    out: dict[str, dict[str, Any]] = {}
+    f = float(frequency_hz)
+    for spec in channels:
+        entry: dict[str, Any] = {"factor": spec.units_per_volt(f), "unit": f"{spec.unit}/V",
+                                 "frequency_hz": f}
+        if not spec.calibration:
+            entry.update(source="sensitivity", interpolation="none")
+            out[spec.name] = entry
+            continue
+        tab = sorted((float(a), float(b)) for a, b in spec.calibration)
+        freqs = np.array([a for a, _ in tab])
+        i = int(np.searchsorted(freqs, f))
+        exact = np.flatnonzero(np.isclose(freqs, f, rtol=1e-9, atol=1e-9))
+        if exact.size:
+            used, how = [int(exact[0])], "exact"
+        elif i == 0 or i == len(tab):
+            used, how = [min(i, len(tab) - 1)], "nearest (outside the calibrated range)"
+        else:
+            used, how = [i - 1, i], "linear"
+        known = list((sources or {}).get(spec.name, ()))
+        points = []
+        for j in used:
+            fj, kj = tab[j]
+            prov = next((dict(p) for p in known
+                         if abs(float(p.get("frequency_hz", np.nan)) - fj) <= 1e-6), None)
+            point: dict[str, Any] = {"frequency_hz": fj, "factor": kj}
+            if prov is None:
+                point["source"] = "channel calibration table (config)"
+            else:
+                point.update({k: v for k, v in prov.items()
+                              if k not in ("frequency_hz", "factor", "n_per_v")})
+            points.append(point)
+        entry.update(source="calibration table", interpolation=how, points=points,
+                     table=[list(p) for p in tab])
+        out[spec.name] = entry
+    return out
 
 
 @dataclass
@@ -87,7 +144,10 @@ class RunEngine(DriveMixin, SamplingMixin):
     real rig, where ``torque_gate`` lets the operator confirm torque changes and pauses.
     ``config`` supplies channel roles, the torque-to-normal-force ratio, the backend name
     and the block size; without it roles are inferred from the channels' quantities.
-    ``clock``/``sleep`` pace the ramps (tests pass fakes)."""
+    ``clock``/``sleep`` pace the ramps (tests pass fakes). ``calibration_sources`` maps a
+    channel to the provenance of its calibration-table points (dicts with
+    ``frequency_hz``, ``n_per_v``, ``runs``...), recorded in each run's metadata beside
+    the factor used (see :func:`channel_calibrations`)."""
 
     def __init__(self, generator: SignalGenerator, daq: DAQ, limits: LimitsConfig,
                  callbacks: Sequence[Callable[[str, Any], None]] = (),
@@ -95,8 +155,11 @@ class RunEngine(DriveMixin, SamplingMixin):
                  sleep: Callable[[float], None] = time.sleep,
                  torque_gate: TorqueGate | None = None, rig: Any = None, *,
                  config: RigConfig | None = None, block_samples: int | None = None,
-                 ramp_step_s: float = 0.05, floor_vpp: float = FLOOR_VPP) -> None:
+                 ramp_step_s: float = 0.05, floor_vpp: float = FLOOR_VPP,
+                 calibration_sources: Mapping[str, Sequence[Mapping[str, Any]]] | None = None
+                 ) -> None:
         self.generator, self.daq, self.limits = generator, daq, limits
+        self.calibration_sources = dict(calibration_sources or {})
         self.callbacks = list(callbacks)
         self.clock, self.sleep = clock, sleep
         self.torque_gate, self.rig, self.config = torque_gate, rig, config
@@ -323,10 +386,15 @@ class RunEngine(DriveMixin, SamplingMixin):
             "daq": self._daq_info(),
         })
         md["displacement_channels"] = list(md["displacement_channels"])
+        md["calibration"] = channel_calibrations(self.daq.channels, md["frequency_hz"],
+                                                 self.calibration_sources)
+        if self.config is not None:  # bolt/contact radii, beam mass and support, 478 N/Nm
+            md.update(self.config.rig.geometry())
         if self._torque is not None:
             ratio = (self.config.rig.torque_to_normal_n_per_nm if self.config is not None
                      else DEFAULT_TORQUE_RATIO)
             md["torque_nm"] = float(self._torque)
+            md["torque_to_normal_n_per_nm"] = float(ratio)
             md["normal_force_n"] = float(self._torque * ratio)  # seed 002: 478 N/Nm
             if self._torque_requested is not None:
                 md["torque_requested_nm"] = float(self._torque_requested)

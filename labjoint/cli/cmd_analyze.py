@@ -1,4 +1,5 @@
-"""`labjoint analyze RUN... [--method loop|stickslip|both] [--json]`."""
+"""`labjoint analyze RUN... [--method loop|stickslip|both] [--friction MU | --friction-run RUN]
+[--data-dir DIR] [--json]`."""
 
 from __future__ import annotations
 
@@ -20,8 +21,15 @@ def add_analyze_arguments(p: argparse.ArgumentParser) -> None:
                    help="hysteresis loop (seed 002 Eq. 1), stick-slip boundary (Eqs. 2-9) or both")
     p.add_argument("--force", choices=["joint", "reference"], default="joint",
                    help="force sensor: the nanocomposite joint sensor (default) or the reference")
-    p.add_argument("--friction", type=float, default=None,
-                   help="friction coefficient for --method stickslip (default: the identified one)")
+    mu = p.add_mutually_exclusive_group()
+    mu.add_argument("--friction", type=float, default=None,
+                    help="friction coefficient for --method stickslip (default: the identified one)")
+    mu.add_argument("--friction-run", default=None, metavar="RUN",
+                    help="identify the friction coefficient from this friction-test run "
+                         "(seed 002 Eq. 10) for this analysis")
+    p.add_argument("--data-dir", default=None,
+                   help="where the identified friction coefficient is kept "
+                        "(default: the config's data_dir)")
     p.add_argument("--save", action="store_true", help="store results in each run file's processed group")
 
 
@@ -73,8 +81,18 @@ def loop_row(item: Any, force: str, save: bool) -> dict[str, Any]:
 
 
 def analyze_paths(paths: list[str], method: str = "loop", force: str = "joint",
-                  friction: float | None = None, save: bool = False, data_dir: str | None = None,
-                  progress: bool = False) -> list[dict[str, Any]]:
+                  friction: Any = None, save: bool = False, data_dir: str | None = None,
+                  progress: bool = False, friction_run: str | None = None
+                  ) -> list[dict[str, Any]]:
+    """Rows of ``labjoint analyze``; ``friction`` a number or Identified, or ``friction_run``
+    a friction-test file mu is identified from (else the one stored in ``data_dir``)."""
+    if friction_run is not None:
+        if method == "loop":
+            raise InputError("applies to --method stickslip or both", field="--friction-run")
+        if friction is not None:
+            raise InputError("give --friction or --friction-run, not both", field="--friction-run")
+        from labjoint.cli.cmd_calibrate import friction_from_file
+        friction = friction_from_file(friction_run)
     runs = load_runs(paths)
     bar = Progress(len(runs), "analyze", enabled=progress)
     rows = []
@@ -104,12 +122,12 @@ def _scale(v: Any, k: float) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    data_dir = None
-    if args.method != "loop":
+    data_dir = args.data_dir
+    if args.method != "loop" and data_dir is None:
         from labjoint.config import load_config
         data_dir = load_config(args.config).rig.data_dir
     rows = analyze_paths(args.runs, args.method, args.force, args.friction, args.save, data_dir,
-                         progress=not (args.json or args.quiet))
+                         progress=not (args.json or args.quiet), friction_run=args.friction_run)
     if args.json:
         emit_json({"runs": rows})
     elif args.method == "loop":

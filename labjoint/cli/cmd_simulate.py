@@ -1,6 +1,8 @@
 """`labjoint simulate`: run a plan on the simulated rig, write run files, print results.
 
-The default is seed 002's amplitude sweep (Table 3) at 400 Hz and 5 Nm.
+The default is seed 002's amplitude sweep (Table 3) at 400 Hz and 5 Nm. Sensor
+calibrations stored in the output directory (``labjoint calibrate``) are applied to the
+channels first; each run's metadata records the factor it is read with.
 """
 
 from __future__ import annotations
@@ -55,6 +57,7 @@ def run(args: argparse.Namespace) -> int:
     from labjoint.acquisition.rig import open_rig
     from labjoint.cli.cmd_analyze import analyze_paths, print_loop_table
     from labjoint.config import load_config
+    from labjoint.daemon.daemon import calibrated_config
     from labjoint.storage.catalog import Catalog
     from labjoint.storage.writer import RunWriter
 
@@ -73,6 +76,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("must be at least 1", field="--cycles")
     out = Path(args.out or cfg.rig.data_dir)
     out.mkdir(parents=True, exist_ok=True)
+    cfg, sources = calibrated_config(cfg, out)
     plan = (load_plan(args.plan) if args.plan else
             amplitude_sweep(args.sweep, frequency_hz=args.frequency, torque_nm=args.torque,
                             n_cycles=args.cycles))
@@ -87,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     with open_rig(cfg) as rig:
-        result = rig.engine([writer, progress]).run(plan)
+        result = rig.engine([writer, progress], calibration_sources=sources).run(plan)
     elapsed = time.perf_counter() - t0
     paths = [str(out / f"{r.name}.h5") for r in result.runs if r.n_samples > 0]
     rows = analyze_paths(paths, "loop", progress=False) if paths else []
@@ -95,9 +99,15 @@ def run(args: argparse.Namespace) -> int:
         row["status"] = r.status
     if args.json:
         emit_json({"status": result.status, "reason": result.reason, "data_dir": str(out),
-                   "elapsed_s": elapsed, "runs": rows})
+                   "elapsed_s": elapsed, "runs": rows,
+                   "calibrations": {c.name: [list(p) for p in c.calibration]
+                                    for c in cfg.daq.channels if c.name in sources}})
     else:
         print_loop_table(rows)
+        units = {c.name: c.unit for c in cfg.daq.channels}
+        for name, pts in sources.items():
+            print(f"{name}: stored calibration, " + ", ".join(
+                f"{p['n_per_v']:.4g} {units[name]}/V at {p['frequency_hz']:g} Hz" for p in pts))
         print(f"\n{len(paths)} run files in {out} ({result.status}{': ' + result.reason if result.reason else ''}); "
               f"{elapsed:.1f} s")
     return 0 if result.status == "complete" else 1

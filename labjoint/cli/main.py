@@ -19,6 +19,8 @@ COMMANDS = {
     "simulate": ("cmd_simulate", "run", "run a plan on the simulated rig and analyse it"),
     "import": ("cmd_import", "run", "import CSV files (design.md format) into run files"),
     "analyze": ("cmd_analyze", "run", "identify energy loss, damping and stiffness of runs"),
+    "calibrate": ("cmd_calibrate", "calibrate", "calibrate the joint-force sensor (N/V per frequency)"),
+    "friction": ("cmd_calibrate", "friction", "identify mu from a friction-test run and store it"),
     "runs": ("cmd_runs", "run", "query the run catalog"),
     "fit": ("cmd_models", "fit", "fit a joint model to runs"),
     "diagnose": ("cmd_models", "diagnose", "where a model fails and which effect is missing"),

@@ -8,6 +8,9 @@ plan runs on a :class:`~labjoint.acquisition.engine.RunEngine` whose documents g
 :class:`~labjoint.storage.RunWriter` (HDF5, SWMR, flushed at least every second; the
 catalog follows) and to a :class:`~labjoint.daemon.monitor.RunTracker` (sample counts,
 counter continuity). Samples never stay in memory beyond the block being written.
+The sensor calibrations stored in ``<data_dir>/calibrations.json`` (``labjoint
+calibrate``) are applied to the DAQ channels when the rig opens and re-read before
+every job (:func:`calibrated_config`); each run's metadata records the factor used.
 
 A watcher thread polls the queue every ``poll_s`` while a job runs: a cancel request or
 an emergency stop aborts the run (output off at once, no ramp); it also publishes the
@@ -36,7 +39,7 @@ from labjoint.daemon.lock import DaemonLock
 from labjoint.daemon.monitor import (RunTracker, WatchedGenerator, expected_records, job_outcome,
                                     observe)
 from labjoint.daemon.queue import Job, JobQueue, utc_now
-from labjoint.errors import HardwareError
+from labjoint.errors import HardwareError, InputError
 from labjoint.storage import Catalog, RunWriter, recover_all
 
 log = logging.getLogger(__name__)
@@ -51,6 +54,34 @@ def _open_rig(config: RigConfig) -> Any:
     from labjoint.acquisition.rig import open_rig
 
     return open_rig(config)
+
+
+def calibrated_config(config: RigConfig, data_dir: str | Path
+                      ) -> tuple[RigConfig, dict[str, list[dict[str, Any]]]]:
+    """``config`` with the calibrations stored in ``<data_dir>/calibrations.json`` applied.
+
+    Each calibrated channel gets the store's whole (frequency_hz, N/V) table
+    (:meth:`~labjoint.identify.calibration.CalibrationStore.apply`); the factor a run is
+    read with is that table interpolated at the run's drive frequency (the generator's
+    read-back ``frequency_hz`` in its metadata), by the reader and the engine's safety
+    checks alike. Also returns, per channel, the provenance of every table point (N/V,
+    uncertainty, calibration runs, store file) for the engine to record in each run's
+    metadata. An unreadable store raises InputError naming it.
+    """
+    from labjoint.identify.calibration import CalibrationStore  # identify is below daemon
+
+    store = CalibrationStore.open(Path(data_dir))
+    tables = {s.name: s.calibration for s in store.apply(config.daq.specs()) if s.calibration}
+    if not tables:
+        return config, {}
+    chans = [c.model_copy(update={"calibration": [tuple(p) for p in tables[c.name]]})
+             if c.name in tables else c for c in config.daq.channels]
+    cfg = config.model_copy(update={"daq": config.daq.model_copy(update={"channels": chans})})
+    sources = {name: [{"frequency_hz": q.frequency_hz, "n_per_v": q.n_per_v,
+                       "uncertainty": q.uncertainty, "runs": list(q.runs),
+                       "created": q.created, "store": str(store.path.resolve())}
+                      for q in store.channels[name]] for name in tables}
+    return cfg, sources
 
 
 def default_paths(config: RigConfig, data_dir: str | Path | None = None,
@@ -104,6 +135,8 @@ class Daemon:
         self._job: Job | None = None
         self._tracker: RunTracker | None = None
         self._abort_kind: str | None = None
+        self._cal_specs: list[Any] = []
+        self._cal_sources: dict[str, list[dict[str, Any]]] = {}
         self._last_publish = -1e300
         self._thread: threading.Thread | None = None
 
@@ -115,7 +148,13 @@ class Daemon:
         self._state = "starting"
         self._lock.acquire()
         try:
-            self._rig = self.rig_factory(self.config)
+            try:
+                cfg, self._cal_sources = calibrated_config(self.config, self.data_dir)
+            except InputError as exc:  # each job retries and fails with this message
+                log.error("stored calibrations not applied: %s", exc)
+                cfg, self._cal_sources = self.config, {}
+            self._cal_specs = cfg.daq.specs()
+            self._rig = self.rig_factory(cfg)
             self._gen = WatchedGenerator(self._rig.generator)
             self._daq = self._rig.daq
             if not self._output_off("daemon start"):
@@ -280,6 +319,7 @@ class Daemon:
         status, message, error, pending = "failed", "", None, None
         watcher = None
         try:
+            self._refresh_calibrations()
             engine = self._make_engine(job, [writer, tracker])
             plan = observe(load_plan(dict(job.plan)), tracker, self._daq.sample_rate_hz)
             plan.__name__ = str(job.plan.get("plan", "plan"))
@@ -319,6 +359,17 @@ class Daemon:
         log.info("job %s %s: %s", job.id, final.status, final.message)
         return final
 
+    def _refresh_calibrations(self) -> None:
+        """Re-read the calibration store before a job; reconfigure the DAQ's channels
+        (output off between jobs) only if the calibrated channels changed."""
+        cfg, sources = calibrated_config(self.config, self.data_dir)
+        specs = cfg.daq.specs()
+        if specs != self._cal_specs:
+            self._daq.configure(specs, self._daq.sample_rate_hz)
+            log.info("calibrations applied: %s", {n: len(v) for n, v in sources.items()})
+            self._cal_specs = specs
+        self._cal_sources = sources
+
     def _make_engine(self, job: Job, callbacks: list) -> RunEngine:
         sim = getattr(self._rig, "sim", None)
         on_operator = self.operator_torque if self.operator_torque is not None else sim is None
@@ -326,7 +377,8 @@ class Daemon:
         self._gate = QueueGate(self.queue, job.id, self.poll_s, apply_torque=apply)
         self._engine = RunEngine(self._gen, self._daq, self.config.limits, callbacks,
                                  clock=self.clock, sleep=self.sleep, torque_gate=self._gate,
-                                 rig=None if on_operator else sim, config=self.config)
+                                 rig=None if on_operator else sim, config=self.config,
+                                 calibration_sources=self._cal_sources)
         return self._engine
 
     def _cancelled(self, job_id: str) -> bool:

@@ -257,24 +257,48 @@ def steady_span(displacement: np.ndarray, sample_rate_hz: float, frequency_hz: f
     return slice(int(first[st.start]), int(stop))
 
 
-def identify_friction(run: Any, *, torque_to_normal_n_per_nm: float =
-                      DEFAULT_TORQUE_TO_NORMAL_N_PER_NM, cutoff_hz: float | None = PAPER_CUTOFF_HZ,
+#: Run-metadata key of the torque-to-normal-force ratio (written by the run engine).
+RATIO_KEY = "torque_to_normal_n_per_nm"
+
+
+def run_normal_force(md: dict[str, Any], torque_to_normal_n_per_nm: float | None = None
+                     ) -> float:
+    """Bolt normal force (N) of a run from its metadata.
+
+    A given ``torque_to_normal_n_per_nm`` overrides the file: ``torque_nm`` x it.
+    Otherwise the run's ``normal_force_n``, else ``torque_nm`` x the run's
+    ``torque_to_normal_n_per_nm`` (seed 002's 478 N/Nm if absent).
+    """
+    torque = md.get("torque_nm")
+    if torque_to_normal_n_per_nm is None:
+        n = md.get("normal_force_n")
+        if n is not None:
+            return float(n)
+        ratio = float(md.get(RATIO_KEY) or DEFAULT_TORQUE_TO_NORMAL_N_PER_NM)
+    else:
+        ratio = float(torque_to_normal_n_per_nm)
+    if torque is None:
+        raise InputError("run gives neither normal_force_n nor torque_nm" if
+                         torque_to_normal_n_per_nm is None else
+                         "a torque-to-normal ratio needs the run's torque_nm", field="torque_nm")
+    return normal_force(float(torque), ratio)
+
+
+def identify_friction(run: Any, *, torque_to_normal_n_per_nm: float | None = None,
+                      cutoff_hz: float | None = PAPER_CUTOFF_HZ,
                       normal_force_rel_uncertainty: float = 0.0,
                       force_rel_uncertainty: float = 0.0) -> Identified:
     """seed 002 Eq. 10 on a friction-test run (macro-slip, e.g. 100 Hz and 2 Nm).
 
     The force is the run's joint force (the nanocomposite sensor through its
-    calibration at the run's frequency); the normal force is the run's
-    ``normal_force_n``, else ``torque_nm`` x ``torque_to_normal_n_per_nm``.
-    Steady cycles only, low-passed as in seed 002 (3 kHz).
+    calibration at the run's frequency); the normal force comes from the run's metadata
+    (:func:`run_normal_force`: ``normal_force_n``, else ``torque_nm`` x the run's
+    ``torque_to_normal_n_per_nm``); a given ``torque_to_normal_n_per_nm`` overrides
+    it as ``torque_nm`` x that ratio. Steady cycles only, low-passed as in seed 002
+    (3 kHz).
     """
     md = run.metadata
-    n = md.get("normal_force_n")
-    if n is None:
-        torque = md.get("torque_nm")
-        if torque is None:
-            raise InputError("run gives neither normal_force_n nor torque_nm", field="torque_nm")
-        n = normal_force(float(torque), torque_to_normal_n_per_nm)
+    n = run_normal_force(md, torque_to_normal_n_per_nm)
     fs = run.sample_rate_hz
     u = validate.signal(run.displacement, "displacement", min_samples=16)
     F = validate.signal(run.force, "force", min_samples=16)

@@ -30,7 +30,8 @@ from numba import njit
 
 from labjoint.errors import InputError
 from labjoint.identify.contact import ContactPressure, horner, invert_loads
-from labjoint.identify.friction import Identified, normal_force, shear_layer_stiffness
+from labjoint.identify.friction import (DEFAULT_TORQUE_TO_NORMAL_N_PER_NM, RATIO_KEY, Identified,
+                                        normal_force, shear_layer_stiffness)
 from labjoint.signal import validate
 from labjoint.signal.filter import PAPER_CUTOFF_HZ, analysis_cutoff, lowpass
 from labjoint.signal.frequency import estimate_frequency
@@ -310,7 +311,8 @@ class StickSlipIdentifier:
     :func:`labjoint.identify.friction.friction_coefficient`); ``shear_stiffness``
     K_t (None: identified from the same run's loop slope, K_t = K / 2, Eq. 9, with
     ``stiffness_method``); contact geometry (None: run metadata, else defaults);
-    ``torque_to_normal_n_per_nm`` (seed 002: 478) when the run gives only a torque.
+    ``torque_to_normal_n_per_nm`` when the run gives only a torque (None: the run's
+    metadata ``torque_to_normal_n_per_nm``, else seed 002's 478 N/Nm).
     After :meth:`fit`, ``result_`` holds a :class:`StickSlipResult`.
     """
 
@@ -318,7 +320,7 @@ class StickSlipIdentifier:
                  shear_stiffness: float | Identified | None = None, *,
                  bolt_radius_m: float | None = None, contact_radius_m: float | None = None,
                  inner_radius_m: float | None = None, head_radius_m: float | None = None,
-                 sigma_s_mode: str = "force", torque_to_normal_n_per_nm: float = 478.0,
+                 sigma_s_mode: str = "force", torque_to_normal_n_per_nm: float | None = None,
                  stiffness_method: str = "lsq", cutoff_hz: float | None = PAPER_CUTOFF_HZ,
                  rel_tol: float = 0.01) -> None:
         self.friction_coefficient = friction_coefficient
@@ -345,7 +347,10 @@ class StickSlipIdentifier:
             if torque is None:
                 raise InputError("run gives neither normal_force_n nor torque_nm",
                                  field="torque_nm")
-            n = normal_force(float(torque), self.torque_to_normal_n_per_nm)
+            ratio = self.torque_to_normal_n_per_nm
+            if ratio is None:   # the run's ratio (engine metadata), else seed 002's 478 N/Nm
+                ratio = float(md.get(RATIO_KEY) or DEFAULT_TORQUE_TO_NORMAL_N_PER_NM)
+            n = normal_force(float(torque), ratio)
         geo = {}
         for attr, key in GEOMETRY_KEYS.items():
             v = getattr(self, attr)
