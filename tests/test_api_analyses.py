@@ -107,15 +107,30 @@ def test_bad_analysis_requests(served, body, status, word):
     assert r.status_code == status and word in r.text
 
 
-def test_model_endpoints_say_501_until_compare_exists(served):
-    import labjoint.compare as compare
+@pytest.mark.parametrize("op,options,word", [
+    ("fit", {"colour": "red"}, "options.colour"),
+    ("fit", {"candidates": ["viscous"]}, "options.candidates"),      # a diagnose option
+    ("diagnose", {"factor": -1}, "options.factor"),
+    ("diagnose", {"alpha": 2}, "options.alpha"),
+    ("diagnose", {"progress": 1}, "options.progress"),                 # the server's own
+    ("ladder", {"seed": "x"}, "options.seed"),
+    ("ladder", {"multistart": 0}, "options.multistart"),
+    ("ladder", {"validate": ["../lin_a"]}, "options.validate"),
+])
+def test_bad_model_options_are_422_before_any_job(served, op, options, word):
     http, _ = served
-    if hasattr(compare, "fit"):
-        pytest.skip("labjoint.compare provides fit: covered by the model job test")
-    for op in ("fit", "diagnose", "ladder"):
-        r = http.post(f"/models/{op}",
-                      json={"runs": ["lin_a"], "model": "linear_stiffness+viscous"})
-        assert r.status_code == 501 and "labjoint.compare" in r.json()["error"]["message"]
+    before = len(http.get("/models/jobs").json()["items"])
+    r = http.post(f"/models/{op}", json={"runs": ["lin_a"], "model": "linear_stiffness",
+                                         "options": options})
+    assert r.status_code == 422 and word in r.json()["error"]["message"], r.text
+    assert len(http.get("/models/jobs").json()["items"]) == before
+
+
+def test_validation_runs_named_in_options_must_be_catalogued(served):
+    http, _ = served
+    r = http.post("/models/diagnose", json={"runs": ["lin_a"], "model": "linear_stiffness",
+                                            "options": {"validate": ["no_such_run"]}})
+    assert r.status_code == 404 and "no_such_run" in r.json()["error"]["message"]
     r = http.post("/models/fit", json={"runs": ["lin_a"], "model": "Linear Stiffness"})
     assert r.status_code == 422
 
@@ -160,10 +175,15 @@ def test_model_jobs_call_compare_with_the_run_files(served, monkeypatch):
     assert job["result"]["params"]["lin_b"]["c"] == pytest.approx(c, rel=1e-2)
     paths, model, options = calls[0]
     assert paths == [str((d / "lin_b.h5").resolve())]
+    progress = options.pop("progress")               # compare's messages reach the job
+    assert callable(progress)
     assert model == "linear_stiffness+viscous" and options == {"multistart": 2}
-    r = http.post("/models/ladder", json={"runs": ["lin_a"], "max_steps": 3})
+    r = http.post("/models/ladder", json={"runs": ["lin_a"], "max_steps": 3,
+                                          "options": {"validate": ["lin_b"]}})
     _finished(http, "model", r.json()["id"])
-    assert calls[1][2] == {"max_steps": 3}
+    calls[1][2].pop("progress")
+    # a validation run named by the client reaches compare as its file in the data dir
+    assert calls[1][2] == {"max_steps": 3, "validate": [str((d / "lin_b.h5").resolve())]}
     listed = http.get("/models/jobs", params={"status": "complete"}).json()["items"]
     assert {j["kind"] for j in listed} == {"model_fit", "model_ladder"}
 

@@ -112,12 +112,70 @@ def sim_config_file(tmp_path: Path, api: str = "") -> Path:
                       f'visa_library = "{CONFIG_DIR / "afg1022-sim.yaml"}@sim"')):
         assert old in text, old
         text = text.replace(old, new)
-    if api and "\n[api]" not in text:
-        text += "\n[api]\n" + api
+    text = _with_api(text, api)
     p = tmp_path / "rig.toml"
     p.write_text(text)
     return p
 
 
+def _with_api(text: str, api: str) -> str:
+    """``text`` (a rig config) with the ``key = value`` lines of ``api`` set in its
+    ``[api]`` table: replacing a key already there, else added (TOML forbids repeats)."""
+    if not api.strip():
+        return text
+    if "\n[api]" not in text:
+        return text + "\n[api]\n" + api
+    head, tail = text.split("\n[api]\n", 1)
+    nxt = tail.find("\n[")
+    body, rest = (tail, "") if nxt < 0 else (tail[:nxt + 1], tail[nxt + 1:])
+    lines = body.splitlines()
+    for new in (ln for ln in api.splitlines() if "=" in ln):
+        key = new.split("=", 1)[0].strip()
+        at = [i for i, ln in enumerate(lines) if ln.split("=", 1)[0].strip() == key]
+        if at:
+            lines[at[0]] = new
+        else:
+            lines.insert(0, new)
+    return head + "\n[api]\n" + "\n".join(lines) + "\n" + rest
+
+
 #: Plan settings that keep simulated plans short.
 SHORT = {"n_cycles": 20, "steady_max_cycles": 40, "steady_window": 5, "steady_tol": 0.05}
+
+
+def write_sim_run(data_dir: Path, catalog: Catalog, name: str, *, frequency_hz: float = 400.0,
+                  vpp: float = 8.0, torque_nm: float = 5.0, seconds: float = 0.25,
+                  settle_s: float = 0.0, status: str = "complete", stop: bool = True) -> Any:
+    """A run of the simulated rig (configs/rig-sim.toml, 50 kS/s) from rest, so its first
+    cycles are the start transient, written through RunWriter as the engine writes it.
+    ``stop=False`` leaves the run open (status "running"): the writer is returned, call
+    ``writer("stop", RunStop(f"uid-{name}", ...))`` to finish it."""
+    from labjoint.config import load_config
+    from labjoint.hardware.interfaces import GeneratorSettings
+    from labjoint.hardware.sim.config import SimConfig
+    from labjoint.hardware.sim.rig import SimRig
+
+    cfg = load_config()
+    table = dict(cfg.sim)
+    table["contact"] = {**table.get("contact", {}), "torque_nm": torque_nm}
+    specs = cfg.daq.specs()
+    fs = cfg.daq.sample_rate_hz
+    rig = SimRig(SimConfig.from_rig(cfg.model_copy(update={"sim": table})), specs, fs)
+    on = GeneratorSettings(frequency_hz, vpp, 0.0, True)
+    if settle_s > 0:
+        rig.advance(int(settle_s * fs), on)
+    volts = rig.advance(int(seconds * fs), on)
+    md = {"frequency_hz": frequency_hz, "excitation_vpp": vpp, "torque_nm": torque_nm,
+          "normal_force_n": 478.0 * torque_nm, "plan": "dwell", "plan_step": 0,
+          "displacement_channels": ["disp_1", "disp_2"], "joint_force_channel": "shear_nc",
+          "reference_force_channel": "force_ref"}
+    w = RunWriter(data_dir, catalog=catalog, flush_interval_s=0.0)
+    uid = f"uid-{name}"
+    w("start", RunStart(uid, name, specs, rig.sample_rate_hz, md))
+    for a in range(0, volts.shape[1], 5000):
+        w("block", Block(uid, a, volts[:, a:a + 5000]))
+    if not stop:
+        w.flush()
+        return w
+    w("stop", RunStop(uid, status, n_samples=volts.shape[1]))
+    return data_dir / f"{name}.h5"

@@ -16,7 +16,6 @@ import httpx
 import pytest
 import schemathesis
 from hypothesis import HealthCheck, settings
-from schemathesis.checks import not_a_server_error
 from schemathesis.specs.openapi.checks import positive_data_acceptance
 
 from labjoint.api import ApiSettings, create_app
@@ -51,18 +50,10 @@ def base_url(tmp_path_factory):
         yield url
 
 
-def _compare_missing(path: str) -> bool:
-    import labjoint.compare as compare
-    return path.startswith("/api/v1/models/") and not hasattr(compare, path.rsplit("/", 1)[1])
-
-
 @schema.parametrize()
 @settings(max_examples=20, deadline=None, database=None,
           suppress_health_check=list(HealthCheck))
 def test_api_conforms_to_its_schema(case, base_url):
-    excluded = [positive_data_acceptance]
-    if _compare_missing(case.operation.path):   # documented 501 until labjoint.compare lands
-        excluded.append(not_a_server_error)
-    response = case.call_and_validate(base_url=base_url, headers=AUTH, excluded_checks=excluded)
-    assert response.status_code < 500 or (response.status_code == 501
-                                          and _compare_missing(case.operation.path))
+    response = case.call_and_validate(base_url=base_url, headers=AUTH,
+                                      excluded_checks=[positive_data_acceptance])
+    assert response.status_code < 500

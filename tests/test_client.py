@@ -82,6 +82,25 @@ def test_analyze_and_results_table(lab):
     assert float(cells[6]) == pytest.approx(K * 1e-6, rel=0.01)
 
 
+def test_loops_of_the_linear_joint_and_no_saved_ladder(lab):
+    """F = k u + c du/dt: every steady loop is the ellipse of area pi c omega U^2 and
+    slope k (seed 002 Eq. 1)."""
+    body = lab.loops("run_1", points_per_cycle=64, max_cycles=4)
+    assert len(body["cycles"]) == 4 and body["points_per_cycle"] == 64
+    w = math.pi * C * 2 * math.pi * F * U**2
+    for c in body["cycles"]:
+        u, f = np.array(c["displacement_m"]), np.array(c["force_n"])
+        assert u.size == f.size == 64
+        assert c["energy_loss_j"] == pytest.approx(w, rel=0.01)
+        assert c["stiffness_n_per_m"] == pytest.approx(K, rel=0.01)
+        fit = np.polyfit(u, f, 1)[0]                          # the drawn loop's slope
+        assert fit == pytest.approx(K, rel=0.01)
+    assert lab.ladders("run_1") == []
+    with pytest.raises(ApiError) as e:
+        lab.loops("run_1", max_cycles=0)
+    assert e.value.status == 422
+
+
 def test_plans_through_the_client(lab):
     job = lab.submit_plan("dwell", frequency_hz=400, amplitude_vpp=2, n_cycles=5)
     assert job["status"] == "queued" and lab.plan(job["id"])["plan"]["amplitude_vpp"] == 2

@@ -53,6 +53,17 @@ def test_runs_list_filters_and_run_page(web):
     name = s.sweep[-1]                                       # 20 Vpp
     page.click(f"tr[data-run='{name}'] a")
     wait_attr(page, "svg[data-plot=loop]", "data-points", lambda v: int(v) > 100)
+    # the loops drawn are the steady cycles the server found, each closed on itself
+    steady = s.http.get(f"/runs/{name}/loops", params={"max_cycles": 8,
+                                                       "points_per_cycle": 200}).json()
+    loop = page.locator("svg[data-plot=loop]")
+    assert loop.get_attribute("data-source") == "steady"
+    assert int(loop.get_attribute("data-cycles")) == len(steady["cycles"]) > 0
+    assert int(loop.get_attribute("data-points")) == sum(len(c["displacement_m"]) + 1
+                                                         for c in steady["cycles"])
+    u_um = [v * 1e6 for c in steady["cycles"] for v in c["displacement_m"]]
+    assert float(loop.get_attribute("data-xmin")) == pytest.approx(min(u_um), rel=1e-6)
+    assert page.locator("#loop-cycles tbody tr").count() == len(steady["cycles"])
     for ch in ("force_ref", "disp_1", "disp_2", "shear_nc"):
         assert int(wait_attr(page, f"svg[data-plot=raw-{ch}]", "data-points", int)) > 100
     page.click("#identify-both")
@@ -93,6 +104,14 @@ def test_live_view_follows_a_recording_and_stops_it(web):
     assert later > first                                  # the loop follows the recording
     assert page.inner_text("#output-state") == "ON"
     screenshot(page, "live-recording")
+    # the recording's own run page: its last cycles as recorded, not (yet) steady ones
+    recording = s.http.get("/rig").json()["daemon"]["run"]
+    other = open_page(browser, s.url)
+    other.page.goto(f"{s.url}/#/run/{recording}")
+    wait_attr(other.page, "svg[data-plot=loop]", "data-points", lambda v: int(v) > 100)
+    assert other.page.get_attribute("svg[data-plot=loop]", "data-source") == "raw"
+    assert not other.problems(), other.problems()
+    other.page.context.close()
     page.click("#estop")
     page.wait_for_selector("#estop-banner:not([hidden])")
     page.wait_for_selector("#plan-status.aborted", timeout=30000)
@@ -140,6 +159,9 @@ def test_adding_a_candidate_grows_the_ladder_with_lower_nrmse(web):
     assert int(wait_attr(page, "svg[data-plot=residual-grid]", "data-cells", int)) == len(s.sweep)
     assert int(page.get_attribute("svg[data-plot=dissipation]", "data-points")) >= len(s.sweep)
     assert page.locator("svg[data-plot^=overlay-]").count() == len(s.sweep)
+    # the overlays are the diagnosis's own loops: no separate fit was needed
+    kinds = {j["kind"] for j in s.http.get("/models/jobs", params={"limit": 500}).json()["items"]}
+    assert "model_diagnose" in kinds and "model_fit" not in kinds
     offered = page.locator("#candidates li").evaluate_all("els => els.map(e => e.dataset.effect)")
     assert set(offered) <= set(TRY) and offered
     button = page.locator("#candidates li.significant button.add-effect").first
@@ -153,6 +175,40 @@ def test_adding_a_candidate_grows_the_ladder_with_lower_nrmse(web):
     assert float(steps[1]) < float(steps[0])
     assert page.input_value("#model-expr") == f"linear_stiffness+{effect}"
     screenshot(page, "models-ladder")
+    assert not w.problems(), w.problems()
+
+
+def test_models_page_shows_a_saved_ladder_without_recomputing(web):
+    s, browser = web
+    r = s.http.post("/models/ladder", json={"runs": s.sweep, "model": "linear_stiffness",
+                                            "max_steps": 1, "options": {"candidates": ["coulomb"]}})
+    assert r.status_code == 202, r.text
+    job = wait_for(lambda: s.http.get(f"/models/jobs/{r.json()['id']}").json(),
+                   lambda j: j["status"] in ("complete", "failed"), timeout=60)
+    assert job["status"] == "complete", job["error"]
+    steps = job["result"]["steps"]
+    w = open_page(browser, s.url)                    # reading needs no token
+    page = w.page
+    page.goto(f"{s.url}/#/models")
+    page.wait_for_selector("#run-pick input")
+    jobs_before = len(s.http.get("/models/jobs").json()["items"])
+    for box in page.locator("#run-pick input").all():
+        box.set_checked(box.get_attribute("value") in s.sweep)
+    card = f".saved-ladder[data-key='{job['result']['key']}']"
+    wait_for(lambda: page.locator(f"{card} .caption").all_text_contents(),
+             lambda t: t and t[0].startswith("These runs"), timeout=20)   # saved on exactly these
+    sel = f"{card} svg[data-plot^=saved-ladder-]"
+    values = wait_attr(page, sel, "data-values", lambda v: v != "", 20).split(",")
+    assert [float(v) for v in values] == pytest.approx([st["nrmse"] for st in steps], rel=1e-9)
+    label = page.locator(sel).locator("text.hline-label").text_content()   # the floor drawn
+    assert label.startswith("noise floor")
+    assert float(label.split()[-1]) == pytest.approx(job["result"]["noise_floor"], rel=5e-3)
+    page.locator(f"{card} button.use-ladder").click()
+    main = wait_attr(page, "svg[data-plot=ladder]", "data-values", lambda v: v != "", 10)
+    assert main == ",".join(values)
+    assert page.input_value("#model-expr") == job["result"]["final_model"]
+    assert len(s.http.get("/models/jobs").json()["items"]) == jobs_before   # nothing recomputed
+    screenshot(page, "models-saved-ladder")
     assert not w.problems(), w.problems()
 
 

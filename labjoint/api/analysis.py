@@ -84,7 +84,8 @@ def parse_options(method: str, options: dict[str, Any], data_dir: Path) -> dict[
     return opts
 
 
-def _blocks(rf: RunFile, force: str) -> Iterator[np.ndarray]:
+def loop_blocks(rf: RunFile, force: str) -> Iterator[np.ndarray]:
+    """(displacement m, joint or reference force N) blocks of an open run, streamed."""
     r = roles(rf)
     disp, fch = r["displacement"], r["force" if force == "joint" else "reference_force"]
     if not disp or not fch:
@@ -98,7 +99,7 @@ def _blocks(rf: RunFile, force: str) -> Iterator[np.ndarray]:
 def hysteresis_run(rf: RunFile, opts: dict[str, Any]) -> dict[str, Any]:
     """Summary of the loop pipeline on one open run (design.md ``analyze`` fields)."""
     f = opts["frequency_hz"] if opts["frequency_hz"] is not None else rf.frequency_hz
-    result = analyze_blocks(_blocks(rf, opts["force"]), rf.sample_rate_hz, f,
+    result = analyze_blocks(loop_blocks(rf, opts["force"]), rf.sample_rate_hz, f,
                             opts["cutoff_hz"], rel_tol=opts["rel_tol"],
                             min_cycles=opts["min_cycles"])
     md = result.metadata

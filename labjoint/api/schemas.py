@@ -228,3 +228,86 @@ class JobList(BaseModel):
     limit: int
     offset: int
     next_offset: int | None
+
+
+# ---- loops and saved ladders of a run -----------------------------------------------
+
+class LoopCycle(BaseModel):
+    """One steady cycle: its loop resampled over exactly one period and its seed 002
+    Eq. 1 quantities (as the hysteresis-loop pipeline computed them)."""
+
+    index: int = Field(description="cycle number in the run (0: the first whole cycle)")
+    start_s: float = Field(description="time of the cycle's start: the displacement "
+                                       "fundamental's upward zero crossing")
+    frequency_hz: float | None = Field(description="1 / the cycle's duration")
+    displacement_amplitude_m: float | None
+    force_amplitude_n: float | None
+    energy_loss_j: float | None = Field(description="loop area (seed 002 Eq. 1's W_d)")
+    damping_ns_per_m: float | None = Field(description="W_d / (pi omega U^2), seed 002 Eq. 1")
+    stiffness_n_per_m: float | None = Field(description="least-squares slope of F on U")
+    stiffness_secant_n_per_m: float | None
+    displacement_m: list[float | None] = Field(description="relative displacement, evenly "
+                                               "spaced in time over one period (not closed)")
+    force_n: list[float | None] = Field(description="joint force at the same instants")
+
+
+class RunLoops(BaseModel):
+    """The hysteresis loops of a run's steady cycles (empty, with a reason, if none)."""
+
+    run: str
+    status: str
+    complete: bool = Field(description="false while the run is still being recorded: the "
+                                       "cycles are those recorded so far")
+    n_samples: int = Field(description="samples analysed")
+    sample_rate_hz: float
+    frequency_hz: float | None
+    cutoff_hz: float | None = Field(description="zero-phase low-pass cutoff applied")
+    n_cycles: int = Field(description="whole cycles found")
+    n_steady: int = Field(description="steady cycles")
+    steady_start: int | None
+    steady_stop: int | None
+    points_per_cycle: int = Field(description="points per cycle returned")
+    cycles: list[LoopCycle] = Field(description="the last steady cycles, oldest first")
+    summary: dict[str, float | int | None] = Field(
+        description="mean and std over every steady cycle (labjoint analyze's fields)")
+    reason: str | None = Field(description="why no cycle is returned; null when some are")
+    warnings: list[str]
+
+
+class SavedLadderStep(BaseModel):
+    model_config = ConfigDict(extra="allow")
+
+    model: str
+    added: str | None = None
+    nrmse: float | None = None
+    nrmse_validation: float | None = None
+    adequate: bool | None = None
+    verdict: str | None = None
+    parameters: dict[str, Any] = Field(default_factory=dict)
+    candidates: list[dict[str, Any]] = Field(default_factory=list)
+
+
+class SavedLadder(BaseModel):
+    """A ladder as ``labjoint ladder`` saved it in the run file (not recomputed)."""
+
+    model_config = ConfigDict(extra="allow")
+
+    key: str = Field(description="id of the ladder's question: runs, start, mode, split")
+    saved_at: str | None = Field(None, description="when it was written (UTC)")
+    start: str
+    final_model: str
+    adequate: bool
+    noise_floor: float | None = None
+    noise_floor_validation: float | None = None
+    stop_reason: str | None = None
+    runs: list[str] = Field(default_factory=list)
+    fit_runs: list[str] = Field(default_factory=list)
+    validation_runs: list[str] = Field(default_factory=list)
+    steps: list[SavedLadderStep]
+
+
+class RunLadders(BaseModel):
+    run: str
+    ladders: list[SavedLadder] = Field(description="newest first")
+    damaged: dict[str, str] = Field(default_factory=dict,
+                                    description="ladder groups that could not be read -> why")

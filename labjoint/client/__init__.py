@@ -175,6 +175,16 @@ class Client:
             tmp.replace(target)
         return target
 
+    def loops(self, name: str, points_per_cycle: int = 128, max_cycles: int = 8) -> dict[str, Any]:
+        """The hysteresis loops of the run's last steady cycles: {"cycles": [{"displacement_m",
+        "force_n", "energy_loss_j", "stiffness_n_per_m", ...}], "summary", "reason"}."""
+        return self.request("GET", f"/runs/{name}/loops",
+                            params={"points_per_cycle": points_per_cycle, "max_cycles": max_cycles})
+
+    def ladders(self, name: str) -> list[dict[str, Any]]:
+        """The model ladders saved in the run's file, newest first (not recomputed)."""
+        return self.request("GET", f"/runs/{name}/ladders")["ladders"]
+
     # -- analyses and models ----------------------------------------------------------
     def submit_analysis(self, runs: Iterable[str], method: str = "hysteresis",
                         **options: Any) -> dict[str, Any]:

@@ -3,7 +3,9 @@
 Each takes runs (run-file or CSV paths, :class:`~labjoint.storage.Run` objects or prepared
 runs) and a model expression, and returns the JSON-able dict of the CLI contract
 (design.md, model-comparison issue). ``full=True`` adds what the web page draws: residual
-maps, physics curves, measured-versus-model loops, the noise floor per run. The ``*_report``
+maps, physics curves, measured-versus-model loops (``loops``: per run, the mean steady
+cycle of displacement, measured and model force; for a ladder in its
+``final_diagnosis``), the noise floor per run. The ``*_report``
 functions return the richer objects themselves.
 
 Options (keyword arguments, also the REST ``options``): ``validate`` (runs to judge on,
@@ -161,7 +163,11 @@ def diagnose_report(runs: Any, model: str | Model, **options: Any) -> Diagnosis:
 def diagnose_runs(runs: Any, model: str | Model, **options: Any) -> dict[str, Any]:
     """`labjoint diagnose` JSON: model, nrmse, noise_floor, adequate, failures, candidates."""
     full = bool(options.get("full", False))
-    return clean(diagnose_report(runs, model, **options).to_dict(full=full))
+    report = diagnose_report(runs, model, **options)
+    d = report.to_dict(full=full)
+    if full and "loops" not in d:
+        d["loops"] = mean_loops(report.evaluation)
+    return clean(d)
 
 
 def ladder_report(runs: Any, model: str | Model, max_steps: int | None = None,
@@ -184,6 +190,9 @@ def ladder_runs(runs: Any, model: str | Model, max_steps: int | None = None, aut
     full = bool(options.get("full", False))
     lad, saved, errors = ladder_report(runs, model, max_steps, auto, **options)
     d = lad.to_dict(full=full)
+    fd, dg = d.get("final_diagnosis"), lad.steps[-1].diagnosis
+    if full and isinstance(fd, dict) and dg is not None and "loops" not in fd:
+        fd["loops"] = mean_loops(dg.evaluation)
     d["saved"] = saved
     if errors:
         d["not_saved"] = errors

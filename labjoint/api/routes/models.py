@@ -2,41 +2,91 @@
 
 Each job calls ``labjoint.compare.<operation>(run_paths, model, **options)`` (``ladder``
 also gets ``max_steps``) with the runs' files, resolved inside the data directory, and
-returns the result's ``to_dict()``. Until ``labjoint.compare`` provides ``fit``,
-``diagnose`` and ``ladder`` the endpoints answer 501 with a clear message: never a
-made-up result.
+returns the result (the CLI's JSON; ``options.full`` adds what the web page draws). The
+options are checked before the job is queued: an unknown option or a bad value answers
+422 naming ``options.<key>``; runs named in ``options.validate`` go through the catalog
+like ``runs``. The job's progress messages are compare's own.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import importlib
 from typing import Any, Callable, Literal
 
 from fastapi import APIRouter, Depends, Path, Query, Request
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+import labjoint.compare as compare
 from labjoint.api.auth import require_control, require_read, token_label
-from labjoint.api.errors import ApiError, errors_doc
+from labjoint.api.errors import errors_doc
 from labjoint.api.routes.analyses import get_job, job_page, runner
-from labjoint.api.schemas import JOB_ID, Job, JobList, ModelRequest
+from labjoint.api.schemas import JOB_ID, Job, JobList, ModelRequest, RunName
+from labjoint.compare.api import settings_from
+from labjoint.errors import InputError
 
 router = APIRouter(prefix="/models", tags=["models"])
 OPERATIONS = ("fit", "diagnose", "ladder")
 KINDS = tuple(f"model_{op}" for op in OPERATIONS)
 JobStatus = Literal["queued", "running", "complete", "failed", "cancelled"]
+Auto = Literal["auto"]
 
 
-def compare_function(operation: str) -> Callable[..., Any]:
-    """``labjoint.compare.<operation>``, or 501 while it does not exist."""
+class FitOptions(BaseModel):
+    """Options of every comparison job (see :mod:`labjoint.compare.api`)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    validate_: list[RunName] | None = Field(None, alias="validate", max_length=200)
+    prime_cycles: Auto | int = Field("auto")
+    multistart: Auto | int = Field("auto")
+    seed: int = Field(0, ge=0, le=2**32 - 1)
+    full: bool = False
+
+
+class DiagnoseOptions(FitOptions):
+    alpha: float | None = Field(None, gt=0, lt=1)
+    practical: float | None = Field(None, gt=0)
+    min_rel: float | None = Field(None, gt=0)
+    tie_tol: float | None = Field(None, gt=0)
+    tie_corr: float | None = Field(None, gt=0)
+    factor: float = Field(1.5, gt=0, allow_inf_nan=False)
+    n_jobs: int | None = Field(None, ge=1, le=64)
+    candidates: list[str] | str | None = Field(None)
+    warm: bool = True
+
+
+class LadderOptions(DiagnoseOptions):
+    auto: bool = True
+    save: bool = True
+
+
+OPTION_MODELS: dict[str, type[FitOptions]] = {
+    "fit": FitOptions, "diagnose": DiagnoseOptions, "ladder": LadderOptions}
+
+
+def check_options(operation: str, options: dict[str, Any]) -> dict[str, Any]:
+    """The options as compare takes them; InputError (422) naming ``options.<key>``."""
     try:
-        mod = importlib.import_module("labjoint.compare")
-    except ImportError:
-        mod = None
-    fn = getattr(mod, operation, None)
-    if not callable(fn):
-        raise ApiError(501, "not_implemented", f"model comparison ({operation}) is not "
-                       "available yet: labjoint.compare does not provide it")
-    return fn
+        opts = OPTION_MODELS[operation].model_validate(options)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        msg = err["msg"]
+        if err["type"] == "extra_forbidden":
+            known = sorted(f.alias or k for k, f in OPTION_MODELS[operation].model_fields.items())
+            msg = f"unknown option for {operation}; known: {known}"
+        raise InputError(msg, field=".".join(["options", *map(str, err["loc"][:1])])) from None
+    for name, v in (("prime_cycles", opts.prime_cycles), ("multistart", opts.multistart)):
+        if isinstance(v, int) and not (0 if name == "prime_cycles" else 1) <= v <= 1000:
+            raise InputError("must be 'auto' or a whole number up to 1000 "
+                             f"(>= {0 if name == 'prime_cycles' else 1}), got {v}",
+                             field=f"options.{name}")
+    out = {k: v for k, v in opts.model_dump(by_alias=True).items() if k in options}
+    if operation != "fit":
+        try:
+            settings_from(out)
+        except InputError as exc:
+            raise InputError(exc.message, field=f"options.{exc.field}") from None
+    return out
 
 
 def as_result(obj: Any) -> dict[str, Any]:
@@ -52,26 +102,30 @@ def as_result(obj: Any) -> dict[str, Any]:
 
 
 def _submit(request: Request, operation: str, body: ModelRequest, scope: str) -> dict[str, Any]:
-    fn = compare_function(operation)
     res = request.app.state.resolver
     names = list(dict.fromkeys(body.runs))
     paths = [res.path(n) for n in names]
+    options = check_options(operation, body.options)
+    if options.get("validate"):      # names -> files inside the data directory
+        options["validate"] = [v if v in names else str(res.path(v)) for v in options["validate"]]
     model = "+".join(p.strip() for p in body.model.split("+"))
     req = {"operation": operation, "runs": names, "model": model,
            "max_steps": body.max_steps, "options": body.options}
 
     def work(r: dict[str, Any], progress: Callable[[float, str], None]) -> dict[str, Any]:
         progress(0.0, f"{operation} {model}")
-        kw = dict(r["options"])
+        kw = dict(options)
+        kw["progress"] = lambda message: progress(0.0, str(message))
         if operation == "ladder":
             kw["max_steps"] = r["max_steps"]
+        fn = getattr(compare, operation)
         return as_result(fn([str(p) for p in paths], model, **kw))
 
     return runner(request).submit(f"model_{operation}", req, work,
                                   submitted_by=token_label(scope)).to_dict()
 
 
-@router.post("/fit", response_model=Job, status_code=202, responses=errors_doc(501),
+@router.post("/fit", response_model=Job, status_code=202, responses=errors_doc(),
              summary="Fit a joint model (a job)")
 def fit(request: Request, body: ModelRequest,
         scope: str = Depends(require_control)) -> dict[str, Any]:
@@ -79,19 +133,21 @@ def fit(request: Request, body: ModelRequest,
     return _submit(request, "fit", body, scope)
 
 
-@router.post("/diagnose", response_model=Job, status_code=202, responses=errors_doc(501),
+@router.post("/diagnose", response_model=Job, status_code=202, responses=errors_doc(),
              summary="Where a model fails (a job)")
 def diagnose(request: Request, body: ModelRequest,
              scope: str = Depends(require_control)) -> dict[str, Any]:
-    """Residuals of ``model`` and which physical effect is missing."""
+    """Residuals of ``model`` and which physical effect is missing; with
+    ``options.full`` also the residual maps, curves and measured/model loops per run."""
     return _submit(request, "diagnose", body, scope)
 
 
-@router.post("/ladder", response_model=Job, status_code=202, responses=errors_doc(501),
+@router.post("/ladder", response_model=Job, status_code=202, responses=errors_doc(),
              summary="Add effects until adequate (a job)")
 def ladder(request: Request, body: ModelRequest,
            scope: str = Depends(require_control)) -> dict[str, Any]:
-    """Start from ``model`` and add up to ``max_steps`` effects while the error falls."""
+    """Start from ``model`` and add up to ``max_steps`` effects while the error falls;
+    the ladder is saved in the runs' files (``GET /runs/{name}/ladders``)."""
     return _submit(request, "ladder", body, scope)
 
 

@@ -1,4 +1,5 @@
-"""Runs: catalog queries, metadata, the HDF5 file, data slices in physical units."""
+"""Runs: catalog queries, metadata, the HDF5 file, data slices in physical units, the
+hysteresis loops of the steady cycles and the model ladders saved in a run file."""
 
 from __future__ import annotations
 
@@ -8,14 +9,20 @@ from typing import Any, Callable, Literal
 import numpy as np
 from fastapi import APIRouter, Depends, Path, Query, Request
 from fastapi.responses import FileResponse, JSONResponse
+from pydantic import ValidationError
 
 from labjoint.api.auth import require_read
 from labjoint.api.decimate import CHUNK_SAMPLES, decimate
 from labjoint.api.errors import ApiError, errors_doc
 from labjoint.api.jobs import json_safe
+from labjoint.api.loops import steady_loops
 from labjoint.api.resolve import RunResolver, roles
-from labjoint.api.schemas import RUN_NAME, DataSlice, RunChannels, RunList, RunSummary
-from labjoint.storage import RunFile, RunRecord
+from labjoint.api.schemas import (RUN_NAME, DataSlice, RunChannels, RunLadders, RunList,
+                                  RunLoops, RunSummary, SavedLadder)
+from labjoint.compare.store import PREFIX as LADDER_PREFIX
+from labjoint.compare.store import load_ladder
+from labjoint.errors import InputError
+from labjoint.storage import RunFile, RunRecord, open_run
 
 router = APIRouter(prefix="/runs", tags=["runs"], dependencies=[Depends(require_read)])
 
@@ -189,3 +196,57 @@ def data_slice(
     body = {"run": name, "start_sample": a, "stop_sample": b, "sample_rate_hz": fs,
             "bucket": bucket, "decimated": bucket > 1, "series": series}
     return JSONResponse(json_safe(body))
+
+
+@router.get("/{name}/loops", response_model=RunLoops, responses=errors_doc(),
+            summary="Hysteresis loops of the steady cycles")
+def loops(
+    request: Request,
+    name: str = NamePath,
+    points_per_cycle: int = Query(128, ge=8, le=1024,
+                                  description="most points per cycle (fewer when a cycle "
+                                              "holds fewer samples)"),
+    max_cycles: int = Query(8, ge=1, le=200, description="most cycles: the last steady ones"),
+    force: Literal["joint", "reference"] = Query("joint", description="force sensor"),
+) -> JSONResponse:
+    """Displacement (m) and force (N) over each of the run's last steady cycles, with
+    their energy loss, damping and stiffness (seed 002 Eq. 1), found by the hysteresis-loop
+    pipeline as ``labjoint analyze`` runs it. A run without steady cycles (too short, a
+    transient only, no displacement channel) gets an empty list and the reason; a run
+    still being recorded gets the cycles recorded so far (``complete`` false)."""
+    with resolver(request).open(name) as rf:
+        body = steady_loops(rf, points_per_cycle, max_cycles, force)
+    body["run"] = name
+    return JSONResponse(json_safe(body))
+
+
+@router.get("/{name}/ladders", response_model=RunLadders, responses=errors_doc(),
+            summary="Model ladders saved in the run file")
+def ladders(request: Request, name: str = NamePath) -> JSONResponse:
+    """Every ladder ``labjoint ladder`` (or a ladder job) saved in this run's file, as
+    saved: steps with their NRMSE, the noise floor, the runs of the set. Not recomputed."""
+    res = resolver(request)
+    path = res.path(name)
+    found: list[dict[str, Any]] = []
+    damaged: dict[str, str] = {}
+    with open_run(path) as rf:
+        groups = [g for g in rf.processed_names if g.startswith(LADDER_PREFIX)]
+        dates = {g: rf.processed(g)[0].get("date") for g in groups}
+    for g in groups:
+        try:
+            lad = load_ladder(path, g[len(LADDER_PREFIX):])
+            if not isinstance(lad, dict):
+                raise InputError("not a JSON object")
+        except InputError as exc:
+            damaged[g] = exc.message
+            continue
+        date = dates.get(g)
+        try:
+            item = SavedLadder.model_validate(json_safe(
+                {**lad, "saved_at": date if isinstance(date, str) else None}))
+        except ValidationError as exc:
+            damaged[g] = f"not a ladder: {exc.errors()[0]['msg']}"
+            continue
+        found.append(item.model_dump())
+    found.sort(key=lambda d: d["saved_at"] or "", reverse=True)
+    return JSONResponse(json_safe({"run": name, "ladders": found, "damaged": damaged}))

@@ -1,10 +1,21 @@
-// Measured hysteresis loops of a run: its last steady cycles, straight from the samples.
+// Measured hysteresis loops of a run: its steady cycles as the loop pipeline found them
+// (GET /runs/{name}/loops), or, for a run being recorded, its last cycles straight from
+// the samples.
 
 import { api } from '../api.js';
 import { plotXY } from '../plot/plot.js';
 import { color } from '../plot/svg.js';
 
 export const MAX_SPAN = 20000; // samples in one request (the server's default max_points)
+export const LOOP_POINTS = 200; // most points per cycle asked of the server
+
+// The last `cycles` steady cycles of a finished run: the endpoint's body (cycles may be
+// empty, with the reason).
+export function steadyLoops(name, cycles = 8, points = LOOP_POINTS) {
+  return api(`/runs/${encodeURIComponent(name)}/loops`, {
+    query: { max_cycles: cycles, points_per_cycle: points },
+  });
+}
 
 // Fetch displacement and joint force over the last `cycles` whole cycles of a run that
 // holds nSamples samples at fs, excited at f; {u, F, per, cycles, start}.
@@ -23,18 +34,34 @@ export async function lastCycles(name, nSamples, fs, f, cycles = 8) {
   return { u, F, per, cycles: k, start: data.start_sample, decimated: data.decimated };
 }
 
-// One line per cycle, older cycles paler; displacement in µm, force in N.
+const um = (xs) => xs.map((v) => (v == null ? null : v * 1e6));
+
+// One closed line per cycle, older cycles paler; displacement in µm, force in N.
+// `lc`: lastCycles' raw stretch ({u, F, per, cycles}) or steadyLoops' body ({cycles: [...]}).
 export function loopPlot(lc, { id = 'loop', title = '', extra = [] } = {}) {
   const series = [];
-  if (lc) {
-    for (let c = 0; c < lc.cycles; c += 1) {
+  const steady = lc && Array.isArray(lc.cycles);
+  const n = !lc ? 0 : steady ? lc.cycles.length : lc.cycles;
+  for (let c = 0; c < n; c += 1) {
+    let x;
+    let y;
+    if (steady) {
+      const cy = lc.cycles[c];
+      x = um([...cy.displacement_m, cy.displacement_m[0]]);  // one whole period: close it
+      y = [...cy.force_n, cy.force_n[0]];
+    } else {
       const a = Math.round(c * lc.per);
       const b = Math.min(Math.round((c + 1) * lc.per) + 1, lc.u.length);
-      series.push({ name: c === lc.cycles - 1 ? `measured (${lc.cycles} cycles)` : '',
-        x: lc.u.slice(a, b).map((v) => (v == null ? null : v * 1e6)), y: lc.F.slice(a, b),
-        color: color(0), opacity: 0.35 + 0.65 * ((c + 1) / lc.cycles), legend: c === lc.cycles - 1 });
+      x = um(lc.u.slice(a, b));
+      y = lc.F.slice(a, b);
     }
+    const last = c === n - 1;
+    series.push({ name: last ? `measured (${n} ${steady ? 'steady ' : ''}cycles)` : '', x, y,
+      color: color(0), opacity: 0.35 + 0.65 * ((c + 1) / n), legend: last });
   }
-  return plotXY({ id, title, series: series.concat(extra), xlabel: 'relative displacement (µm)',
+  const svg = plotXY({ id, title, series: series.concat(extra), xlabel: 'relative displacement (µm)',
     ylabel: 'joint force (N)', height: 360, empty: 'no cycles yet' });
+  svg.dataset.source = !lc ? 'none' : steady ? 'steady' : 'raw';
+  svg.dataset.cycles = String(n);
+  return svg;
 }

@@ -179,9 +179,9 @@ export function candidates(diag, onAdd, busy) {
     c.evidence ? h('p', { class: 'caption' }, typeof c.evidence === 'string' ? c.evidence : JSON.stringify(c.evidence)) : null))));
 }
 
-export function ladderChart(steps, noiseFloor) {
+export function ladderChart(steps, noiseFloor, id = 'ladder') {
   return h('figure', {}, barChart({
-    id: 'ladder', labels: steps.map((s, i) => (i === 0 || !s.added ? `${i}: ${s.model}` : `${i}: +${s.added}`)),
+    id, labels: steps.map((s, i) => (i === 0 || !s.added ? `${i}: ${s.model}` : `${i}: +${s.added}`)),
     values: steps.map((s) => s.nrmse), ylabel: 'NRMSE', ylog: steps.some((s) => s.nrmse > 0)
       && Math.max(...steps.map((s) => s.nrmse), noiseFloor || 0) / Math.min(...steps.map((s) => s.nrmse), noiseFloor || Infinity) > 8,
     hlines: noiseFloor ? [{ y: noiseFloor, label: `noise floor ${fmt(noiseFloor, 3)}`, color: '#b3261e' }] : [],

@@ -1,9 +1,11 @@
 // Models: choose runs and a model expression, fit and diagnose it, add a missing effect
 // from the ranked candidates and refit; the ladder of NRMSE per step against the noise
-// floor grows by one step each time.
+// floor grows by one step each time. Ladders saved in the ticked runs' files (by a
+// ladder job or `labjoint ladder`) are shown as saved, without recomputing.
 
 import { api, runJob } from '../api.js';
 import { h, note, section } from '../dom.js';
+import { when } from '../units.js';
 import { selectedRuns, setSelectedRuns } from './runs.js';
 import * as draw from './modelplots.js';
 
@@ -15,11 +17,41 @@ async function effects() {
   return resp.ok ? resp.json() : [];
 }
 
-function runPicker(runs, ticked) {
+// Ladders saved in the files of `runs`, one per question (key): those on exactly these
+// runs first, then newest first.
+async function savedLadders(runs) {
+  const lists = await Promise.all(runs.map((n) => api(`/runs/${encodeURIComponent(n)}/ladders`)));
+  const byKey = new Map();
+  for (const l of lists.flatMap((b) => b.ladders)) if (!byKey.has(l.key)) byKey.set(l.key, l);
+  const same = (l) => l.runs.length === runs.length && l.runs.every((r) => runs.includes(r));
+  return [...byKey.values()].map((l) => ({ ...l, exact: same(l) }))
+    .sort((a, b) => (b.exact - a.exact) || ((a.saved_at || '') < (b.saved_at || '') ? 1 : -1));
+}
+
+const SAVED_SHOWN = 4;
+
+function savedView(list, runs, onUse) {
+  if (!runs.length) return h('p', { class: 'note' }, 'Tick runs to see the ladders saved in their files.');
+  if (!list.length) return h('p', { class: 'note' }, 'No ladder saved in the ticked runs yet: the automatic ladder saves one.');
+  return h('div', { class: 'saved-grid', id: 'saved-ladders-list' }, list.slice(0, SAVED_SHOWN).map((l, i) => h('figure', {
+    class: 'saved-ladder', 'data-key': l.key },
+  h('h3', {}, `${l.start} → ${l.final_model}`),
+  h('p', { class: 'caption' }, `${l.exact ? 'These runs' : `${l.runs.length} run(s): ${l.runs.join(', ')}`} · `
+    + `${l.adequate ? 'adequate' : 'not adequate'}${l.stop_reason ? ` (${l.stop_reason})` : ''} · saved ${when(l.saved_at)}`),
+  ladderChart(l, i),
+  h('button', { type: 'button', class: 'small secondary use-ladder', onclick: () => onUse(l) },
+    'Continue from this ladder'))));
+}
+
+function ladderChart(l, i) {
+  return draw.ladderChart(l.steps, l.noise_floor, `saved-ladder-${i}`);
+}
+
+function runPicker(runs, ticked, onChange) {
   const box = h('div', { class: 'run-pick', id: 'run-pick' });
   for (const r of runs) {
     const cb = h('input', { type: 'checkbox', value: r.name, checked: ticked.has(r.name) });
-    cb.addEventListener('change', () => setSelectedRuns(picked(box)));
+    cb.addEventListener('change', () => { setSelectedRuns(picked(box)); onChange(); });
     box.append(h('label', {}, cb, `${r.name}`, h('span', { class: 'count' },
       ` ${r.frequency_hz ?? '–'} Hz · ${r.excitation_vpp ?? '–'} Vpp · ${r.torque_nm ?? '–'} N m`)));
   }
@@ -36,7 +68,20 @@ export async function show(el) {
     api('/runs', { query: { status: 'complete', order: '-start_time', limit: 500 } }), effects()]);
   const known = new Set(runList.items.map((r) => r.name));
   const ticked = new Set(selectedRuns().filter((n) => known.has(n)));
-  const pick = runPicker(runList.items, ticked);
+  const saved = h('div', { id: 'saved-ladders' });
+  let savedAsked = 0;
+  // the ladders saved in the ticked runs' files; the latest answer wins
+  async function refreshSaved() {
+    const ask = ++savedAsked;
+    const runs = picked(pick);
+    try {
+      const list = runs.length ? await savedLadders(runs) : [];
+      if (ask === savedAsked) saved.replaceChildren(savedView(list, runs, useLadder));
+    } catch (err) {
+      if (ask === savedAsked) saved.replaceChildren(h('p', { class: 'note error' }, err.message));
+    }
+  }
+  const pick = runPicker(runList.items, ticked, () => refreshSaved());
   const expr = h('input', { id: 'model-expr', type: 'text', value: state.model, size: 50, spellcheck: 'false',
     'aria-label': 'model expression' });
   const chips = h('div', { class: 'chips' }, vocab.map((e) => h('button', { type: 'button', class: 'chip',
@@ -62,7 +107,8 @@ export async function show(el) {
     out.loops.replaceChildren(fit ? draw.loops(fit) : '');
     out.maps.replaceChildren(diag ? draw.residualMaps(draw.findMaps(diag), diag.failures) : '');
     out.physics.replaceChildren(fit ? draw.physics(fit) : '');
-    out.cands.replaceChildren(diag ? draw.candidates(diag, addEffect, state.busy) : '');
+    out.cands.replaceChildren(diag ? draw.candidates(diag, addEffect, state.busy) : state.ladder.length
+      ? h('p', { class: 'note' }, 'Fit and diagnose the last model to see its candidates.') : '');
     out.ladder.replaceChildren(state.ladder.length ? draw.ladderChart(state.ladder, state.noiseFloor)
       : h('p', { class: 'note' }, 'The ladder starts with the first fit.'));
     results.forEach((x, i) => { x.hidden = !(fit || diag || (i === 0 && state.ladder.length)); });
@@ -114,6 +160,17 @@ export async function show(el) {
     });
   }
 
+  // a saved ladder as the current one: its steps and noise floor, its last model to go on from
+  function useLadder(l) {
+    state.ladder = l.steps.map((st) => ({ model: st.model, added: st.added, nrmse: st.nrmse }));
+    state.noiseFloor = l.noise_floor;
+    state.model = l.final_model;
+    expr.value = state.model;
+    state.fit = null;
+    state.diag = null;
+    render();
+  }
+
   function addEffect(effect) {
     const cand = (state.diag?.candidates || []).find((c) => c.effect === effect);
     return fitDiagnose(cand?.model || `${state.model}+${effect}`, effect);
@@ -138,6 +195,7 @@ export async function show(el) {
       state.model = state.ladder[state.ladder.length - 1].model;
       expr.value = state.model;
     }
+    refreshSaved();
   }));
 
   const results = [
@@ -153,10 +211,13 @@ export async function show(el) {
         h('button', { type: 'button', class: 'secondary small', onclick: () => {
           pick.querySelectorAll('input').forEach((c) => { c.checked = true; });
           setSelectedRuns(picked(pick));
+          refreshSaved();
         } }, 'Tick all'))),
       h('div', {}, h('h3', {}, 'Model: effects joined by +'), expr, chips,
         limit, h('div', { class: 'toolbar' }, fitBtn, ladderBtn), msg, out.summary))),
-    ...results);
+    ...results,
+    section('Ladders saved in the ticked runs', saved));
   render();
+  refreshSaved();
   return null;
 }

@@ -5,7 +5,7 @@ import { api, runJob } from '../api.js';
 import { h, note, section, table } from '../dom.js';
 import { plotXY } from '../plot/plot.js';
 import { display, fmt, pct, when } from '../units.js';
-import { lastCycles, loopPlot } from './loops.js';
+import { lastCycles, loopPlot, steadyLoops } from './loops.js';
 import { identificationTable } from './table2.js';
 
 const SCREEN_POINTS = 1500;
@@ -87,12 +87,48 @@ function identifySection(name) {
       bothBtn, loopBtn));
 }
 
+const LOOP_CYCLES = 8;
+
+// A finished run: its last steady cycles as the loop pipeline found them, and their
+// energy loss and stiffness.
+async function steadyLoopsSection(name) {
+  const body = await steadyLoops(name, LOOP_CYCLES);
+  const n = body.cycles.length;
+  if (!n) {
+    return [loopPlot(body, { id: 'loop' }), h('p', { class: 'note', id: 'loop-reason' },
+      `No steady cycle to draw. ${body.reason || ''}`)];
+  }
+  const sm = body.summary || {};
+  const sc = (v, f) => (v == null ? null : v * f);
+  const pm = (k, f) => `${fmt(sc(sm[k], f), 3)} ± ${fmt(sc(sm[`${k}_std`], f), 2)}`;
+  const rows = body.cycles.map((c) => [String(c.index), fmt(sc(c.energy_loss_j, 1e3)),
+    fmt(c.damping_ns_per_m), fmt(sc(c.stiffness_n_per_m, 1e-6))]);
+  return [loopPlot(body, { id: 'loop' }),
+    h('p', { class: 'caption' }, `The last ${n} of ${body.n_steady} steady cycles `
+      + `(cycles ${body.steady_start}–${body.steady_stop - 1} of ${body.n_cycles} are steady), `
+      + `low-passed at ${fmt(body.cutoff_hz)} Hz as the loop pipeline does; darker is later. `
+      + `Over every steady cycle: energy loss ${pm('energy_loss_j', 1e3)} mJ, `
+      + `stiffness ${pm('stiffness_n_per_m', 1e-6)} MN/m.`),
+    (body.warnings || []).length ? h('p', { class: 'note' }, body.warnings.join(' ')) : null,
+    h('details', {}, h('summary', {}, 'Per cycle'),
+      table(['Cycle', 'Energy loss (mJ)', 'Damping (Ns/m)', 'Stiffness (MN/m)'], rows, { id: 'loop-cycles' }))];
+}
+
+// A run being recorded: its last cycles straight from the samples (the live view's way).
+async function recordedLoops(name, rec, ch) {
+  const f = rec.frequency_hz || (rec.metadata.generator || {}).frequency_hz;
+  const lc = await lastCycles(name, ch.n_samples, ch.sample_rate_hz, f);
+  return [loopPlot(lc, { id: 'loop' }), h('p', { class: 'caption' }, lc
+    ? `Still recording: the last ${lc.cycles} cycles as recorded so far (unfiltered); darker is later.`
+    : 'Too few samples for a whole cycle.')];
+}
+
 export async function show(el, routeInfo) {
   const name = routeInfo.arg;
   const [rec, ch] = await Promise.all([api(`/runs/${encodeURIComponent(name)}`),
     api(`/runs/${encodeURIComponent(name)}/channels`)]);
   const raw = h('div', { id: 'raw' }, h('p', { class: 'note busy' }, 'Loading signals…'));
-  const loops = h('div', { id: 'loops' }, h('p', { class: 'note busy' }, 'Loading cycles…'));
+  const loops = h('div', { id: 'loops' }, h('p', { class: 'note busy' }, 'Finding the steady cycles…'));
   el.append(h('h1', {}, name),
     h('div', { class: 'grid2' }, section('Conditions', conditions(rec, ch),
       rec.status !== 'running' ? h('p', {}, h('a', { href: `/api/v1/runs/${encodeURIComponent(name)}/file`, download: `${name}.h5` }, 'Download the HDF5 run file')) : null),
@@ -100,11 +136,8 @@ export async function show(el, routeInfo) {
     identifySection(name),
     section('Raw signals', raw));
   rawSignals(name, raw).catch((err) => raw.replaceChildren(h('p', { class: 'note error' }, err.message)));
-  const f = rec.frequency_hz || (rec.metadata.generator || {}).frequency_hz;
-  lastCycles(name, ch.n_samples, ch.sample_rate_hz, f).then((lc) => {
-    loops.replaceChildren(loopPlot(lc, { id: 'loop' }), h('p', { class: 'caption' }, lc
-      ? `The last ${lc.cycles} cycles as recorded (the run starts once the daemon found steady state); darker is later.`
-      : 'Too few samples for a whole cycle.'));
-  }).catch((err) => loops.replaceChildren(h('p', { class: 'note error' }, err.message)));
+  const pending = rec.status === 'running' ? recordedLoops(name, rec, ch) : steadyLoopsSection(name);
+  pending.then((parts) => loops.replaceChildren(...parts.filter(Boolean)))
+    .catch((err) => loops.replaceChildren(h('p', { class: 'note error' }, err.message)));
   return null;
 }
