@@ -40,6 +40,7 @@ from labjoint.compare.ties import tie_reason
 from labjoint.models import FitResult, Model, ModelFitter
 
 DEFAULT_FACTOR = 1.5
+CONTENDER_RATIO = 1.5
 
 
 @dataclass(frozen=True)
@@ -222,6 +223,19 @@ def _ties(cands: list[CandidateResult], base_ev: Evaluation, val: list[str], flo
                     x.tie_reason = why if not x.tie_reason else x.tie_reason
 
 
+def contenders(cands: list[CandidateResult], base_validation: float, n: int) -> list[str]:
+    """The candidates worth refitting from scratch (:func:`.candidates.refine`): of the ``n``
+    best by validation NRMSE, those that improve on the baseline and come within
+    ``CONTENDER_RATIO`` of the best (a fresh start moves a fit by a fraction of its error,
+    so one far behind cannot overtake the best; refitting it would only cost time)."""
+    ranked = sorted(cands, key=lambda c: c.nrmse_after_validation)[:n]
+    if not ranked:
+        return []
+    best = ranked[0].nrmse_after_validation
+    return [c.effect for c in ranked if c.nrmse_after_validation < base_validation
+            and c.nrmse_after_validation <= CONTENDER_RATIO * best]
+
+
 def diagnose_prepared(runs: list[PreparedRun], model: Model | str, *,
                       validate: Sequence[str] | None = None,
                       settings: DiagnoseSettings = DiagnoseSettings(),
@@ -251,8 +265,7 @@ def diagnose_prepared(runs: list[PreparedRun], model: Model | str, *,
     sig_s = settings.significance
     cands = [_judge(n, fits[n], runs, ev, maps, val_names, floor_val, sig_s) for n in names]
     cands.sort(key=lambda c: c.nrmse_after_validation)
-    top = [c.effect for c in cands[:settings.refine]
-           if c.nrmse_after_validation < ev.nrmse(val_names)] if settings.warm else []
+    top = contenders(cands, ev.nrmse(val_names), settings.refine) if settings.warm else []
     fd, vd = [r.data for r in fit_r], [r.data for r in val_r]
     if top:
         better = refine(fits, top, fd, vd, n_jobs=settings.n_jobs, seed=settings.seed)

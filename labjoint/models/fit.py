@@ -47,6 +47,11 @@ FD_REL = 1e-5
 STOP_FACTOR = 1.2   # multistart "auto" stops once NRMSE <= this x the noise floor
 NUDGE = 0.05        # scaled distance a start keeps from a bound
 SCREEN = 4          # random draws screened (one evaluation each) per extra start
+#: least_squares stops when an iteration lowers the cost by less than FTOL (relative) or
+#: moves the scaled coordinates by less than XTOL: far below what the NRMSE or the
+#: parameters' standard errors resolve, and it spares the creeping steps of flat valleys
+FTOL = 1e-6
+XTOL = 1e-6
 
 
 def _labels(runs: Sequence[RunData]) -> list[str]:
@@ -349,7 +354,8 @@ class ModelFitter:
                 draws = [self._draw(prob, x0, lb, ub, rng, warm) for _ in range(SCREEN)]
                 xs = min(draws, key=lambda x: float(np.sum(prob.residual(x) ** 2)))
             sol = least_squares(prob.residual, xs, bounds=(lb, ub), method=self.method,
-                                x_scale=1.0, diff_step=1e-6, max_nfev=max_nfev)
+                                x_scale=1.0, diff_step=1e-6, max_nfev=max_nfev,
+                                ftol=FTOL, xtol=XTOL)
             costs.append(float(sol.cost))
             if best is None or sol.cost < best.cost:
                 best = sol
