@@ -10,6 +10,10 @@ and model alike:
 - stiffness against amplitude: d k / d ln U relative to the mean k (softening < 0);
 - dissipation against frequency: the exponent s_f of W ~ U^s_U f^s_f fitted over all runs
   (0 for friction, which is rate independent; 1 for viscous loss or a channel delay).
+
+A loss below ``LOSSLESS`` of the largest measured loss of the set counts as none (a
+stuck slider's loop has zero area up to rounding): such points are left out of the
+log-log trends, which they would otherwise dominate, and are listed as ``lossless``.
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ from labjoint.compare.runs import frequency_levels
 from labjoint.signal.cycles import cycles
 
 LOOP_POINTS = 128
+LOSSLESS = 1e-3
 
 
 def _slope(x: np.ndarray, y: np.ndarray) -> float:
@@ -54,6 +59,7 @@ class PhysicsCurves:
     energy_slope: dict[str, dict[float, float]]
     stiffness_slope: dict[str, dict[float, float]]
     frequency_exponent: dict[str, float]
+    lossless: dict[str, list[str]]
 
     def to_dict(self) -> dict[str, Any]:
         def keyed(d: dict[float, float]) -> dict[str, float]:
@@ -66,6 +72,7 @@ class PhysicsCurves:
             "dissipation_vs_amplitude_slope": {k: keyed(v) for k, v in self.energy_slope.items()},
             "stiffness_vs_amplitude_slope": {k: keyed(v) for k, v in self.stiffness_slope.items()},
             "dissipation_vs_frequency_exponent": self.frequency_exponent,
+            "lossless_runs": self.lossless,
         }
 
 
@@ -79,6 +86,11 @@ def physics_curves(ev: Evaluation | Sequence[RunEval]) -> PhysicsCurves:
     km = np.array([r.stiffness_measured for r in evals])
     kd = np.array([r.stiffness_model for r in evals])
     lev = frequency_levels([r.run for r in evals])
+    big = float(np.nanmax(np.abs(Em))) if np.any(np.isfinite(Em)) else float("nan")
+    lossless = {side: [evals[i].name for i in np.flatnonzero(E < LOSSLESS * big)]
+                for side, E in (("measured", Em), ("model", Ed))}
+    Em = np.where(Em < LOSSLESS * big, np.nan, Em)
+    Ed = np.where(Ed < LOSSLESS * big, np.nan, Ed)
     e_slope: dict[str, dict[float, float]] = {"measured": {}, "model": {}}
     k_slope: dict[str, dict[float, float]] = {"measured": {}, "model": {}}
     for k in range(int(lev.max()) + 1):
@@ -99,7 +111,10 @@ def physics_curves(ev: Evaluation | Sequence[RunEval]) -> PhysicsCurves:
             fexp[side] = float(coef[2])
         else:
             fexp[side] = float("nan")
-    return PhysicsCurves([r.name for r in evals], f, U, Em, Ed, km, kd, lev, e_slope, k_slope, fexp)
+    Em = np.array([r.energy_measured for r in evals])
+    Ed = np.array([r.energy_model for r in evals])
+    return PhysicsCurves([r.name for r in evals], f, U, Em, Ed, km, kd, lev, e_slope, k_slope,
+                         fexp, lossless)
 
 
 def mean_loops(ev: Evaluation | Sequence[RunEval], n_points: int = LOOP_POINTS

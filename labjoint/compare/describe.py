@@ -117,8 +117,22 @@ def _loop_finding(ev: Evaluation, curves: PhysicsCurves, attr: str, noun: str, w
                                      f"at {r.run.frequency_hz:g} Hz, {_um(r.run.amplitude_m)}")}
 
 
+def _lossless_finding(c: PhysicsCurves) -> list[dict[str, str]]:
+    """Runs where the model dissipates (almost) nothing and the measurement does not."""
+    only = [n for n in c.lossless["model"] if n not in set(c.lossless["measured"])]
+    if not only:
+        return []
+    sel = np.isin(np.array(c.runs), only)
+    U = c.amplitude_m[sel]
+    return [{"where": "dissipation vs amplitude",
+             "text": (f"the model dissipates almost nothing in {len(only)} of {len(c.runs)} runs "
+                      f"(amplitudes {_um(float(U.min()))} to {_um(float(U.max()))}), where the "
+                      "measurement dissipates: it sticks where the joint already slips or "
+                      "loses energy")}]
+
+
 def _slope_findings(c: PhysicsCurves) -> list[dict[str, str]]:
-    out = []
+    out = _lossless_finding(c)
     meas, mod = c.energy_slope["measured"], c.energy_slope["model"]
     diffs = [(f, meas[f], mod[f]) for f in meas if np.isfinite(meas[f]) and np.isfinite(mod[f])]
     if diffs:
