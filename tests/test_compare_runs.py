@@ -91,3 +91,21 @@ def test_split_by_names_errors_name_the_field():
     assert e.value.field == "validate"
     with pytest.raises(InputError):
         split_by_names(runs, [r.name for r in runs])
+
+
+def test_a_displacement_sensor_offset_changes_nothing():
+    """A DC-coupled capacitive sensor reads its gap too: 40 um of offset must not move the
+    fit of a stiffening spring (k u + k3 u^3 is not shift-invariant)."""
+    from labjoint.models import ModelFitter
+    from labjoint.storage import Run
+    base = sweep(k3=4e15, amps=(3e-6, 6e-6, 1e-5))
+    shifted = [Run(r.name, r.time, r.displacement + 40e-6, r.force, dict(r.metadata))
+               for r in base]
+    fits = []
+    for runs in (base, shifted):
+        prep = prepare_runs(runs)
+        fits.append(ModelFitter("linear_stiffness+cubic_stiffness").fit([r.data for r in prep]))
+    assert prepare_runs(shifted)[0].metadata["displacement_reference_m"] == pytest.approx(40e-6, abs=0.1e-6)
+    a, b = fits
+    assert b.params_["cubic_stiffness.k3"].value == pytest.approx(4e15, rel=0.03)
+    assert b.nrmse_ == pytest.approx(a.nrmse_, rel=0.02)

@@ -38,6 +38,7 @@ from labjoint.compare.significance import (PairedTest, SignificanceSettings, cor
                                            is_significant, nrmse_se, paired_test)
 from labjoint.compare.ties import tie_reason
 from labjoint.models import FitResult, Model, ModelFitter
+from labjoint.models.effects import get_effect
 
 DEFAULT_FACTOR = 1.5
 CONTENDER_RATIO = 1.5
@@ -224,16 +225,25 @@ def _ties(cands: list[CandidateResult], base_ev: Evaluation, val: list[str], flo
 
 
 def contenders(cands: list[CandidateResult], base_validation: float, n: int) -> list[str]:
-    """The candidates worth refitting from scratch (:func:`.candidates.refine`): of the ``n``
-    best by validation NRMSE, those that improve on the baseline and come within
-    ``CONTENDER_RATIO`` of the best (a fresh start moves a fit by a fraction of its error,
-    so one far behind cannot overtake the best; refitting it would only cost time)."""
-    ranked = sorted(cands, key=lambda c: c.nrmse_after_validation)[:n]
+    """The candidates worth refitting from scratch (:func:`.candidates.refine`): those that
+    improve on the baseline and come within ``CONTENDER_RATIO`` of the best (a fresh start
+    moves a fit by a fraction of its error, so one far behind cannot overtake the best);
+    of the costly ones (hysteretic, modifier: each evaluation integrates a slip law) only
+    those among the ``n`` best. A warm start can leave a cheap candidate short of its
+    optimum by more than the tie tolerance, so every cheap contender is refined."""
+    ranked = sorted(cands, key=lambda c: c.nrmse_after_validation)
     if not ranked:
         return []
     best = ranked[0].nrmse_after_validation
-    return [c.effect for c in ranked if c.nrmse_after_validation < base_validation
-            and c.nrmse_after_validation <= CONTENDER_RATIO * best]
+    out = []
+    for i, c in enumerate(ranked):
+        if not (c.nrmse_after_validation < base_validation
+                and c.nrmse_after_validation <= CONTENDER_RATIO * best):
+            continue
+        costly = get_effect(c.effect).kind in ("hysteretic", "modifier")
+        if i < n or not costly:
+            out.append(c.effect)
+    return out
 
 
 def diagnose_prepared(runs: list[PreparedRun], model: Model | str, *,

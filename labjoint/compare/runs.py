@@ -10,6 +10,11 @@ Steady cycles: those of the loop pipeline, minus windows of cycles whose force s
 from cycle to cycle more than measurement noise allows (a passing transient, e.g. a rig
 mode ringing after a start from rest; :func:`labjoint.compare.noise.stationary_cycles`).
 
+Displacement zero. A DC-coupled displacement sensor reads its gap as well as the joint's
+motion; spring, cubic and gap laws need the joint's own zero. The reference subtracted
+(:func:`displacement_reference`, kept as ``displacement_reference_m`` in the metadata) is
+the rest position when the record begins at rest, else the centre of the steady loops.
+
 History. Every hysteretic model state starts relaxed at the first sample it is given
 (:mod:`labjoint.models.inputs`). A record that begins with a transient (the rig started
 from rest within it, steady state detected later) already holds the joint's history, so it
@@ -42,6 +47,8 @@ from labjoint.storage import Run, read_run
 from labjoint.storage.csv_parse import parse_csv
 
 PRIME_CYCLES = 5
+REST_FRACTION = 0.1
+REST_SAMPLES = 8
 PRIME_RAMP = 3
 CSV_SUFFIXES = (".csv", ".txt")
 
@@ -202,12 +209,16 @@ def prepare_run(run: Run | str | Path, *, prime_cycles: int | str = "auto",
     md.setdefault("frequency_hz", loop.frequency_hz)
     f = float(loop.frequency_hz)
     fs = float(run.sample_rate_hz)
+    u_all = np.asarray(run.displacement, dtype=float)
+    ref = displacement_reference(u_all, spans, at_start=prime == 0)
+    md["displacement_reference_m"] = ref
+    u_all = u_all - ref
     if prime == 0:
-        data = RunData.from_arrays(run.displacement, run.force, fs, steady=keep, frequency_hz=f,
+        data = RunData.from_arrays(u_all, run.force, fs, steady=keep, frequency_hz=f,
                                    name=run.name, band_hz=band_hz, metadata=md)
         return PreparedRun(run.name, data, loop, ids, spans, 0, 0, transient, run.path, md)
     off = int(spans[0, 0])
-    u = np.asarray(run.displacement[off:], dtype=float)
+    u = u_all[off:]
     per = float(loop.bounds[ids[0] + 1] - loop.bounds[ids[0]])
     head = ramped_prime(u, per, prime)
     full = ModelInputs.from_record(np.concatenate([head, u]), fs, frequency_hz=f, name=run.name,
@@ -215,6 +226,26 @@ def prepare_run(run: Run | str | Path, *, prime_cycles: int | str = "auto",
     inputs = replace(full, n_prime=head.size)
     data = RunData(inputs, np.asarray(run.force[off:], dtype=float), keep[off:])
     return PreparedRun(run.name, data, loop, ids, spans - off, prime, off, transient, run.path, md)
+
+
+def displacement_reference(u: np.ndarray, spans: np.ndarray, at_start: bool) -> float:
+    """The displacement the joint is at rest at, subtracted before modelling (a DC-coupled
+    displacement sensor reads its gap, an arbitrary offset; spring, cubic and gap laws need
+    the joint's own zero): the record's first samples when it begins at rest (moving by
+    less than ``REST_FRACTION`` of the steady amplitude over its first eighth of a period),
+    else the centre of the steady loops (mean midpoint of each cycle's extremes)."""
+    mids, amps = [], []
+    for a, b in spans:
+        seg = u[a:b]
+        mids.append(0.5 * (seg.max() + seg.min()))
+        amps.append(0.5 * (seg.max() - seg.min()))
+    centre, amp = float(np.mean(mids)), float(np.mean(amps))
+    if at_start:
+        per = float(np.median(spans[:, 1] - spans[:, 0]))
+        head = u[:max(2, int(per / 8))]
+        if np.ptp(head) < REST_FRACTION * amp:
+            return float(np.mean(head[:REST_SAMPLES]))
+    return centre
 
 
 def ramped_prime(u: np.ndarray, per: float, cycles: int, ramp: int = PRIME_RAMP) -> np.ndarray:
