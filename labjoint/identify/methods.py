@@ -70,8 +70,10 @@ def analyze_one(run: Any, method: str = "both", *, friction: Identified | float 
             row["damping_ns_per_m_std"] = loop.summary["damping_ns_per_m_std"]
     if method in ("stickslip", "both"):
         if friction is None:
-            raise InputError("the stick-slip method needs the friction coefficient: run a "
-                             "friction test (identify_friction) or pass it", field="friction")
+            raise InputError("the stick-slip method needs the friction coefficient: identify "
+                             "it from a friction-test run (`labjoint friction RUN`, or "
+                             "`--friction-run RUN` for one analysis; identify_friction in "
+                             "Python) or give it (`--friction MU`)", field="friction")
         settings = dict(stickslip_settings)
         if settings.get("shear_stiffness") is None and loop is not None:
             settings["shear_stiffness"] = _loop_stiffness_identified(loop.summary, run.name,
