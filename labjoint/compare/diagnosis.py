@@ -7,8 +7,10 @@
    (:mod:`labjoint.compare.residuals`, :mod:`labjoint.compare.describe`).
 3. Refit model + effect for every candidate (:mod:`labjoint.compare.candidates`), judge
    each on the validation runs with the stated test (:mod:`labjoint.compare.significance`),
-   rank by validation NRMSE; refit the ``refine`` best from scratch as well (keeping the
-   better fit); judge the significant ones again against the baseline refitted from their
+   rank by validation NRMSE; refit the contenders from scratch as well (:func:`contenders`:
+   cheap ones within 1.5x of the best, costly ones only among the ``refine`` best; none
+   when the baseline is already at the noise floor on the validation runs), keeping the
+   better fit; judge the significant ones again against the baseline refitted from their
    optimum without them (an ablation: the gain must come from the effect, not from moving
    the baseline's own parameters); flag ties, attach evidence and explanation
    (:mod:`labjoint.compare.evidence`).
@@ -55,7 +57,7 @@ class DiagnoseSettings:
     seed: int = 0
     warm: bool = True
     candidates: tuple[str, ...] | None = None
-    refine: int = 2
+    refine: int = 1
 
 
 @dataclass
@@ -228,9 +230,12 @@ def contenders(cands: list[CandidateResult], base_validation: float, n: int) -> 
     """The candidates worth refitting from scratch (:func:`.candidates.refine`): those that
     improve on the baseline and come within ``CONTENDER_RATIO`` of the best (a fresh start
     moves a fit by a fraction of its error, so one far behind cannot overtake the best);
-    of the costly ones (hysteretic, modifier: each evaluation integrates a slip law) only
-    those among the ``n`` best. A warm start can leave a cheap candidate short of its
-    optimum by more than the tie tolerance, so every cheap contender is refined."""
+    of the costly ones (hysteretic, modifier: each evaluation integrates a slip law, and a
+    cold multi-start fit of two slip laws side by side takes minutes) only those among the
+    ``n`` best. A warm start can leave a cheap candidate short of its optimum by more than
+    the tie tolerance, so every cheap contender is refined. Nothing is refined when the
+    baseline is already within the adequacy factor of the noise floor on the validation
+    runs (:func:`diagnose_prepared`): what a fresh start could add there is noise."""
     ranked = sorted(cands, key=lambda c: c.nrmse_after_validation)
     if not ranked:
         return []
@@ -275,7 +280,9 @@ def diagnose_prepared(runs: list[PreparedRun], model: Model | str, *,
     sig_s = settings.significance
     cands = [_judge(n, fits[n], runs, ev, maps, val_names, floor_val, sig_s) for n in names]
     cands.sort(key=lambda c: c.nrmse_after_validation)
-    top = contenders(cands, ev.nrmse(val_names), settings.refine) if settings.warm else []
+    at_floor = ev.nrmse(val_names) <= settings.factor * floor_val
+    top = contenders(cands, ev.nrmse(val_names), settings.refine) \
+        if settings.warm and not at_floor else []
     fd, vd = [r.data for r in fit_r], [r.data for r in val_r]
     if top:
         better = refine(fits, top, fd, vd, n_jobs=settings.n_jobs, seed=settings.seed)
