@@ -34,6 +34,7 @@ from labjoint.config import load_config
 from labjoint.compare import evaluate, noise_floor, prepare_runs
 from labjoint.models import Model
 from labjoint.storage import RunWriter
+from test_daemon_fixtures import FakeClock
 
 FS = 25600.0
 NOISE_N = 0.3
@@ -72,17 +73,6 @@ def rig_config(joint: Any, effects: list[dict[str, Any]], seed: int = 0,
     return load_config(overrides=over)
 
 
-class _Clock:
-    def __init__(self) -> None:
-        self.t = 0.0
-
-    def __call__(self) -> float:
-        return self.t
-
-    def sleep(self, dt: float) -> None:
-        self.t += dt
-
-
 def acquire(out: str | Path, joint: Any = None, effects: list[dict[str, Any]] = (),
             levels: dict[float, list[float]] | None = None, cycles: int = 30, seed: int = 0,
             from_rest: bool = False, prefix: str = "r", seconds: float = 0.0) -> list[Path]:
@@ -99,7 +89,7 @@ def acquire(out: str | Path, joint: Any = None, effects: list[dict[str, Any]] = 
     out.mkdir(parents=True, exist_ok=True)
     paths: list[Path] = []
     with open_rig(cfg) as rig, RunWriter(out) as writer:
-        clock = _Clock()
+        clock = FakeClock()
         engine = RunEngine(rig.generator, rig.daq, cfg.limits, [writer], clock=clock,
                            sleep=clock.sleep, rig=rig.sim, config=cfg,
                            ramp_step_s=1.0 / FS if from_rest else 0.05)

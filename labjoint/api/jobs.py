@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import json
 import logging
-import math
 import sqlite3
 import threading
 import uuid
@@ -28,8 +27,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable
 
-import numpy as np
 
+from labjoint.compare.jsonsafe import clean as json_safe
 from labjoint.errors import InputError, LabjointError
 
 log = logging.getLogger(__name__)
@@ -41,24 +40,6 @@ Work = Callable[[dict[str, Any], Callable[[float, str], None]], dict[str, Any]]
 def _now() -> str:
     return datetime.now(timezone.utc).isoformat()
 
-
-def json_safe(obj: Any) -> Any:
-    """``obj`` with numpy values made plain and non-finite floats made None."""
-    if isinstance(obj, dict):
-        return {str(k): json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [json_safe(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        if obj.dtype.kind in "biu" or (obj.dtype.kind == "f" and np.isfinite(obj).all()):
-            return obj.tolist()
-        return json_safe(obj.tolist())
-    if isinstance(obj, np.generic):
-        return json_safe(obj.item())
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    if obj is None or isinstance(obj, (str, int, float, bool)):
-        return obj
-    return str(obj)
 
 
 @dataclass

@@ -89,20 +89,21 @@ def physics_curves(ev: Evaluation | Sequence[RunEval]) -> PhysicsCurves:
     big = float(np.nanmax(np.abs(Em))) if np.any(np.isfinite(Em)) else float("nan")
     lossless = {side: [evals[i].name for i in np.flatnonzero(E < LOSSLESS * big)]
                 for side, E in (("measured", Em), ("model", Ed))}
-    Em = np.where(Em < LOSSLESS * big, np.nan, Em)
-    Ed = np.where(Ed < LOSSLESS * big, np.nan, Ed)
+    # loss-free points are left out of the trends (module docstring)
+    Em_t = np.where(Em < LOSSLESS * big, np.nan, Em)
+    Ed_t = np.where(Ed < LOSSLESS * big, np.nan, Ed)
     e_slope: dict[str, dict[float, float]] = {"measured": {}, "model": {}}
     k_slope: dict[str, dict[float, float]] = {"measured": {}, "model": {}}
     for k in range(int(lev.max()) + 1):
         sel = lev == k
         fk = float(np.median(f[sel]))
-        for side, E, K in (("measured", Em, km), ("model", Ed, kd)):
+        for side, E, K in (("measured", Em_t, km), ("model", Ed_t, kd)):
             e_slope[side][fk] = _slope(_log(U[sel]), _log(E[sel]))
             s = _slope(_log(U[sel]), K[sel])
             mk = float(np.nanmean(K[sel])) if np.any(np.isfinite(K[sel])) else float("nan")
             k_slope[side][fk] = s / mk if mk else float("nan")
     fexp: dict[str, float] = {}
-    for side, E in (("measured", Em), ("model", Ed)):
+    for side, E in (("measured", Em_t), ("model", Ed_t)):
         y = _log(E)
         X = np.column_stack([np.ones_like(U), _log(U), _log(f)])
         ok = np.all(np.isfinite(X), axis=1) & np.isfinite(y)
@@ -111,8 +112,6 @@ def physics_curves(ev: Evaluation | Sequence[RunEval]) -> PhysicsCurves:
             fexp[side] = float(coef[2])
         else:
             fexp[side] = float("nan")
-    Em = np.array([r.energy_measured for r in evals])
-    Ed = np.array([r.energy_model for r in evals])
     return PhysicsCurves([r.name for r in evals], f, U, Em, Ed, km, kd, lev, e_slope, k_slope,
                          fexp, lossless)
 

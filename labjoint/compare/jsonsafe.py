@@ -19,6 +19,8 @@ def clean(obj: Any) -> Any:
     if isinstance(obj, (list, tuple)):
         return [clean(v) for v in obj]
     if isinstance(obj, np.ndarray):
+        if obj.dtype.kind in "biu" or (obj.dtype.kind == "f" and np.isfinite(obj).all()):
+            return obj.tolist()
         return clean(obj.tolist())
     if isinstance(obj, np.generic):
         return clean(obj.item())
@@ -26,4 +28,6 @@ def clean(obj: Any) -> Any:
         return [clean(obj.real), clean(obj.imag)]
     if isinstance(obj, float) and not math.isfinite(obj):
         return None
-    return obj
+    if obj is None or isinstance(obj, (str, int, float, bool)):
+        return obj
+    return str(obj)
