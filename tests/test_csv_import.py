@@ -117,6 +117,8 @@ H = 4  # header line of the default file (after three metadata lines)
     ("bad_metadata", 1, "frequency_hz", "abc"),
     ("negative_rate", 2, "sample_rate_hz", "positive"),
     ("rate_mismatch", 1, "sample_rate_hz", "disagrees"),
+    ("drive_at_nyquist", 1, "frequency_hz", "Nyquist"),
+    ("drive_above_nyquist", 1, "frequency_hz", "Nyquist"),
     ("missing_sample", H + 11, "time_s", "irregular"),
     ("short_row", H + 5, "accel_g", "expected 4 values"),
     ("long_row", H + 5, "#5", "expected 4 values"),
@@ -172,6 +174,10 @@ def _bad(tmp_path, case: str):
         return _csv(tmp_path, meta=("# torque_nm: 5", "# sample_rate_hz: -5", "# x: y"))
     if case == "rate_mismatch":
         return _csv(tmp_path, meta=("# sample_rate_hz: 2000", "# a: 1", "# b: 2"))
+    if case == "drive_at_nyquist":                        # FS = 1000 Hz: Nyquist 500 Hz
+        return _csv(tmp_path, meta=("# frequency_hz: 500", "# a: 1", "# b: 2"))
+    if case == "drive_above_nyquist":
+        return _csv(tmp_path, meta=("# frequency_hz: 4e3", "# a: 1", "# b: 2"))
     if case == "missing_sample":
         del rows[10]
         return _csv(tmp_path, rows)

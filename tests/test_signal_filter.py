@@ -4,7 +4,10 @@ import numpy as np
 import pytest
 
 from labjoint.errors import InputError
-from labjoint.signal.filter import ZeroPhaseStream, analysis_cutoff, butter_sos, lowpass
+from scipy import signal as sps
+
+from labjoint.signal.filter import (ZeroPhaseStream, analysis_cutoff, butter_sos, lowpass,
+                                    settling_samples)
 
 FS = 50_000.0
 
@@ -52,6 +55,43 @@ def test_stream_equals_whole_record_filtering():
     assert got.shape == whole.shape
     scale = np.max(np.abs(whole), axis=1, keepdims=True)
     assert np.max(np.abs(got - whole) / scale) < 1e-9
+
+
+@pytest.mark.parametrize("fs", [1.25e6, 2e6, 10e6])
+def test_settling_length_is_bounded_at_high_sample_rates(fs):
+    # The slowest Butterworth pole decays like exp(-sin(pi/10) 2 pi fc n / fs); 1e-12
+    # needs ln(1e12)/(0.309 * 2 pi fc / fs) samples, times a little for the residues.
+    # (The old doubling search never converged here: float64 round-off of the step
+    # response sits above 1e-12 at these rates, so it grew until memory ran out.)
+    sos = butter_sos(fs, 3000.0)
+    n = settling_samples(sos)
+    decay = np.log(1e12) / (np.sin(np.pi / 10) * 2 * np.pi * 3000.0 / fs)
+    assert decay < n < 1.3 * decay + 100
+
+
+@pytest.mark.parametrize("fs,cutoff,order", [(50e3, 3000.0, 5), (500e3, 3000.0, 5),
+                                             (10e3, 4500.0, 5), (50e3, 3000.0, 1),
+                                             (50e3, 20e3, 8)])
+def test_settling_bound_holds_on_the_step_response(fs, cutoff, order):
+    sos = butter_sos(fs, cutoff, order)
+    n = settling_samples(sos, rtol=1e-9)
+    step = sps.sosfilt(sos, np.ones(4 * n))
+    assert np.max(np.abs(step[n:] - 1.0)) < 1e-9
+    assert np.max(np.abs(step[: n // 4] - 1.0)) > 1e-9          # not a wild over-estimate
+
+
+def test_stream_equals_whole_record_at_two_megasamples():
+    fs = 2e6
+    rng = np.random.default_rng(5)
+    t = np.arange(400_000) / fs
+    x = np.stack([np.sin(2 * np.pi * 400 * t), np.cos(2 * np.pi * 400 * t)])
+    x += 0.01 * rng.standard_normal(x.shape)
+    whole = lowpass(x, fs)
+    stream = ZeroPhaseStream(fs, 3000.0, min_chunk=30_000)
+    got = np.concatenate([stream.push(x[:, i:i + 25_000]) for i in range(0, x.shape[1], 25_000)]
+                         + [stream.finish()], axis=1)
+    assert got.shape == whole.shape
+    assert np.max(np.abs(got - whole)) < 1e-9
 
 
 def test_cutoff_at_or_above_nyquist_is_an_error_naming_cutoff():

@@ -65,6 +65,9 @@ def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None 
     else:
         f = validate.positive(frequency_hz, "frequency_hz")
         source = "given"
+    if f >= fs / 2:
+        raise InputError(f"{f:g} Hz is at or above the Nyquist frequency {fs / 2:g} Hz of "
+                         f"the {fs:g} Hz sampling", field="frequency_hz")
     cutoff, rule = analysis_cutoff(fs, cutoff_hz)
     if cutoff is not None and cutoff <= f:
         raise InputError(f"low-pass cutoff {cutoff:g} Hz would remove the {f:g} Hz "

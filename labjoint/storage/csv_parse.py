@@ -114,6 +114,12 @@ def parse_csv(path: str | Path) -> ParsedCSV:
     header_line = lineno
     values = _values(text[pos:] if pos < len(text) else "", columns, f, header_line)
     fs = _check_time(values, columns, metadata, meta_lines, f, header_line)
+    drive = metadata.get("frequency_hz")
+    if drive is not None and drive >= fs / 2:
+        raise InputError(f"frequency_hz {drive:g} Hz is at or above the Nyquist frequency "
+                         f"{fs / 2:g} Hz of the {fs:g} Hz sampling: the drive cannot be "
+                         "resolved (check the units, or the time column)",
+                         file=f, line=meta_lines["frequency_hz"], column="frequency_hz")
     return ParsedCSV(p, columns, values, metadata, fs, header_line)
 
 
