@@ -32,7 +32,7 @@ READ_BLOCK = 1 << 18                          # samples per analysed block
 SENS = {"force_ref": 50.0, "disp_1": 1.25e-5, "disp_2": 1.25e-5, "shear_nc": 301.0}
 
 
-def synth_blocks(seconds: float, seed: int = 0):
+def synth_blocks(seconds: float, seed: int = 0, fs: float = FS):
     """Yield (first_sample, volts (4, n)): 20 Jenkins elements in parallel (Iwan, 10 MN/m,
     slip displacements 0.5-14 um) + 2 MN/m + 600 Ns/m, 9 um from rest (tau 20 ms),
     5 % wear drift over the run, noise 0.4 % of U per displacement sensor and 0.4 N."""
@@ -58,10 +58,10 @@ def synth_blocks(seconds: float, seed: int = 0):
 
     k_el, slip, z = np.full(20, 1.0e7 / 20), np.linspace(0.5e-6, 14e-6, 20), np.zeros(20)
     rng = np.random.default_rng(seed)
-    n_total, omega = int(seconds * FS), 2 * np.pi * F0
+    n_total, omega = int(seconds * fs), 2 * np.pi * F0
     U, tau, wear = 9e-6, 0.02, 0.05
     for first in range(0, n_total, WRITE_BLOCK):
-        t = (first + np.arange(min(WRITE_BLOCK, n_total - first))) / FS
+        t = (first + np.arange(min(WRITE_BLOCK, n_total - first))) / fs
         env = (1 - np.exp(-t / tau)) * (1 - wear * t / seconds)
         u = U * env * np.sin(omega * t)
         F = iwan(u, k_el, slip, z) + 2.0e6 * u + 600.0 * U * env * omega * np.cos(omega * t)
@@ -73,7 +73,7 @@ def synth_blocks(seconds: float, seed: int = 0):
                                d2 / SENS["disp_2"], f_nc / SENS["shear_nc"]])
 
 
-def write_run(directory: Path, name: str, seconds: float) -> tuple[Path, str]:
+def write_run(directory: Path, name: str, seconds: float, fs: float = FS) -> tuple[Path, str]:
     """Write the synthetic record as a labjoint run file (or a plain h5py file)."""
     try:
         from labjoint.acquisition.documents import Block, RunStart, RunStop
@@ -82,10 +82,10 @@ def write_run(directory: Path, name: str, seconds: float) -> tuple[Path, str]:
     except ImportError as exc:                            # storage layer not there yet
         import h5py
 
-        path, n = directory / f"{name}.h5", int(seconds * FS)
+        path, n = directory / f"{name}.h5", int(seconds * fs)
         with h5py.File(path, "w") as f:
             ds = {c: f.create_dataset(c, (n,), "f8", chunks=(32768,)) for c in SENS}
-            for first, volts in synth_blocks(seconds):
+            for first, volts in synth_blocks(seconds, fs=fs):
                 for c, row in zip(SENS, volts):
                     ds[c][first:first + row.size] = row
         return path, f"plain h5py file ({exc})"
@@ -97,10 +97,10 @@ def write_run(directory: Path, name: str, seconds: float) -> tuple[Path, str]:
     md = {"frequency_hz": F0, "joint_force_channel": "shear_nc",
           "displacement_channels": ["disp_1", "disp_2"]}
     with RunWriter(directory, flush_interval_s=1e9) as writer:
-        writer("start", RunStart(uid, name, chans, FS, md))
-        for first, volts in synth_blocks(seconds):
+        writer("start", RunStart(uid, name, chans, fs, md))
+        for first, volts in synth_blocks(seconds, fs=fs):
             writer("block", Block(uid, first, volts))
-        path = writer.stop(RunStop(uid, "complete", n_samples=int(seconds * FS)))
+        path = writer.stop(RunStop(uid, "complete", n_samples=int(seconds * fs)))
     return Path(path), "labjoint run file, storage.writer"
 
 

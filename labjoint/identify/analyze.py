@@ -10,6 +10,7 @@ sits in memory; per-cycle results (a few hundred bytes a cycle) are kept.
 
 from __future__ import annotations
 
+from concurrent.futures import Future, ThreadPoolExecutor
 from itertools import chain
 from typing import Any, Iterable, Iterator
 
@@ -76,8 +77,7 @@ def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None 
     _check_int(n_points, "n_points", 8)
     _check_int(n_harmonics, "n_harmonics", 1, n_points // 2 - 1)
     stream = _LoopStream(fs, f, cutoff, order, n_points, n_harmonics)
-    for blk in chain(head, it):
-        stream.push(blk)
+    stream.run(chain(head, it))
     per_cycle, bounds = stream.finish()
     return _assemble(per_cycle, bounds, fs, f, rel_tol, min_cycles, {
         "frequency_source": source, "cutoff_hz": cutoff, "cutoff_rule": rule,
@@ -165,6 +165,26 @@ class _LoopStream:
     def push(self, block: np.ndarray) -> None:
         self.n_samples += block.shape[1]
         self._take(self.filter.push(block) if self.filter is not None else block)
+
+    def run(self, blocks: Iterable[np.ndarray]) -> None:
+        """Push every block; the low-pass of block k+1 runs in a second thread while
+        block k is segmented and measured (scipy's filter releases the GIL), so the
+        two halves of the pipeline overlap on a multi-core machine. At most two
+        blocks are in flight, so memory stays bounded."""
+        if self.filter is None:
+            for blk in blocks:
+                self.push(blk)
+            return
+        with ThreadPoolExecutor(1, thread_name_prefix="labjoint-loop") as pool:
+            pending: Future | None = None
+            for blk in blocks:
+                self.n_samples += blk.shape[1]
+                nxt = pool.submit(self.filter.push, blk)
+                if pending is not None:
+                    self._take(pending.result())
+                pending = nxt
+            if pending is not None:
+                self._take(pending.result())
 
     def finish(self) -> tuple[dict[str, np.ndarray], np.ndarray]:
         if self.filter is not None:

@@ -127,8 +127,10 @@ def loop_metrics(displacement: np.ndarray, force: np.ndarray, bounds: np.ndarray
     return _derived(u_amp, f_amp, w, k_lsq, uh, fh, frequency_hz)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=True, nogil=True)
 def _loop_kernel(xu, xf, bounds, m, cos_t, sin_t, scalars, uh, fh):  # pragma: no cover
+    # fastmath lets the sums vectorise (about 2x); it only reorders additions, which
+    # changes results by about 1e-15 relative. No NaN or inf reaches here (validated).
     n_h = cos_t.shape[0]
     ub = np.empty(m)
     fb = np.empty(m)
@@ -137,7 +139,7 @@ def _loop_kernel(xu, xf, bounds, m, cos_t, sin_t, scalars, uh, fh):  # pragma: n
         dt = (bounds[k + 1] - t0) / m
         for j in range(m):                           # Catmull-Rom, as signal.cycles.cycles
             t = t0 + j * dt
-            i = int(np.floor(t))
+            i = int(t)                               # t >= 1: truncation is the floor
             s = t - i
             w0 = 0.5 * s * (-1.0 + s * (2.0 - s))
             w1 = 1.0 + 0.5 * s * s * (-5.0 + 3.0 * s)
@@ -150,6 +152,8 @@ def _loop_kernel(xu, xf, bounds, m, cos_t, sin_t, scalars, uh, fh):  # pragma: n
         su = sf = suu = suf = 0.0                    # first point (no cancellation); the
         dup = ub[m - 1] - u0                         # first term is the closing segment
         dfp = fb[m - 1] - f0
+        u_hi = u_lo = u0
+        f_hi = f_lo = f0
         for j in range(m):
             du = ub[j] - u0
             df = fb[j] - f0
@@ -159,8 +163,12 @@ def _loop_kernel(xu, xf, bounds, m, cos_t, sin_t, scalars, uh, fh):  # pragma: n
             sf += df
             suu += du * du
             suf += du * df
-        scalars[k, 0] = 0.5 * (ub.max() - ub.min())
-        scalars[k, 1] = 0.5 * (fb.max() - fb.min())
+            u_hi = max(u_hi, ub[j])
+            u_lo = min(u_lo, ub[j])
+            f_hi = max(f_hi, fb[j])
+            f_lo = min(f_lo, fb[j])
+        scalars[k, 0] = 0.5 * (u_hi - u_lo)
+        scalars[k, 1] = 0.5 * (f_hi - f_lo)
         scalars[k, 2] = 0.5 * area
         var = suu - su * su / m
         scalars[k, 3] = (suf - su * sf / m) / var if var > 0.0 else np.nan

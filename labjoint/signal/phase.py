@@ -16,6 +16,7 @@ true fundamental even when ``frequency_hz`` is slightly off (theta then drifts).
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from labjoint.errors import InputError
 from labjoint.signal import validate
@@ -60,7 +61,10 @@ class CycleSegmenter:
                                    for i in range(0, x.size, MAX_PIECE)])
         first = self._n
         self._n += x.size
-        w = np.concatenate([self._tail, self._demodulate(x, first)])
+        start = np.exp(-2j * np.pi * ((first * self._cps) % 1.0))
+        if self._rot.size < x.size:
+            self._rot = np.exp(-2j * np.pi * ((np.arange(x.size) * self._cps) % 1.0))
+        w, c2 = _demodulate_sums(self._tail, x, self._rot, start)
         w_start = self._n - w.size
         L, D = self.period_samples, self.step
         c_first = -(-(w_start + L - 1) // D) * D         # first grid centre with a full window
@@ -70,8 +74,6 @@ class CycleSegmenter:
             return np.empty(0)
         centres = np.arange(c_first, c_last + 1, D)
         # two cascaded L-sample boxcars = triangle: sum via a double cumulative sum
-        c1 = np.concatenate([[0], np.cumsum(w)])
-        c2 = np.concatenate([[0], np.cumsum(c1)])
         p = centres - (L - 1) - w_start
         theta = np.angle(c2[p + 2 * L] - 2 * c2[p + L] + c2[p])
         nxt = int(centres[-1]) + D
@@ -112,12 +114,6 @@ class CycleSegmenter:
         out = self._crossings(centres, theta)
         return out[out <= self._n - 3]
 
-    def _demodulate(self, x: np.ndarray, first: int) -> np.ndarray:
-        if self._rot.size < x.size:
-            self._rot = np.exp(-2j * np.pi * ((np.arange(x.size) * self._cps) % 1.0))
-        start = np.exp(-2j * np.pi * ((first * self._cps) % 1.0))
-        return x * (start * self._rot[: x.size])
-
     def _crossings(self, centres: np.ndarray, theta: np.ndarray) -> np.ndarray:
         coord = centres * self._cps + (theta + np.pi / 2) / (2 * np.pi)
         prev_m, prev_i = self._m, self._last_index
@@ -131,6 +127,30 @@ class CycleSegmenter:
         frac = np.clip((level[step] - lo) / (hi - lo), 0.0, 1.0)
         bounds = idx[step - 1] + frac * (idx[step] - idx[step - 1])
         return bounds[bounds >= 1.0]
+
+
+@njit(cache=True, nogil=True)
+def _demodulate_sums(tail, x, rot, start):  # pragma: no cover - compiled
+    """``w`` = tail + x demodulated (x exp(-i 2 pi f t)), and ``c2`` its double
+    cumulative sum with leading zeros (``c2[q] = sum_{r<q} sum_{j<r} w[j]``, q <= n + 1),
+    in one pass.
+    """
+    nt = tail.size
+    n = nt + x.size
+    w = np.empty(n, dtype=np.complex128)
+    c2 = np.empty(n + 2, dtype=np.complex128)
+    w[:nt] = tail
+    for j in range(x.size):
+        w[nt + j] = x[j] * (start * rot[j])
+    c1 = 0.0 + 0.0j
+    acc = 0.0 + 0.0j
+    c2[0] = acc
+    for q in range(n):
+        acc += c1
+        c2[q + 1] = acc
+        c1 += w[q]
+    c2[n + 1] = acc + c1
+    return w, c2
 
 
 def segment_cycles(displacement: np.ndarray, fs: float, frequency_hz: float) -> np.ndarray:
