@@ -36,10 +36,13 @@ class ChannelConfig(_Strict):
     iepe: bool = False
     physical_channel: str = ""
     calibration: list[tuple[float, float]] = Field(default_factory=list)
+    #: (frequency_hz, phase_deg, uncertainty_deg): the quantity's lead over the output
+    calibration_phase: list[tuple[float, float, float]] = Field(default_factory=list)
 
     def spec(self) -> ChannelSpec:
         d = self.model_dump()
         d["calibration"] = tuple(tuple(p) for p in d["calibration"])
+        d["calibration_phase"] = tuple(tuple(p) for p in d["calibration_phase"])
         return ChannelSpec(**d)
 
 

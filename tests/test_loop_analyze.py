@@ -13,6 +13,9 @@ OMEGA = 2 * np.pi * F0
 SUMMARY_KEYS = {"frequency_hz", "displacement_amplitude_m", "force_amplitude_n",
                 "energy_loss_j", "damping_ns_per_m", "stiffness_n_per_m",
                 "stiffness_secant_n_per_m", "stiffness_lsq_n_per_m", "cycles"}
+RESOLUTION_KEYS = {"energy_loss_j_uncertainty", "energy_loss_j_resolution",
+                   "energy_loss_j_uncertainty_phase", "below_resolution",
+                   "cycles_below_resolution", "damping_ns_per_m_uncertainty"}
 
 
 def viscous_record(seconds=1.0, U=8e-6, k=1.2e7, c=1800.0, tau=None, noise=0.005,
@@ -32,7 +35,9 @@ def test_viscous_record_gives_c_and_k():
     u, F = viscous_record()
     r = analyze_arrays(u, F, FS, F0)
     s = r.summary
-    assert set(s) == SUMMARY_KEYS | {key + "_std" for key in SUMMARY_KEYS - {"cycles"}}
+    assert set(s) == (SUMMARY_KEYS | {key + "_std" for key in SUMMARY_KEYS - {"cycles"}}
+                      | RESOLUTION_KEYS)
+    assert s["below_resolution"] is False
     assert s["damping_ns_per_m"] == pytest.approx(1800.0, rel=3e-3)
     assert s["energy_loss_j"] == pytest.approx(np.pi * 1800.0 * OMEGA * 8e-6 ** 2, rel=3e-3)
     assert s["stiffness_n_per_m"] == s["stiffness_lsq_n_per_m"] == pytest.approx(1.2e7, rel=2e-3)

@@ -244,6 +244,11 @@ class LoopCycle(BaseModel):
     force_amplitude_n: float | None
     energy_loss_j: float | None = Field(description="loop area (seed 002 Eq. 1's W_d)")
     damping_ns_per_m: float | None = Field(description="W_d / (pi omega U^2), seed 002 Eq. 1")
+    energy_loss_uncertainty_j: float | None = Field(
+        None, description="standard uncertainty of W_d: calibrated sensor phase and "
+                          "cycle-to-cycle scatter (labjoint.identify.resolution)")
+    below_resolution: bool = Field(False, description="W_d is below twice its uncertainty "
+                                   "(at least 2 pi K U^2 u_phase): not a result")
     stiffness_n_per_m: float | None = Field(description="least-squares slope of F on U")
     stiffness_secant_n_per_m: float | None
     displacement_m: list[float | None] = Field(description="relative displacement, evenly "

@@ -110,11 +110,29 @@ def analyze_paths(paths: list[str], method: str = "loop", force: str = "joint",
 
 
 def print_loop_table(rows: list[dict[str, Any]]) -> None:
-    print(table(["run", "f Hz", "Vpp", "U um", "F N", "W mJ", "C Ns/m", "K MN/m", "cycles"],
+    """The loop table; W and C below their resolution are printed as such, not as numbers."""
+    out = table(["run", "f Hz", "Vpp", "U um", "F N", "W mJ", "+- mJ", "C Ns/m", "K MN/m",
+                 "cycles"],
                 [[r["run"], r.get("frequency_hz"), r.get("excitation_vpp"),
                   _scale(r.get("displacement_amplitude_m"), 1e6), r.get("force_amplitude_n"),
-                  _scale(r.get("energy_loss_j"), 1e3), r.get("damping_ns_per_m"),
-                  _scale(r.get("stiffness_n_per_m"), 1e-6), r.get("cycles")] for r in rows]))
+                  *_w_c(r), _scale(r.get("stiffness_n_per_m"), 1e-6), r.get("cycles")]
+                 for r in rows])
+    print(out)
+    if any(r.get("below_resolution") for r in rows):
+        print(f"\n{BELOW}: W is under twice its uncertainty (sensor phase and cycle-to-cycle "
+              "scatter, at least 2 pi K U^2 u_phase): not a measurement of W or C; the JSON "
+              "output keeps the numbers with below_resolution = true")
+
+
+BELOW = "below resolution"
+
+
+def _w_c(r: dict[str, Any]) -> list[Any]:
+    """W (mJ), its uncertainty, and C, or the 'below resolution' flag in their place."""
+    u = _scale(r.get("energy_loss_j_uncertainty"), 1e3)
+    if r.get("below_resolution"):
+        return [BELOW, u, BELOW]
+    return [_scale(r.get("energy_loss_j"), 1e3), u, r.get("damping_ns_per_m")]
 
 
 def _scale(v: Any, k: float) -> Any:

@@ -22,6 +22,7 @@ back) after every job and on every way out, whatever happened.
 from __future__ import annotations
 
 import logging
+import math
 import os
 import signal
 import socket
@@ -71,14 +72,20 @@ def calibrated_config(config: RigConfig, data_dir: str | Path
     from labjoint.identify.calibration import CalibrationStore  # identify is below daemon
 
     store = CalibrationStore.open(Path(data_dir))
-    tables = {s.name: s.calibration for s in store.apply(config.daq.specs()) if s.calibration}
+    specs = {s.name: s for s in store.apply(config.daq.specs()) if s.calibration}
+    tables = {name: s.calibration for name, s in specs.items()}
     if not tables:
         return config, {}
-    chans = [c.model_copy(update={"calibration": [tuple(p) for p in tables[c.name]]})
-             if c.name in tables else c for c in config.daq.channels]
+    chans = [c.model_copy(update={
+        "calibration": [tuple(p) for p in tables[c.name]],
+        "calibration_phase": [tuple(p) for p in specs[c.name].calibration_phase]})
+        if c.name in tables else c for c in config.daq.channels]
     cfg = config.model_copy(update={"daq": config.daq.model_copy(update={"channels": chans})})
     sources = {name: [{"frequency_hz": q.frequency_hz, "n_per_v": q.n_per_v,
-                       "uncertainty": q.uncertainty, "runs": list(q.runs),
+                       "uncertainty": q.uncertainty, "phase_deg": q.phase_deg,
+                       "phase_uncertainty_deg": (q.phase_uncertainty_deg if
+                                                 math.isfinite(q.phase_uncertainty_deg) else None),
+                       "runs": list(q.runs),
                        "created": q.created, "store": str(store.path.resolve())}
                       for q in store.channels[name]] for name in tables}
     return cfg, sources

@@ -25,6 +25,9 @@ class ChannelSpec:
     ``sensitivity`` converts volts to the physical unit (N/V or m/V).
     ``calibration`` optionally replaces it by a table of (frequency_hz, units_per_volt)
     pairs, interpolated at the run's excitation frequency (nanocomposite sensor).
+    ``calibration_phase`` optionally holds (frequency_hz, phase_deg, uncertainty_deg):
+    the phase by which the measured quantity leads the sensor's output, and its
+    standard uncertainty, from the same calibration.
     """
 
     name: str
@@ -37,6 +40,7 @@ class ChannelSpec:
     iepe: bool = False
     physical_channel: str = ""
     calibration: tuple[tuple[float, float], ...] = field(default_factory=tuple)
+    calibration_phase: tuple[tuple[float, float, float], ...] = field(default_factory=tuple)
 
     def __post_init__(self) -> None:
         if not self.name or not self.name.replace("_", "").isalnum():
@@ -55,6 +59,11 @@ class ChannelSpec:
         if self.coupling not in ("AC", "DC"):
             raise InputError(f"coupling must be 'AC' or 'DC', got {self.coupling!r}",
                              field=f"channels.{self.name}.coupling")
+        for row in self.calibration_phase:
+            if len(row) != 3 or not all(np.isfinite(row[:2])) or not (row[2] >= 0):
+                raise InputError("calibration_phase rows must be (frequency_hz, phase_deg, "
+                                 f"uncertainty_deg >= 0), got {row!r}",
+                                 field=f"channels.{self.name}.calibration_phase")
 
     def units_per_volt(self, frequency_hz: float | None = None) -> float:
         """Calibration factor at ``frequency_hz`` (table if given, else ``sensitivity``)."""
@@ -64,15 +73,34 @@ class ChannelSpec:
             return float(np.interp(frequency_hz, f[order], s[order]))
         return float(self.sensitivity)
 
+    def phase_at(self, frequency_hz: float | None) -> tuple[float, float] | None:
+        """Calibrated phase lead of the quantity over the sensor output at ``frequency_hz``
+        and its standard uncertainty, both in rad (interpolated; None if not calibrated).
+
+        >>> spec = ChannelSpec("nc", "nanocomposite", "force", "N", 301.0,
+        ...                    calibration_phase=((200.0, 0.2, 0.02), (600.0, 0.6, 0.04)))
+        >>> [round(float(np.degrees(v)), 3) for v in spec.phase_at(400.0)]
+        [0.4, 0.03]
+        """
+        if not self.calibration_phase or frequency_hz is None or not np.isfinite(frequency_hz):
+            return None
+        f, ph, u = np.array(self.calibration_phase, dtype=float).T
+        order = np.argsort(f)
+        return (float(np.radians(np.interp(frequency_hz, f[order], ph[order]))),
+                float(np.radians(np.interp(frequency_hz, f[order], u[order]))))
+
     def to_dict(self) -> dict:
         d = asdict(self)
         d["calibration"] = [list(p) for p in self.calibration]
+        d["calibration_phase"] = [list(p) for p in self.calibration_phase]
         return d
 
     @classmethod
     def from_dict(cls, d: dict) -> "ChannelSpec":
         d = dict(d)
         d["calibration"] = tuple(tuple(float(x) for x in p) for p in d.get("calibration", ()))
+        d["calibration_phase"] = tuple(tuple(float(x) for x in p)
+                                       for p in d.get("calibration_phase", ()))
         return cls(**d)
 
 

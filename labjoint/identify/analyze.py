@@ -18,6 +18,7 @@ import numpy as np
 
 from labjoint.errors import InputError
 from labjoint.identify.loop import DEFAULT_STIFFNESS, PER_CYCLE, LoopResult, loop_metrics, summarize
+from labjoint.identify.resolution import correct_phase, resolution, sensor_phase
 from labjoint.signal import validate
 from labjoint.signal.cycles import DEFAULT_POINTS
 from labjoint.signal.filter import PAPER_CUTOFF_HZ, PAPER_ORDER, ZeroPhaseStream, analysis_cutoff
@@ -36,8 +37,15 @@ PERIOD_RANGE = (0.8, 1.25)
 def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None = None,
                    cutoff_hz: float | None = PAPER_CUTOFF_HZ, *, order: int = PAPER_ORDER,
                    n_points: int = DEFAULT_POINTS, n_harmonics: int = 5,
-                   rel_tol: float = 0.01, min_cycles: int = 3) -> LoopResult:
+                   rel_tol: float = 0.01, min_cycles: int = 3,
+                   phase_correction_rad: float = 0.0, phase_uncertainty_rad: float = 0.0,
+                   phase_note: str = "") -> LoopResult:
     """Hysteresis-loop results of a record given as blocks of (displacement m, force N).
+
+    ``phase_correction_rad`` rotates the force's fundamental (the force sensor's
+    calibrated phase lead over the displacement's); ``phase_uncertainty_rad`` is that
+    phase's standard uncertainty, propagated into W and C with the noise
+    (:mod:`labjoint.identify.resolution`).
 
     Each block is a pair of equal-length 1-D arrays or a (2, n) array. Without
     ``frequency_hz`` the frequency is estimated from the first ``PROBE_SAMPLES``. The
@@ -79,11 +87,17 @@ def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None 
     stream = _LoopStream(fs, f, cutoff, order, n_points, n_harmonics)
     stream.run(chain(head, it))
     per_cycle, bounds = stream.finish()
-    return _assemble(per_cycle, bounds, fs, f, rel_tol, min_cycles, {
+    if per_cycle:
+        correct_phase(per_cycle, float(phase_correction_rad), f)
+    return _assemble(per_cycle, bounds, fs, f, rel_tol, min_cycles, float(phase_uncertainty_rad), {
         "frequency_source": source, "cutoff_hz": cutoff, "cutoff_rule": rule,
         "filter": (f"zero-phase Butterworth order {order} (sosfiltfilt): -6.02 dB at the "
                    "cutoff (seed 002)" if cutoff is not None else "none"),
         "n_samples": stream.n_samples, "n_points": n_points,
+        "phase_correction_deg": float(np.degrees(phase_correction_rad)),
+        "phase_uncertainty_deg": float(np.degrees(phase_uncertainty_rad)),
+        "phase_note": phase_note or ("no sensor phase correction given; the W resolution "
+                                     "holds only the cycle-to-cycle scatter"),
     })
 
 
@@ -113,6 +127,10 @@ def analyze_run(run: Any, frequency_hz: float | None = None,
     if len(run.time) != len(run.displacement):
         raise InputError(f"has {len(run.time)} samples but displacement has "
                          f"{len(run.displacement)}", field="time")
+    inst = run.metadata.get("phase_uncertainty_deg")
+    if inst and "phase_uncertainty_rad" not in kwargs:
+        kwargs["phase_uncertainty_rad"] = float(np.radians(float(inst)))
+        kwargs.setdefault("phase_note", f"instrument phase match +- {inst} deg (run metadata)")
     result = analyze_arrays(run.displacement, run.force, run.sample_rate_hz, f, cutoff_hz,
                             **kwargs)
     result.metadata["run"] = run.name
@@ -223,7 +241,8 @@ class _LoopStream:
 
 
 def _assemble(per_cycle: dict[str, np.ndarray], bounds: np.ndarray, fs: float, f: float,
-              rel_tol: float, min_cycles: int, meta: dict[str, Any]) -> LoopResult:
+              rel_tol: float, min_cycles: int, phase_u: float,
+              meta: dict[str, Any]) -> LoopResult:
     n = per_cycle["energy_loss"].size if per_cycle else 0
     if n < min_cycles:
         raise InputError(f"has {n} complete cycles at {f:g} Hz ({meta['n_samples']} "
@@ -244,6 +263,13 @@ def _assemble(per_cycle: dict[str, np.ndarray], bounds: np.ndarray, fs: float, f
                         steady=steady.mask, steady_state=steady,
                         **{k: per_cycle[k] for k in PER_CYCLE})
     result.summary = summarize(result)
+    u_w, below, extra = resolution(result.energy_loss, result.force_harmonics[:, 0],
+                                   result.displacement_harmonics[:, 0], result.steady, phase_u)
+    result.energy_loss_uncertainty, result.below_resolution = u_w, below
+    u_amp = result.summary["displacement_amplitude_m"]
+    extra["damping_ns_per_m_uncertainty"] = extra["energy_loss_j_uncertainty"] / (
+        np.pi * 2 * np.pi * f * u_amp ** 2) if u_amp > 0 else float("nan")
+    result.summary.update(extra)
     span = bounds[steady.stop] - bounds[steady.start]
     measured = float(fs * (steady.stop - steady.start) / span) if span > 0 else float("nan")
     warnings = []
@@ -292,6 +318,10 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
                     u = u - rf.physical(disp[1], a, b)
                 yield np.stack([u, rf.physical(fch, a, b)])
 
+        if "phase_correction_rad" not in kwargs and f is not None:
+            delta, u, note = sensor_phase(rf.channel(fch), [rf.channel(c) for c in disp], f,
+                                          rf.metadata.get("phase_uncertainty_deg"))
+            kwargs.update(phase_correction_rad=delta, phase_uncertainty_rad=u, phase_note=note)
         result = analyze_blocks(blocks(), rf.sample_rate_hz, f, cutoff_hz, **kwargs)
         result.metadata.update(run=rf.name, path=str(rf.path), force_channel=fch,
                                **{k: rf.metadata.get(k) for k in RUN_KEYS if k in rf.metadata})

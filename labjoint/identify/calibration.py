@@ -13,7 +13,10 @@ with X_1 the phasor of the beam-1 displacement channel (disp_1), m_1 the beam ma
 between the sensor and the interface and, if the beam's support (suspension) is
 known, its stiffness k_s and damping c_s (default 0). factor = |F_joint| / |V_nc|, signed by the
 in-phase part; its standard uncertainty is the scatter over blocks of whole cycles
-divided by sqrt(blocks). The phase of F_joint relative to V_nc is reported too.
+divided by sqrt(blocks). The phase by which F_joint leads V_nc is reported too, with its
+standard uncertainty (the scatter of the per-block phases over sqrt(blocks)); runs
+recorded after a calibration carry both, and the loop pipeline corrects the force for
+that phase (see :mod:`labjoint.identify.loop`).
 
 Calibrations live in a small JSON store (``<data_dir>/calibrations.json``):
 per channel a list of points (frequency, N/V, uncertainty, source runs), and the
@@ -77,6 +80,7 @@ class CalibrationPoint:
     uncertainty: float
     phase_deg: float = 0.0
     runs: tuple[str, ...] = ()
+    phase_uncertainty_deg: float = float("nan")
     method: str = "fundamental phasors, reference force minus beam-1 inertia"
     beam_mass_kg: float = 0.0
     n_blocks: int = 0
@@ -132,7 +136,10 @@ def calibration_factor(sensor_volts: np.ndarray, reference_force_n: np.ndarray,
     mean = float(np.mean(k))
     sem = float(np.std(k, ddof=1) / np.sqrt(k.size)) if k.size > 1 else float("nan")
     phase = float(np.degrees(np.angle(np.mean(ratio) * np.sign(mean))))
-    return CalibrationPoint(float(frequency_hz), mean, sem, phase, tuple(runs),
+    spread = np.angle(ratio / np.mean(ratio))          # per-block phase about the mean
+    u_phase = float(np.degrees(np.std(spread, ddof=1) / np.sqrt(spread.size))) \
+        if spread.size > 1 else float("nan")
+    return CalibrationPoint(float(frequency_hz), mean, sem, phase, tuple(runs), u_phase,
                             beam_mass_kg=float(beam_mass_kg), n_blocks=int(k.size),
                             created=datetime.now(timezone.utc).isoformat(timespec="seconds"))
 
@@ -181,9 +188,18 @@ class CalibrationStore:
         f, k = np.array(tab).T
         return float(np.interp(frequency_hz, f, k))
 
+    def phase_table(self, channel: str) -> tuple[tuple[float, float, float], ...]:
+        """(frequency_hz, phase_deg, uncertainty_deg) for ``ChannelSpec.calibration_phase``;
+        points without a phase uncertainty (older stores) are left out."""
+        return tuple((q.frequency_hz, q.phase_deg, q.phase_uncertainty_deg)
+                     for q in self.channels.get(channel, [])
+                     if np.isfinite(q.phase_deg) and np.isfinite(q.phase_uncertainty_deg))
+
     def apply(self, specs: list[ChannelSpec]) -> list[ChannelSpec]:
-        """Copies of ``specs`` with ``calibration`` filled for every calibrated channel."""
-        return [replace(s, calibration=self.table(s.name)) if self.table(s.name) else s
+        """Copies of ``specs`` with ``calibration`` (and ``calibration_phase``) filled for
+        every calibrated channel."""
+        return [replace(s, calibration=self.table(s.name),
+                        calibration_phase=self.phase_table(s.name)) if self.table(s.name) else s
                 for s in specs]
 
     def to_dict(self) -> dict[str, Any]:

@@ -194,7 +194,10 @@ class LoopResult:
     force_amplitude_n, energy_loss_j, damping_ns_per_m, stiffness_n_per_m (the
     least-squares slope by default), stiffness_secant_n_per_m, stiffness_lsq_n_per_m,
     cycles (number of steady cycles), and ``<key>_std`` for every float key: mean and
-    sample standard deviation over the steady cycles. ``frequency_hz`` is the
+    sample standard deviation over the steady cycles; the pipeline adds the
+    uncertainty and resolution of W and C (:func:`labjoint.identify.resolution.resolution`:
+    energy_loss_j_uncertainty, energy_loss_j_resolution, energy_loss_j_uncertainty_phase,
+    damping_ns_per_m_uncertainty, below_resolution, cycles_below_resolution). ``frequency_hz`` is the
     frequency used in Eq. 1; its std is that of the per-cycle measured frequencies.
     """
 
@@ -215,6 +218,10 @@ class LoopResult:
     force_harmonics: np.ndarray
     steady_state: SteadyState
     summary: dict[str, float | int] = field(default_factory=dict)
+    #: per-cycle standard uncertainty of W (J) and W below its resolution
+    #: (:mod:`labjoint.identify.resolution`); filled by the pipeline
+    energy_loss_uncertainty: np.ndarray = field(default_factory=lambda: np.empty(0))
+    below_resolution: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=bool))
     metadata: dict[str, Any] = field(default_factory=dict)
 
     @property

@@ -68,6 +68,9 @@ def analyze_one(run: Any, method: str = "both", *, friction: Identified | float 
             row.update({k: loop.summary[k] for k in LOOP_FIELDS})
             row["energy_loss_j_std"] = loop.summary["energy_loss_j_std"]
             row["damping_ns_per_m_std"] = loop.summary["damping_ns_per_m_std"]
+            for key in ("energy_loss_j_uncertainty", "damping_ns_per_m_uncertainty",
+                        "energy_loss_j_resolution", "below_resolution"):
+                row[key] = loop.summary[key]
     if method in ("stickslip", "both"):
         if friction is None:
             raise InputError("the stick-slip method needs the friction coefficient: identify "

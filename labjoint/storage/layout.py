@@ -186,6 +186,10 @@ def write_sensor(instrument: h5py.Group, spec: ChannelSpec) -> None:
     cal = np.array(spec.calibration, dtype=float).reshape(-1, 2)
     number(g, "calibration_frequency", cal[:, 0], "Hz")
     number(g, "calibration_sensitivity", cal[:, 1], f"{spec.unit}/V")
+    ph = np.array(spec.calibration_phase, dtype=float).reshape(-1, 3)
+    number(g, "calibration_phase_frequency", ph[:, 0], "Hz")
+    number(g, "calibration_phase", ph[:, 1], "degree")
+    number(g, "calibration_phase_uncertainty", ph[:, 2], "degree")
 
 
 def read_sensor(g: h5py.Group) -> ChannelSpec:
@@ -197,11 +201,16 @@ def read_sensor(g: h5py.Group) -> ChannelSpec:
 
     freq = np.asarray(g["calibration_frequency"][()], dtype=float).ravel()
     sens = np.asarray(g["calibration_sensitivity"][()], dtype=float).ravel()
+    phase = tuple(zip(*(np.asarray(g[k][()], dtype=float).ravel().tolist()
+                        for k in ("calibration_phase_frequency", "calibration_phase",
+                                  "calibration_phase_uncertainty")))) \
+        if "calibration_phase" in g else ()          # files written before phases
     return ChannelSpec(name=s("name"), sensor=s("type"), quantity=s("measurement"),
                        unit=s("unit"), sensitivity=float(g["sensitivity"][()]),
                        range_v=float(g["range"][()]), coupling=s("coupling"),
                        iepe=bool(g["iepe"][()]), physical_channel=s("physical_channel"),
-                       calibration=tuple((float(a), float(b)) for a, b in zip(freq, sens)))
+                       calibration=tuple((float(a), float(b)) for a, b in zip(freq, sens)),
+                       calibration_phase=phase)
 
 
 def check_channels(channels: list[ChannelSpec]) -> None:

@@ -101,13 +101,20 @@ async function steadyLoopsSection(name) {
   const sm = body.summary || {};
   const sc = (v, f) => (v == null ? null : v * f);
   const pm = (k, f) => `${fmt(sc(sm[k], f), 3)} ± ${fmt(sc(sm[`${k}_std`], f), 2)}`;
-  const rows = body.cycles.map((c) => [String(c.index), fmt(sc(c.energy_loss_j, 1e3)),
-    fmt(c.damping_ns_per_m), fmt(sc(c.stiffness_n_per_m, 1e-6))]);
+  const below = 'below resolution';
+  const rows = body.cycles.map((c) => [String(c.index),
+    c.below_resolution ? below : fmt(sc(c.energy_loss_j, 1e3)),
+    c.below_resolution ? below : fmt(c.damping_ns_per_m), fmt(sc(c.stiffness_n_per_m, 1e-6))]);
+  const wText = sm.below_resolution
+    ? `energy loss below resolution (under ${fmt(sc(sm.energy_loss_j_resolution, 1e3), 2)} mJ: `
+      + 'sensor phase and cycle-to-cycle scatter; not a result)'
+    : `energy loss ${pm('energy_loss_j', 1e3)} mJ (uncertainty of the mean `
+      + `${fmt(sc(sm.energy_loss_j_uncertainty, 1e3), 2)} mJ)`;
   return [loopPlot(body, { id: 'loop' }),
     h('p', { class: 'caption' }, `The last ${n} of ${body.n_steady} steady cycles `
       + `(cycles ${body.steady_start}–${body.steady_stop - 1} of ${body.n_cycles} are steady), `
       + `low-passed at ${fmt(body.cutoff_hz)} Hz as the loop pipeline does; darker is later. `
-      + `Over every steady cycle: energy loss ${pm('energy_loss_j', 1e3)} mJ, `
+      + `Over every steady cycle: ${wText}, `
       + `stiffness ${pm('stiffness_n_per_m', 1e-6)} MN/m.`),
     (body.warnings || []).length ? h('p', { class: 'note' }, body.warnings.join(' ')) : null,
     h('details', {}, h('summary', {}, 'Per cycle'),
