@@ -21,6 +21,7 @@ from labjoint.identify.loop import DEFAULT_STIFFNESS, PER_CYCLE, LoopResult, loo
 from labjoint.identify.resolution import correct_phase, resolution, sensor_phase
 from labjoint.signal import validate
 from labjoint.signal.cycles import DEFAULT_POINTS
+from labjoint.signal.excitation import detect_excitation, detect_streamed, require_sine
 from labjoint.signal.filter import PAPER_CUTOFF_HZ, PAPER_ORDER, ZeroPhaseStream, analysis_cutoff
 from labjoint.signal.frequency import estimate_frequency
 from labjoint.signal.phase import CycleSegmenter
@@ -30,6 +31,11 @@ from labjoint.signal.steady import detect_steady
 BLOCK_SAMPLES = 1 << 18
 #: Samples gathered from the start of a record to estimate its frequency.
 PROBE_SAMPLES = 1 << 16
+#: Named in the refusal of a record that is not a steady sine.
+PIPELINE = ("the hysteresis-loop pipeline (labjoint analyze, and fit, diagnose and ladder "
+            "on sine records)")
+#: Shorter records are left to the cycle checks (too short to tell their excitation).
+MIN_DETECT_SAMPLES = 256
 #: A cycle is usable when its duration is within these fractions of 1/f.
 PERIOD_RANGE = (0.8, 1.25)
 
@@ -108,6 +114,8 @@ def analyze_arrays(displacement: np.ndarray, force: np.ndarray, fs: float,
     u = validate.signal(displacement, "displacement", min_samples=2)
     F = validate.signal(force, "force", min_samples=2)
     validate.same_length(F, u, "force", "displacement")
+    if F.size >= MIN_DETECT_SAMPLES:
+        require_sine(detect_excitation(F, fs), PIPELINE)
     u = u - u.mean()
     F = F - F.mean()
     blocks = (np.stack([u[i:i + BLOCK_SAMPLES], F[i:i + BLOCK_SAMPLES]])
@@ -318,6 +326,9 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
                     u = u - rf.physical(disp[1], a, b)
                 yield np.stack([u, rf.physical(fch, a, b)])
 
+        require_sine(detect_streamed(lambda a, b: rf.physical(fch, a, b), rf.n_samples,
+                                     rf.sample_rate_hz, rf.metadata), PIPELINE,
+                     f"run {rf.name} ({fch})")
         if "phase_correction_rad" not in kwargs and f is not None:
             delta, u, note = sensor_phase(rf.channel(fch), [rf.channel(c) for c in disp], f,
                                           rf.metadata.get("phase_uncertainty_deg"))

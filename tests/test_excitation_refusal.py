@@ -1,0 +1,52 @@
+"""Sine-only pipelines refuse a record that is not a steady sine, naming what it is."""
+
+import numpy as np
+import pytest
+
+from labjoint.cli.main import main
+from labjoint.errors import InputError
+from labjoint.identify.analyze import analyze_run
+from labjoint.storage import import_csv
+from labjoint.storage.csv_parse import parse_csv
+
+FS = 750.0
+
+
+def _multisine_csv(tmp_path, periods=3, n=4096, seed=2):
+    """A multisine force (5-150 Hz) through a 2 kg / 5e4 N/m / 10 Ns/m oscillator, as
+    the import format with no frequency metadata (the Bouc-Wen benchmark's shape)."""
+    rng = np.random.default_rng(seed)
+    f = np.fft.rfftfreq(n, 1 / FS)
+    sel = (f >= 5) & (f <= 150)
+    spec = np.zeros(f.size, complex)
+    spec[sel] = 50 * np.sqrt(2 * n) * np.exp(2j * np.pi * rng.random(sel.sum())) / np.sqrt(sel.sum())
+    force = np.tile(np.fft.irfft(spec, n), periods)
+    w = 2 * np.pi * f
+    h = 1.0 / (5e4 - 2.0 * w ** 2 + 10j * w)               # steady-state FRF of the SDOF
+    disp = np.tile(np.fft.irfft(spec * h, n), periods)
+    t = np.arange(force.size) / FS
+    p = tmp_path / "multisine.csv"
+    rows = "\n".join(f"{a!r},{b!r},{c!r}" for a, b, c in zip(t.tolist(), disp.tolist(), force.tolist()))
+    p.write_text("time_s,displacement_m,force_N\n" + rows + "\n")
+    return p
+
+
+def test_analyze_run_refuses_a_multisine(tmp_path):
+    run = parse_csv(_multisine_csv(tmp_path)).to_run()
+    with pytest.raises(InputError, match=r"multisine with period 5.46\d* s .*not a steady sine"):
+        analyze_run(run, frequency_hz=41.0)
+
+
+@pytest.mark.parametrize("argv", [["analyze"], ["fit", "--model", "linear_stiffness+viscous"],
+                                  ["diagnose", "--model", "linear_stiffness"]])
+def test_cli_refuses_a_multisine_and_names_the_command_that_handles_it(tmp_path, capsys, argv):
+    csv = _multisine_csv(tmp_path)
+    data = tmp_path / "data"
+    data.mkdir()
+    h5 = import_csv(csv, data)
+    for path in (str(csv), str(h5)):
+        code = main([argv[0], path, *argv[1:], "--json"])
+        err = capsys.readouterr()
+        assert code == 2, err
+        assert err.out == ""
+        assert "multisine" in err.err and "fit --error simulation" in err.err
