@@ -83,7 +83,7 @@ def import_csv(csv_path: str | Path, data_dir: str | Path, name: str | None = No
     Path(data_dir).mkdir(parents=True, exist_ok=True)
     tmp = layout.temp_path(final, f"{os.getpid()}-{secrets.token_hex(4)}")
     try:
-        with h5py.File(tmp, "w", libver="latest") as f:
+        with layout.H5_LOCK, h5py.File(tmp, "w", libver="latest") as f:
             layout.create_layout(f, name=name, uid=secrets.token_hex(16),
                                  channels=[c for c, _ in chans],
                                  sample_rate_hz=parsed.sample_rate_hz, metadata=md,

@@ -31,10 +31,12 @@ gap shows in it; stored gzip+shuffle it costs about 4 % of one raw channel.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 import os
 import re
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -44,6 +46,22 @@ import numpy as np
 from labjoint import __version__
 from labjoint.errors import InputError
 from labjoint.hardware.interfaces import ChannelSpec
+
+#: Every HDF5 access of this process goes through this lock: reader and writer calls,
+#: and multi-step sequences (refresh, then shape, then slice) are atomic with respect to
+#: each other. h5py alone does not make concurrent reads of one file safe (16 threads
+#: reading windows of a run got each other's samples, compressed time axis included).
+H5_LOCK = threading.RLock()
+
+
+def locked(fn: Any) -> Any:
+    """Run ``fn`` holding :data:`H5_LOCK`."""
+    @functools.wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        with H5_LOCK:
+            return fn(*args, **kwargs)
+    return wrapper
+
 
 FORMAT_VERSION = 1
 STATUS_DTYPE = "S16"

@@ -47,6 +47,7 @@ def _put(g: h5py.Group, arrays: Mapping[str, Any], units: Mapping[str, Any], whe
         ds.attrs["units"] = "" if isinstance(unit, Mapping) else str(unit)
 
 
+@layout.locked
 def write_processed(path: str | Path, group_name: str, arrays: Mapping[str, Any],
                     attrs: Mapping[str, Any] | None = None,
                     units: Mapping[str, Any] | None = None) -> None:
@@ -108,6 +109,7 @@ def write_processed(path: str | Path, group_name: str, arrays: Mapping[str, Any]
             del root[old_name]
 
 
+@layout.locked
 def read_processed(path: str | Path, group_name: str) -> tuple[dict[str, Any], dict[str, Any]]:
     """Arrays and attributes of a processed group (see :meth:`RunFile.processed`)."""
     with open_run(path) as rf:

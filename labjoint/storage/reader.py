@@ -3,13 +3,21 @@
 A file a writer holds open (or held when it died) is opened in SWMR-read mode, so a
 run still being written can be read;
 :meth:`RunFile.refresh` picks up what the writer has flushed since.
+
+Thread safety: a process holds one HDF5 handle per run file, shared by every
+:class:`RunFile` opened on it and reference-counted (``_Handle``), and every HDF5 call
+goes through :data:`labjoint.storage.layout.H5_LOCK`. Two handles on one file in one
+process share HDF5's file state, and refreshing one while the other reads made
+concurrent readers get another window's samples (chunk 10 read as chunk 0).
 Imported (CSV) runs store physical values with unity calibration, so ``volts`` and
 ``physical`` return the same numbers for them.
 """
 
 from __future__ import annotations
 
+import copy
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator
@@ -41,24 +49,61 @@ class DataBlock:
     data: dict[str, np.ndarray]
 
 
+class _Handle:
+    """The process's one open HDF5 file for a run path, with its datasets."""
+
+    def __init__(self, f: h5py.File, swmr: bool) -> None:
+        self.f, self.swmr, self.users = f, swmr, 0
+        self.static: tuple | None = None
+        self.entry = f["entry"]
+        self.data = self.entry["data"]
+        self.ds = {k: v for k, v in self.data.items() if isinstance(v, h5py.Dataset)}
+
+
+#: Open handles by resolved path (guarded by H5_LOCK).
+_HANDLES: dict[str, _Handle] = {}
+#: The static part of recently read files by (path, inode, device): a run's channels,
+#: start metadata, title, identifier and source are written when it starts and never
+#: change, and parsing them is most of the cost of opening a file.
+_STATIC: dict[tuple[str, int, int], tuple] = {}
+_STATIC_MAX = 512
+
+
+def _static_part(rf: "RunFile") -> tuple:
+    st = os.stat(rf.path)
+    key = (str(rf.path.resolve()), st.st_ino, st.st_dev)
+    hit = _STATIC.get(key)
+    if hit is None:
+        hit = (tuple(rf._read_channels()), json.loads(_s(rf._e["metadata_json"][()])),
+               _s(rf._e["title"][()]), _s(rf._e["entry_identifier"][()]),
+               _s(rf._e.attrs.get("labjoint_source", "")))
+        if len(_STATIC) >= _STATIC_MAX:
+            _STATIC.pop(next(iter(_STATIC)))
+        _STATIC[key] = hit
+    return hit
+
+
 class RunFile:
     """An open run file (use :func:`open_run`). Close it, or use it as a context manager."""
 
-    def __init__(self, path: Path, f: h5py.File) -> None:
+    @layout.locked
+    def __init__(self, path: Path, handle: _Handle) -> None:
         self.path = path
-        self._f = f
+        self._h = handle
+        self._f = handle.f
+        self._closed = False
         try:
-            self._e = f["entry"]
-            self._data = self._e["data"]
-            self._ds = {k: v for k, v in self._data.items() if isinstance(v, h5py.Dataset)}
-            self.channels: list[ChannelSpec] = self._read_channels()
-            self._static = json.loads(_s(self._e["metadata_json"][()]))
-            self.name = _s(self._e["title"][()])
-            self.uid = _s(self._e["entry_identifier"][()])
-            self.source = _s(self._e.attrs.get("labjoint_source", ""))
+            self._e = handle.entry
+            self._data = handle.data
+            self._ds = handle.ds
+            if handle.static is None:     # written once at the run's start, never changed
+                handle.static = _static_part(self)
+            chans, static, self.name, self.uid, self.source = handle.static
+            self.channels: list[ChannelSpec] = list(chans)
+            self._static = copy.deepcopy(static)
             self.refresh()
         except (KeyError, ValueError, OSError, TypeError) as exc:
-            f.close()
+            self.close()
             raise InputError(f"damaged run file: {exc}", file=str(path)) from None
 
     def _read_channels(self) -> list[ChannelSpec]:
@@ -67,13 +112,15 @@ class RunFile:
         return [layout.read_sensor(inst[n]) for n in names]
 
     # -- state that changes while a run is written ------------------------------
+    @layout.locked
     def refresh(self) -> None:
         """Re-read what a live writer has flushed (sample count, status, events)."""
-        for key in ("status", "end_time", "n_samples", "acquisition/gaps",
-                    "acquisition/events", "acquisition/continuous"):
-            self._e[key].refresh()
-        for ds in self._ds.values():
-            ds.refresh()
+        if self._h.swmr:                  # another process writes it: pick up its flushes
+            for key in ("status", "end_time", "n_samples", "acquisition/gaps",
+                        "acquisition/events", "acquisition/continuous"):
+                self._e[key].refresh()
+            for ds in self._ds.values():
+                ds.refresh()
         self.status = _s(self._e["status"][()]).strip()
         self.end_time = _s(self._e["end_time"][()])
         self.n_samples = min(ds.shape[0] for ds in self._ds.values())
@@ -111,6 +158,7 @@ class RunFile:
         return [c.name for c in self.channels]
 
     @property
+    @layout.locked
     def processed_names(self) -> list[str]:
         """Names of the processed-result groups in the file."""
         g = self._e.get("processed")
@@ -129,10 +177,12 @@ class RunFile:
         a, b, _ = slice(start, stop).indices(self.n_samples)
         return slice(a, max(a, b))
 
+    @layout.locked
     def time(self, start: int = 0, stop: int | None = None) -> np.ndarray:
         """Time axis (s) of samples ``start:stop``."""
         return self._ds["time"][self._slice(start, stop)]
 
+    @layout.locked
     def volts(self, channel: str, start: int = 0, stop: int | None = None) -> np.ndarray:
         """Raw stored values of ``channel`` (volts for acquired runs)."""
         self.channel(channel)
@@ -164,6 +214,7 @@ class RunFile:
                 break
             start += step
 
+    @layout.locked
     def processed(self, group_name: str) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Arrays and attributes of ``/entry/processed/<group_name>``."""
         g = self._e.get(f"processed/{group_name}")
@@ -172,6 +223,7 @@ class RunFile:
                              file=str(self.path), field=group_name)
         return _read_group(g), {k: _attr(v) for k, v in g.attrs.items() if k != "NX_class"}
 
+    @layout.locked
     def to_run(self, force: str = "joint") -> Run:
         """The run in SI units: relative displacement and the joint (or reference) force."""
         md = self.metadata
@@ -204,8 +256,18 @@ class RunFile:
                    force=chans[fch].copy(), metadata=dict(md), channels=chans,
                    path=str(self.path))
 
+    @layout.locked
     def close(self) -> None:
-        self._f.close()
+        """Release this reader; the file closes when its last reader in the process does."""
+        if self._closed:
+            return
+        self._closed = True
+        self._h.users -= 1
+        if self._h.users <= 0:
+            key = next((k for k, h in _HANDLES.items() if h is self._h), None)
+            if key is not None:
+                del _HANDLES[key]
+            self._h.f.close()
 
     def __enter__(self) -> "RunFile":
         return self
@@ -235,6 +297,7 @@ def _read_group(g: h5py.Group) -> dict[str, Any]:
     return out
 
 
+@layout.locked
 def open_run(path: str | Path) -> RunFile:
     """Open a run file for reading (works while it is being written).
 
@@ -244,6 +307,20 @@ def open_run(path: str | Path) -> RunFile:
     p = Path(path)
     if not p.is_file():
         raise InputError("no such run file", file=str(p))
+    key = str(p.resolve())
+    handle = _HANDLES.get(key)
+    if handle is not None and not handle.f.id.valid:      # closed behind our back
+        del _HANDLES[key]
+        handle = None
+    if handle is None:
+        handle = _open_handle(p)
+        _HANDLES[key] = handle
+    handle.users += 1
+    return RunFile(p, handle)
+
+
+def _open_handle(p: Path) -> _Handle:
+    swmr = False
     try:
         f = h5py.File(p, "r")
     except OSError as exc:
@@ -251,13 +328,18 @@ def open_run(path: str | Path) -> RunFile:
             raise InputError(f"not a readable HDF5 file: {exc}", file=str(p)) from None
         try:  # a writer has it (or had it, and died): read it the SWMR way
             f = h5py.File(p, "r", swmr=True)
+            swmr = True
         except OSError as exc2:
             raise InputError(f"not a readable HDF5 file: {exc2}", file=str(p)) from None
     e = f.get("entry")
     if not isinstance(e, h5py.Group) or "labjoint_format" not in e.attrs or "data" not in e:
         f.close()
         raise InputError("not a labjoint run file (no /entry with @labjoint_format)", file=str(p))
-    return RunFile(p, f)
+    try:
+        return _Handle(f, swmr)
+    except (KeyError, ValueError, OSError, TypeError) as exc:
+        f.close()
+        raise InputError(f"damaged run file: {exc}", file=str(p)) from None
 
 
 def read_run(path: str | Path, force: str = "joint") -> Run:

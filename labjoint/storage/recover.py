@@ -70,6 +70,7 @@ def lookup3(data: bytes, initval: int = 0) -> int:
     return c
 
 
+@layout.locked
 def clear_status_flags(path: str | Path) -> bool:
     """Clear the superblock's file-consistency flags (``h5clear -s``). True if any were set."""
     p = Path(path)
@@ -110,6 +111,7 @@ def _writer_alive(pid: int, host: str) -> bool:
     return True
 
 
+@layout.locked
 def _read_state(p: Path) -> tuple[str, int, str]:
     try:
         with h5py.File(p, "r", swmr=True) as f:
@@ -122,6 +124,7 @@ def _read_state(p: Path) -> tuple[str, int, str]:
         raise InputError(f"cannot read run file: {exc}", file=str(p)) from None
 
 
+@layout.locked
 def recover(path: str | Path, *, force: bool = False, catalog=None) -> bool:
     """Mark a run file whose writer is gone "incomplete"; True if it was changed.
 

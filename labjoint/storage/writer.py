@@ -76,6 +76,7 @@ class RunWriter:
         self._runs: dict[str, _OpenRun] = {}
 
     # -- document dispatch -------------------------------------------------------
+    @layout.locked
     def __call__(self, name: str, doc: Any) -> None:
         if name == "start" and isinstance(doc, RunStart):
             self.start(doc)
@@ -101,6 +102,7 @@ class RunWriter:
             raise InputError(f"no open run with uid {uid!r} (RunStart missing?)", field="uid") from None
 
     # -- start -------------------------------------------------------------------
+    @layout.locked
     def start(self, doc: RunStart) -> Path:
         """Create the run file (temp name, full layout, SWMR on, then link to its name)."""
         if doc.uid in self._runs:
@@ -137,6 +139,7 @@ class RunWriter:
         return final
 
     # -- blocks ------------------------------------------------------------------
+    @layout.locked
     def block(self, doc: Block) -> None:
         """Append a block; a sample-counter jump is recorded as a gap (expected, got)."""
         run = self._run(doc.uid)
@@ -169,6 +172,7 @@ class RunWriter:
         run.ds("entry/acquisition/continuous")[()] = False
 
     # -- markers -----------------------------------------------------------------
+    @layout.locked
     def marker(self, doc: Marker) -> None:
         """Store a named sample marker with its JSON data."""
         run = self._run(doc.uid)
@@ -178,6 +182,7 @@ class RunWriter:
         self._flush_if_due(run)
 
     # -- stop --------------------------------------------------------------------
+    @layout.locked
     def stop(self, doc: RunStop) -> Path:
         """Write end time, sample count and the stop event, then the final status; close."""
         run = self._run(doc.uid)
@@ -214,17 +219,20 @@ class RunWriter:
             run.file.flush()
             run.last_flush = now
 
+    @layout.locked
     def flush_if_due(self) -> None:
         """Flush every open run whose flush interval has passed."""
         for run in self._runs.values():
             self._flush_if_due(run)
 
+    @layout.locked
     def flush(self) -> None:
         """Flush every open run now."""
         for run in self._runs.values():
             run.file.flush()
             run.last_flush = self.clock()
 
+    @layout.locked
     def close(self) -> None:
         """Close runs that never got a RunStop; they are marked "incomplete"."""
         for uid, run in list(self._runs.items()):
