@@ -171,10 +171,7 @@ def test_bad_input_names_the_file_and_what_is_wrong(calibrated, tmp_path):
     before, good = calibrated["before"], calibrated["cal_files"][1]
     err = _fails(["calibrate", before, "--data-dir", str(out), "--json"])
     assert before in err and "'plan'" in err and "not a sensor_calibration run" in err
-    # all or nothing: one bad run among good ones stores no point
-    assert not (out / "calibrations.json").exists()
-    _fails(["calibrate", good, before, "--data-dir", str(out)])
-    assert not (out / "calibrations.json").exists()
+    assert not (out / "calibrations.json").exists()           # nothing usable: nothing stored
     missing = str(tmp_path / "nope.h5")
     assert missing in _fails(["friction", missing, "--data-dir", str(out)])
     assert missing in _fails(["calibrate", missing, "--data-dir", str(out)])
@@ -207,3 +204,27 @@ def test_calibrate_refuses_a_run_without_reference_force_channel(calibrated, tmp
     path = str(tmp_path / "noref.h5")
     err = _fails(["calibrate", path, "--data-dir", str(tmp_path)])
     assert path in err and "no reference force channel 'force_ref'" in err
+
+
+def test_one_bad_record_is_named_and_the_good_ones_are_used(calibrated, tmp_path, capsys):
+    out = tmp_path / "store"
+    good = calibrated["cal_files"]
+    broken = tmp_path / "truncated.h5"
+    broken.write_bytes(Path(good[0]).read_bytes()[:4096])      # a cut-off copy
+    wrong = calibrated["before"]                              # a dwell, not a calibration run
+    rc = main(["calibrate", good[0], str(broken), wrong, good[1], "--data-dir", str(out),
+               "--json"])
+    cap = capsys.readouterr()
+    assert rc == 1
+    body = json.loads(cap.out)
+    assert sorted(p["file"] for p in body["points"]) == sorted(good)
+    assert [f["file"] for f in body["failed"]] == [str(broken), wrong]
+    assert str(broken) in cap.err and wrong in cap.err and "not a sensor_calibration run" in cap.err
+    stored = json.loads((out / "calibrations.json").read_text())
+    assert len(stored["channels"]["shear_nc"]["points"]) == 2
+    # only bad files: refused (exit 2), and the store is left exactly as it was
+    before = (out / "calibrations.json").read_bytes()
+    assert main(["calibrate", str(broken), wrong, "--data-dir", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert str(broken) in err and wrong in err
+    assert (out / "calibrations.json").read_bytes() == before

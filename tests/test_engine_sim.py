@@ -379,3 +379,20 @@ def test_sensor_calibration_runs_are_tagged(sim):
     assert all(s.metadata["joint_force_channel"] == "shear_nc"
                and s.metadata["reference_force_channel"] == "force_ref" for s in starts)
 
+
+
+def test_sensor_calibration_keeps_every_channel_in_range_at_every_default_frequency(sim):
+    # Before: 20 Vpp at 200 Hz drove the reference force channel into its +-5 V range.
+    docs = []
+    rig, engine, gen = sim([lambda n, d: docs.append((n, d))])
+    r = engine.run(sensor_calibration(n_cycles=10, measure_cycles=5, **QUICK))
+    assert r.status == "complete"
+    runs = by_run(docs)
+    assert len(runs) == 5
+    ranges = np.array([c.range_v for c in rig.daq.channels])
+    for run in runs:
+        peak = np.abs(run["volts"]).max(axis=1) / ranges
+        assert peak.max() < 0.9, (run["start"].metadata["frequency_hz"], peak)
+    md = [run["start"].metadata for run in runs]
+    assert any(m["range_limited_by"] for m in md)          # some frequency needed less drive
+    assert all(m["requested_vpp"] == 20.0 for m in md)

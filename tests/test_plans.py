@@ -67,12 +67,41 @@ def test_friction_test_exact():
 
 
 def test_sensor_calibration_exact_and_tagged():
+    M = Measure(10)
+    extra = {"requested_vpp": 20.0, "range_limited_by": []}
     assert list(sensor_calibration([300, 400], amplitude_vpp=20, torque_nm=5, n_cycles=10, **STEADY)) == [
-        SetTorque(5.0), Configure(300.0, 20.0), Output(True), W,
-        Record("sensor_calibration_00_300Hz", n_cycles=10, metadata=md("sensor_calibration", 0)),
-        Configure(400.0, 20.0), W,
-        Record("sensor_calibration_01_400Hz", n_cycles=10, metadata=md("sensor_calibration", 1)),
+        SetTorque(5.0), Configure(300.0, 20.0), Output(True), W, M,
+        Record("sensor_calibration_00_300Hz", n_cycles=10, metadata={**md("sensor_calibration", 0), **extra}),
+        Configure(400.0, 20.0), W, M,
+        Record("sensor_calibration_01_400Hz", n_cycles=10, metadata={**md("sensor_calibration", 1), **extra}),
         Output(False)]
+
+
+def test_sensor_calibration_lowers_the_drive_until_every_channel_is_in_range():
+    # reference-force peak / range = 0.065 per Vpp at 200 Hz (clips at 20 Vpp), 0.03 at 400 Hz
+    per_vpp = {200.0: 0.065, 400.0: 0.03}
+    state = {}
+
+    def respond(msg):
+        if isinstance(msg, Configure):
+            state.update(f=msg.frequency_hz, vpp=msg.amplitude_vpp)
+        elif isinstance(msg, Ramp):
+            state["vpp"] = msg.to_vpp
+        elif isinstance(msg, WaitSteady):
+            return SteadyResult(True, msg.window, 0.0)
+        elif isinstance(msg, Measure):
+            peak = min(per_vpp[state["f"]] * state["vpp"], 1.0)       # the ADC clips at 1
+            return Measurement(state["f"], {}, {}, "force_ref", 20.0,
+                               {"force_ref": peak, "disp_1": 0.1})
+        return None
+
+    msgs = dry_run(sensor_calibration([200, 400], n_cycles=10, **STEADY), respond)
+    recs = [m for m in msgs if isinstance(m, Record)]
+    ramps = [m.to_vpp for m in msgs if isinstance(m, Ramp)]
+    # 200 Hz: clipped at 20 Vpp -> halve to 10 (0.65 of range) -> within 0.8: stop
+    assert ramps == [pytest.approx(10.0)]
+    assert recs[0].metadata["range_limited_by"] == ["force_ref"]
+    assert recs[1].metadata["range_limited_by"] == []             # 0.6 at 20 Vpp: fine
 
 
 def test_broadband_log_grid_low_level():

@@ -200,6 +200,8 @@ class Measurement:
     phase_rad: dict[str, float]
     reference_force_channel: str | None = None
     max_vpp: float = math.inf
+    #: largest |volts| / input range of each channel over the measured cycles (1: clipped)
+    peak_fraction: dict[str, float] = field(default_factory=dict)
 
     @property
     def reference_force_n(self) -> float:

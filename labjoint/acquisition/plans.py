@@ -164,19 +164,60 @@ def sensor_calibration(frequencies_hz: Annotated[list[Hz], Field(min_length=1)] 
                            200.0, 300.0, 400.0, 500.0, 600.0), *,
                        amplitude_vpp: Vpp = 20.0, torque_nm: Nm = 5.0, n_cycles: Cycles = 100,
                        steady_max_cycles: Cycles = 400, steady_tol: Fraction = 0.02,
-                       steady_window: Window = 10) -> Plan:
+                       steady_window: Window = 10, headroom: Fraction = 0.8,
+                       measure_cycles: Cycles = 10, max_reductions: Annotated[int, Field(ge=0)] = 4
+                       ) -> Plan:
     """Runs for calibrating the nanocomposite sensor against the reference force sensor
     at each frequency (seed 002: 301 N/V at 400 Hz, 20 Vpp, 5 Nm); the calibration itself
-    is computed later by ``identify`` from runs tagged ``plan='sensor_calibration'``."""
+    is computed later by ``identify`` from runs tagged ``plan='sensor_calibration'``.
+
+    Every channel must stay inside its input range (a clipped channel cannot be
+    calibrated): at each frequency the plan measures each channel's peak and, while one
+    exceeds ``headroom`` of its range, lowers the drive in proportion (to 90 % of what
+    would just meet the headroom; by half if a channel already clipped), at most
+    ``max_reductions`` times. The Vpp used and why are in each run's metadata.
+    """
     yield SetTorque(torque_nm)
     for i, f in enumerate(frequencies_hz):
-        yield Configure(f, amplitude_vpp)
+        vpp = float(amplitude_vpp)
+        yield Configure(f, vpp)
         if i == 0:
             yield Output(True)
         yield _wait(steady_max_cycles, steady_tol, steady_window)
+        vpp, limited_by = yield from _keep_in_range(vpp, headroom, measure_cycles, max_reductions,
+                                                    steady_max_cycles, steady_tol, steady_window)
         yield Record(f"sensor_calibration_{i:02d}_{_tag(f)}Hz", n_cycles=n_cycles,
-                     metadata={"plan": "sensor_calibration", "plan_step": i})
+                     metadata={"plan": "sensor_calibration", "plan_step": i,
+                               "requested_vpp": float(amplitude_vpp), "range_limited_by": limited_by})
     yield Output(False)
+
+
+#: A channel this close to its range limit has clipped.
+CLIPPED = 0.999
+
+
+def _keep_in_range(vpp: float, headroom: float, measure_cycles: int, max_reductions: int,
+                   steady_max_cycles: int, steady_tol: float, steady_window: int
+                   ) -> Generator[Message, Any, tuple[float, list[str]]]:
+    """Plan stub: lower Vpp until every channel's peak is within ``headroom`` of its range.
+
+    Returns the Vpp reached and the channels that forced a reduction. A responder that
+    does not measure peaks (an old engine, a dry run without answers) leaves Vpp as is.
+    """
+    limited: list[str] = []
+    for _ in range(max_reductions + 1):
+        m = yield Measure(measure_cycles)
+        peaks = getattr(m, "peak_fraction", None) or {}
+        over = {c: p for c, p in peaks.items() if p > headroom}
+        if not over:
+            break
+        limited += [c for c in over if c not in limited]
+        worst = max(over.values())
+        scale = 0.5 if worst >= CLIPPED else 0.9 * headroom / worst
+        vpp *= scale
+        yield Ramp(vpp)
+        yield _wait(steady_max_cycles, steady_tol, steady_window)
+    return vpp, limited
 
 
 # ---- frequency-stepping plans -----------------------------------------------------

@@ -103,10 +103,14 @@ class SamplingMixin:
         for first, volts in self._blocks(int(math.ceil(msg.n_cycles * fs / f))):
             first0 = first if first0 is None else first0
             parts.append(volts)
-        X = fundamental(np.concatenate(parts, axis=1), fs, f, first_sample=first0)
-        amp, phase = {}, {}
-        for spec, x in zip(self.daq.channels, X):
+        volts = np.concatenate(parts, axis=1)
+        X = fundamental(volts, fs, f, first_sample=first0)
+        peaks = np.max(np.abs(volts), axis=1)
+        amp, phase, peak = {}, {}, {}
+        for spec, x, p in zip(self.daq.channels, X, peaks):
             s = spec.units_per_volt(f)
             amp[spec.name] = float(abs(x) * abs(s))
             phase[spec.name] = float(np.angle(x * np.sign(s)))
-        return Measurement(f, amp, phase, self._roles["reference_force_channel"], self.limits.max_vpp)
+            peak[spec.name] = float(p / spec.range_v)
+        return Measurement(f, amp, phase, self._roles["reference_force_channel"], self.limits.max_vpp,
+                           peak)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -69,7 +70,10 @@ def _check_plan(md: dict[str, Any], want: str, path: str | Path, any_plan: bool)
 # ---- calibrate ------------------------------------------------------------------------
 
 def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("runs", nargs="+", metavar="RUN", help="sensor-calibration run files (HDF5)")
+    p.add_argument("runs", nargs="+", metavar="RUN",
+                   help="sensor-calibration run files (HDF5); a file that cannot be used is "
+                        "reported by name and the others are used (exit status 1; 2 if none "
+                        "could be used, and then nothing is stored)")
     p.add_argument("--channel", default=None,
                    help="sensor channel to calibrate (default: the run's joint_force_channel)")
     p.add_argument("--data-dir", default=None,
@@ -116,31 +120,48 @@ def check_calibration_run(path: str | Path, channel: str | None, any_plan: bool)
 
 
 def calibrate_files(paths: list[str], data_dir: Path, *, channel: str | None = None,
-                    any_plan: bool = False, **dynamics: Any) -> tuple[list[dict[str, Any]], Any]:
-    """Calibrate every run (all checked and computed before anything is written), add the
-    points to ``<data_dir>/calibrations.json``; returns (point rows, the store)."""
+                    any_plan: bool = False, **dynamics: Any
+                    ) -> tuple[list[dict[str, Any]], Any, list[dict[str, str]]]:
+    """Calibrate every usable run and add the points to ``<data_dir>/calibrations.json``
+    (written once, atomically); returns (point rows, the store, the refused files).
+
+    Every run is checked and computed before anything is written. A run that cannot be
+    used (not a calibration record, clipped, damaged, ...) is reported with its file
+    name and the reason, and the others are used; if none can be used, InputError
+    names them all and nothing is stored.
+    """
     from labjoint.identify.calibration import CalibrationStore, calibrate_run, calibrate_runs
 
     kw = {k: v for k, v in dynamics.items() if v is not None}
-    sensors = []
+    good, sensors, failed = [], [], []
     for p in paths:
         try:
-            sensors.append(check_calibration_run(p, channel, any_plan))
+            sensor = check_calibration_run(p, channel, any_plan)
             calibrate_run(p, channel=channel, **kw)          # dry run: fail before writing
         except InputError as exc:
-            raise in_file(exc, p) from None
+            err = in_file(exc, p)
+            failed.append({"file": str(p), "error": str(err)})
+            continue
+        good.append(p)
+        sensors.append(sensor)
+    if not good:
+        if len(failed) == 1:
+            raise InputError(failed[0]["error"])
+        raise InputError(f"no usable calibration run among {len(paths)}: "
+                         + "; ".join(f["error"] for f in failed))
     store = CalibrationStore.open(data_dir)
-    points = calibrate_runs(paths, store, channel=channel, **kw)
+    points = calibrate_runs(good, store, channel=channel, **kw)
     rows = [{"file": str(p), "run": q.runs[0] if q.runs else Path(p).stem, "channel": s,
              "frequency_hz": q.frequency_hz, "n_per_v": q.n_per_v, "uncertainty": q.uncertainty,
-             "phase_deg": q.phase_deg, "n_blocks": q.n_blocks, "beam_mass_kg": q.beam_mass_kg}
-            for p, s, q in zip(paths, sensors, points)]
-    return rows, store
+             "phase_deg": q.phase_deg, "phase_uncertainty_deg": q.phase_uncertainty_deg,
+             "n_blocks": q.n_blocks, "beam_mass_kg": q.beam_mass_kg}
+            for p, s, q in zip(good, sensors, points)]
+    return rows, store, failed
 
 
 def calibrate(args: argparse.Namespace) -> int:
     data_dir = _data_dir(args)
-    rows, store = calibrate_files(args.runs, data_dir, channel=args.channel,
+    rows, store, failed = calibrate_files(args.runs, data_dir, channel=args.channel,
                                   any_plan=args.any_plan, beam_mass_kg=args.beam_mass,
                                   support_stiffness_n_per_m=args.support_stiffness,
                                   support_damping_ns_per_m=args.support_damping)
@@ -148,9 +169,12 @@ def calibrate(args: argparse.Namespace) -> int:
     tables = {c: [{"frequency_hz": q.frequency_hz, "n_per_v": q.n_per_v,
                    "uncertainty": q.uncertainty, "runs": list(q.runs)}
                   for q in store.channels.get(c, [])] for c in channels}
+    for f in failed:
+        print(f"not used: {f['error']}", file=sys.stderr)
+    status = 1 if failed else 0
     if args.json:
-        emit_json({"store": str(store.path), "points": rows, "tables": tables})
-        return 0
+        emit_json({"store": str(store.path), "points": rows, "tables": tables, "failed": failed})
+        return status
     for c in channels:
         print(f"{c}: calibration table in {store.path}")
         print(table(["f Hz", "N/V", "+- N/V", "runs"],
@@ -158,7 +182,9 @@ def calibrate(args: argparse.Namespace) -> int:
                      for t in tables[c]]))
     print(f"\n{len(rows)} point(s) added; later runs in {data_dir} use them "
           "(interpolated at each run's frequency)")
-    return 0
+    if failed:
+        print(f"{len(failed)} file(s) not used (see above)")
+    return status
 
 
 # ---- friction -------------------------------------------------------------------------
