@@ -50,3 +50,21 @@ def test_cli_refuses_a_multisine_and_names_the_command_that_handles_it(tmp_path,
         assert code == 2, err
         assert err.out == ""
         assert "multisine" in err.err and "fit --error simulation" in err.err
+
+
+def test_a_joint_force_fading_under_a_steady_drive_is_still_a_sine():
+    """Wear: the joint force falls to a tenth while the drive holds; the excitation is
+    read from the reference force, so the run is analysed, not called a transient."""
+    from labjoint.storage.run import Run
+    fs, f = 25_600.0, 400.0
+    t = np.arange(int(0.25 * fs)) / fs
+    fade = 0.1 + 0.9 * np.exp(-t / 0.05)
+    u = 1e-6 * np.sin(2 * np.pi * f * t)
+    joint = 100.0 * fade * np.sin(2 * np.pi * f * t + 0.2)
+    ref = 50.0 * np.sin(2 * np.pi * f * t)
+    run = Run("wear", t, u, joint, {"frequency_hz": f, "sample_rate_hz": fs},
+              {"force_ref": ref, "shear_nc": joint})
+    with pytest.raises(InputError, match="transient"):
+        analyze_run(Run("no_ref", t, u, joint, {"frequency_hz": f, "sample_rate_hz": fs}))
+    result = analyze_run(run, cutoff_hz=None)
+    assert result.n_cycles >= 50

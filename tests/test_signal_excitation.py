@@ -71,6 +71,16 @@ def test_random_and_transient_and_silence():
     assert detect_excitation(np.full(1000, 3.0), FS).kind == "none"
 
 
+def test_sine_after_a_start_up_overshoot_is_a_sine_and_a_slow_decay_is_a_transient():
+    # a run from rest: the structure rings at 3x the steady level for the first 10 %
+    start = 1.0 + 4.0 * np.exp(-T / 0.04)
+    e = detect_excitation(start * np.sin(2 * np.pi * 400 * T), FS)
+    assert e.kind == "sine" and e.frequency_hz == pytest.approx(400.0, rel=1e-4)
+    # a lightly damped free decay looks like a sine locally; its level never holds still
+    decay = np.exp(-T / 0.5) * np.sin(2 * np.pi * 400 * T)
+    assert detect_excitation(decay, FS).kind == "transient"
+
+
 def test_two_incommensurate_tones_are_not_a_sine():
     e = detect_excitation(np.sin(2 * np.pi * 400 * T) + 0.8 * np.sin(2 * np.pi * 633.3 * T), FS)
     assert e.kind != "sine"

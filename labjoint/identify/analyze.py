@@ -109,13 +109,19 @@ def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None 
 
 def analyze_arrays(displacement: np.ndarray, force: np.ndarray, fs: float,
                    frequency_hz: float | None = None,
-                   cutoff_hz: float | None = PAPER_CUTOFF_HZ, **kwargs: Any) -> LoopResult:
-    """:func:`analyze_blocks` on in-memory arrays, record means removed first."""
+                   cutoff_hz: float | None = PAPER_CUTOFF_HZ, *,
+                   excitation: np.ndarray | None = None, **kwargs: Any) -> LoopResult:
+    """:func:`analyze_blocks` on in-memory arrays, record means removed first.
+
+    ``excitation``: the signal the excitation is detected from (the drive or reference
+    force), by default ``force``.
+    """
     u = validate.signal(displacement, "displacement", min_samples=2)
     F = validate.signal(force, "force", min_samples=2)
     validate.same_length(F, u, "force", "displacement")
     if F.size >= MIN_DETECT_SAMPLES:
-        require_sine(detect_excitation(F, fs), PIPELINE)
+        x = F if excitation is None else validate.signal(excitation, "excitation")
+        require_sine(detect_excitation(x, fs), PIPELINE)
     u = u - u.mean()
     F = F - F.mean()
     blocks = (np.stack([u[i:i + BLOCK_SAMPLES], F[i:i + BLOCK_SAMPLES]])
@@ -140,7 +146,7 @@ def analyze_run(run: Any, frequency_hz: float | None = None,
         kwargs["phase_uncertainty_rad"] = float(np.radians(float(inst)))
         kwargs.setdefault("phase_note", f"instrument phase match +- {inst} deg (run metadata)")
     result = analyze_arrays(run.displacement, run.force, run.sample_rate_hz, f, cutoff_hz,
-                            **kwargs)
+                            excitation=run.excitation, **kwargs)
     result.metadata["run"] = run.name
     return result
 
@@ -326,9 +332,11 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
                     u = u - rf.physical(disp[1], a, b)
                 yield np.stack([u, rf.physical(fch, a, b)])
 
-        require_sine(detect_streamed(lambda a, b: rf.physical(fch, a, b), rf.n_samples,
+        ref = rf.metadata.get("reference_force_channel") or "force_ref"
+        xch = ref if ref in rf.channel_names else fch
+        require_sine(detect_streamed(lambda a, b: rf.physical(xch, a, b), rf.n_samples,
                                      rf.sample_rate_hz, rf.metadata), PIPELINE,
-                     f"run {rf.name} ({fch})")
+                     f"run {rf.name} ({xch})")
         if "phase_correction_rad" not in kwargs and f is not None:
             delta, u, note = sensor_phase(rf.channel(fch), [rf.channel(c) for c in disp], f,
                                           rf.metadata.get("phase_uncertainty_deg"))

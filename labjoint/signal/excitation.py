@@ -6,7 +6,8 @@ run's metadata only as a hint that is checked, never trusted blindly:
 1. envelope: RMS over windows of two periods of the lowest frequency carrying power;
    the active part is where it exceeds 10 % of its maximum (rest before and after is
    left out). A peak RMS above 2.5x the active part's median (an impact, a decaying
-   burst) is a transient.
+   burst) with no flat stretch (RMS within 15 % of the median) over half the active part
+   is a transient; a steady sine after a start-up overshoot keeps its long flat stretch.
 2. the steady core: the longest stretch with RMS at least half that median (ramps out).
 3. sine: one spectral line (Hann window, its main lobe) stands 100x above the
    broadband noise and holds >= 80 % of the core's power above that noise, with its
@@ -37,8 +38,12 @@ from labjoint.signal import validate
 KINDS = ("none", "sine", "swept_sine", "multisine", "random", "transient")
 #: Longest stretch examined at once (a centred window of longer records).
 MAX_SAMPLES = 1 << 21
-#: Peak RMS this many times the active part's median RMS: a transient, not steady.
+#: Peak RMS this many times the active part's median RMS: a transient, not steady...
 TRANSIENT_PEAK_RATIO = 2.5
+#: ...unless the RMS stays within this fraction of the median (flat)...
+FLAT_TOLERANCE = 0.15
+#: ...over at least this fraction of the active part (a start-up overshoot, then steady).
+STEADY_FRACTION = 0.5
 #: Commands for records that are not a steady sine (named in refusals).
 BROADBAND_COMMANDS = ("`labjoint fit --error simulation` and `labjoint predict` "
                       "(identification and prediction from any excitation)")
@@ -105,10 +110,13 @@ def detect_excitation(x: np.ndarray, fs: float, metadata: dict[str, Any] | None 
     a0, a1 = int(active[0]), int(active[-1]) + 1
     span = (a0 * win / fs, a1 * win / fs)
     level = float(np.median(rms[a0:a1]))
-    if peak > TRANSIENT_PEAK_RATIO * level:
+    flat = np.abs(rms[a0:a1] / level - 1.0) <= FLAT_TOLERANCE
+    f0, f1 = _longest_run(flat) if flat.any() else (0, 0)
+    if peak > TRANSIENT_PEAK_RATIO * level and (f1 - f0) < STEADY_FRACTION * (a1 - a0):
         return Excitation("transient", active_s=span, evidence=(
-            f"the peak RMS is {peak / level:.1f}x the median of the active part: the energy "
-            "comes in a short burst, not a steady excitation"))
+            f"the peak RMS is {peak / level:.1f}x the median of the active part and the level "
+            f"is steady (within {FLAT_TOLERANCE:.0%}) over only {(f1 - f0) / (a1 - a0):.0%} of "
+            "it: the energy comes in a burst that decays, not a steady excitation"))
     strong = rms[a0:a1] >= 0.5 * level
     c0, c1 = _longest_run(strong)
     core = x[(a0 + c0) * win:(a0 + c1) * win]

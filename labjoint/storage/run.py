@@ -37,5 +37,13 @@ class Run:
         f = self.metadata.get("frequency_hz")
         return None if f is None else float(f)
 
+    @property
+    def excitation(self) -> np.ndarray:
+        """The signal that tells what excites the run: the reference (drive) force if
+        recorded, else the joint force (a joint's own force may fade, e.g. with wear,
+        under a steady drive)."""
+        ref = self.channels.get(self.metadata.get("reference_force_channel") or "force_ref")
+        return self.force if ref is None or len(ref) != len(self.force) else ref
+
     def __len__(self) -> int:
         return len(self.time)
