@@ -97,13 +97,54 @@ def test_energy_and_damping_converge_to_closed_form():
     assert q.damping_ns_per_m[-1] == pytest.approx(2 * KT / (np.pi * 2 * np.pi * F), rel=2e-4)
 
 
-def test_energy_right_endpoint_sum_reproduces_seed_table2():
-    # 400 Hz at 50 kS/s, K = 11.8 MN/m (Table 2), U from W_loop and C_loop via Eq. 1.
+def test_seed_table2_is_the_right_endpoint_sum_of_the_exact_model():
+    # 400 Hz, K = 11.8 MN/m (Table 2), U from W_loop and C_loop via Eq. 1. The model's
+    # exact values are W = 2 K_t U^2 and C = K / (pi omega); the paper's 0.672 mJ and
+    # 1542 Ns/m are its right-endpoint sum, 1 + (pi/4)(2 pi f / fs) times larger.
     U = np.sqrt(0.809e-3 / (np.pi * 2 * np.pi * F * 1867))
+    K, omega = 11.8e6, 2 * np.pi * F
     t = np.arange(0, 0.25 / F + 1e-12, 1 / 50e3)
-    q = _run(U * np.sin(2 * np.pi * F * t), shear_stiffness_n_per_m=11.8e6 / 2)
-    assert q.energy_loss_j[-1] == pytest.approx(0.672e-3, rel=0.01)
-    assert q.damping_ns_per_m[-1] == pytest.approx(1542, rel=0.01)
+    q = _run(U * np.sin(2 * np.pi * F * t), shear_stiffness_n_per_m=K / 2)
+    assert q.energy_loss_j[-1] == pytest.approx(K * q.displacement_m[-1] ** 2, rel=1e-9)
+    assert q.damping_ns_per_m[-1] == pytest.approx(K / (np.pi * omega), rel=1e-6)
+    assert 1542 / (K / (np.pi * omega)) == pytest.approx(1.031, abs=0.001)   # the tables' factor
+
+
+def right_endpoint_factor(samples_per_cycle: float) -> float:
+    """The paper's sum over a quarter sine, relative to the integral (derived, not fitted):
+    (2/U^2) sum_i u_i (u_i - u_{i-1}) = 1 + (2/U^2) (1/2) sum du^2 ~ 1 + (pi/4) dtheta."""
+    th = np.arange(0, np.pi / 2 + 1e-12, 2 * np.pi / samples_per_cycle)
+    s = np.sin(th)
+    return float(2 * np.sum(s[1:] * np.diff(s)) / s[-1] ** 2)
+
+
+@pytest.mark.parametrize("spc", [20, 50, 125, 500])
+def test_w_and_c_do_not_depend_on_the_sample_rate(spc):
+    # before: the right-endpoint sum made W and C grow by (pi/4)(2 pi / spc): 4 % at 20
+    U, omega = 6e-6, 2 * np.pi * F
+    th = np.arange(0, np.pi / 2 + 1e-12, 2 * np.pi / spc)
+    th[-1] = np.pi / 2
+    q = _run(U * np.sin(th))
+    assert q.energy_loss_j[-1] == pytest.approx(2 * KT * U ** 2, rel=1e-3)
+    assert q.damping_ns_per_m[-1] == pytest.approx(2 * KT / (np.pi * omega), rel=1e-3)
+    assert right_endpoint_factor(spc) == pytest.approx(1 + np.pi / 4 * 2 * np.pi / spc, rel=0.02)
+
+
+def test_full_macro_slip_counts_friction_once():
+    # u* = f_max / K_t far below the first step: every sample slides (100 % macro-slip).
+    # By hand (Eqs. 3, 7-9): F = f_max, K = f_max / U, W = 2 K_t u*^2 + 4 f_max (U - u*),
+    # C = W / (pi omega U^2). Before: K = (f_max + f_max) / U and the summary said 2 K_t.
+    mu = 1e-4
+    f_max = mu * N
+    u_star = f_max / KT
+    U = 8e-6
+    u = U * np.sin(np.linspace(0, np.pi / 2, 200))
+    q = _run(u, friction_coefficient=mu)
+    assert u_star < u[1] and q.macro_slip[1:].all()
+    W = 2 * KT * u_star ** 2 + 4 * f_max * (U - u_star)
+    assert q.energy_loss_j[-1] == pytest.approx(W, rel=1e-9)
+    assert q.stiffness_n_per_m[-1] == pytest.approx(f_max / U, rel=1e-9)
+    assert q.damping_ns_per_m[-1] == pytest.approx(W / (np.pi * 2 * np.pi * F * U ** 2), rel=1e-9)
 
 
 def test_macro_slip_clamps_boundary_and_dissipates_coulomb_energy():
@@ -213,7 +254,9 @@ def test_run_level_pipeline_on_a_linear_spring_gives_closed_form():
     s = est.result_.summary
     assert est.result_.shear_stiffness.value == pytest.approx(KT, rel=1e-4)   # K = 2 K_t
     assert s["displacement_amplitude_m"] == pytest.approx(U, rel=1e-3)
-    # right-endpoint Eq. 7 at 125 samples per period: 4 K_t sum u du = 2 K_t U^2 (1 + ~4 %)
-    assert s["energy_loss_j"] == pytest.approx(2 * KT * U ** 2, rel=0.06)
-    assert s["energy_loss_j"] > 2 * KT * U ** 2
+    # Eq. 7 integrated exactly: 2 K_t U^2 at any sampling; C = K / (pi omega)
+    assert s["energy_loss_j"] == pytest.approx(2 * KT * U ** 2, rel=2e-3)
+    assert s["damping_ns_per_m"] == pytest.approx(2 * KT / (np.pi * 2 * np.pi * F), rel=2e-3)
+    assert s["stiffness_n_per_m"] == pytest.approx(2 * KT, rel=1e-9)
+    assert s["basis"].startswith("model-based")
     assert s["cycles"] >= 70 and s["macro_slip_fraction"] == 0.0

@@ -85,10 +85,11 @@ def test_methods_agree_within_20_percent_over_the_amplitude_sweep(tmp_path):
     assert all(r["shear_stiffness_source"] == r["run"] for r in rows)
     diffs = np.array([r["energy_loss_diff_pct"] for r in rows])
     assert np.all(np.abs(diffs) < 20.0), diffs
-    # Eq. 6 cancels c_i: the stick-slip damping is ~2 K_t / (pi omega) at every amplitude
+    # Eq. 6 cancels c_i: the stick-slip damping is exactly 2 K_t / (pi omega) = K / (pi omega)
+    # at every amplitude -- a model value fixed by the loop slope, not a second measurement
     c_ss = np.array([r["stickslip_damping_ns_per_m"] for r in rows])
     k = np.array([r["stickslip_stiffness_n_per_m"] for r in rows])
-    assert np.allclose(c_ss, 1.04 * k / (np.pi * 2 * np.pi * 400.0), rtol=0.02)
+    assert np.allclose(c_ss, k / (np.pi * 2 * np.pi * 400.0), rtol=2e-3)
     # both methods see the same amplitude; energy grows with it
     u = np.array([r["displacement_amplitude_m"] for r in rows])
     assert np.allclose(u, [r["stickslip_displacement_amplitude_m"] for r in rows], rtol=0.01)
@@ -99,7 +100,7 @@ def test_methods_agree_within_20_percent_over_the_amplitude_sweep(tmp_path):
 
 def test_pure_microslip_contact_cannot_match_the_stickslip_energy(tmp_path):
     """Default simulated contact (ring Iwan, no linear loss): the loop's loss factor grows
-    with amplitude (micro-slip, W ~ U^3) while the stick-slip method's stays 1.04/pi."""
+    with amplitude (micro-slip, W ~ U^3) while the stick-slip method's stays 1/pi."""
     paths = [write_sim_run(tmp_path, f"m{v:g}", 400.0, v, 5.0, seconds=0.15) for v in (4.0, 20.0)]
     rows = analyze_runs(paths, "both", friction=_mu())
     eta_loop = [r["energy_loss_j"] / (np.pi * r["stiffness_n_per_m"] * r["displacement_amplitude_m"] ** 2)
@@ -108,7 +109,7 @@ def test_pure_microslip_contact_cannot_match_the_stickslip_energy(tmp_path):
                                               * r["stickslip_displacement_amplitude_m"] ** 2)
               for r in rows]
     assert eta_loop[1] > 5 * eta_loop[0]
-    assert np.allclose(eta_ss, 1.04 / np.pi, rtol=0.02)
+    assert np.allclose(eta_ss, 1 / np.pi, rtol=2e-3)
     assert all(r["energy_loss_diff_pct"] < -100 for r in rows)   # stick-slip >> loop
 
 

@@ -77,6 +77,9 @@ def test_runs_list_filters_and_run_page(web):
     assert loop_mj == pytest.approx(row["energy_loss_j"] * 1e3, rel=1e-3)
     ss_damping = float(_cell(page, "Joint damping", 2))
     assert ss_damping == pytest.approx(row["stickslip_damping_ns_per_m"], rel=1e-3)
+    # the stick-slip column says it is a model value, fixed by the loop's stiffness
+    assert "Stick-slip model" in page.inner_text("#table2 thead")
+    assert "not an independent confirmation" in page.inner_text("#table2-basis")
     screenshot(page, "run-page")
     assert not w.problems(), w.problems()
 

@@ -30,7 +30,9 @@ def add_analyze_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--data-dir", default=None,
                    help="where the identified friction coefficient is kept "
                         "(default: the config's data_dir)")
-    p.add_argument("--save", action="store_true", help="store results in each run file's processed group")
+    p.add_argument("--save", action="store_true",
+                   help="store results in each run file: processed/loop (methods loop, both) "
+                        "and processed/stickslip (stickslip, both)")
 
 
 def load_runs(paths: list[str]) -> list[Any]:
@@ -59,17 +61,14 @@ def loop_row(item: Any, force: str, save: bool) -> dict[str, Any]:
         name = res.metadata.get("run", item.stem)
         extra = {k: res.metadata.get(k) for k in ("excitation_vpp", "torque_nm")}
         if save:
+            from labjoint.identify.methods import loop_processed
             from labjoint.storage import write_processed
-            arrays = {"energy_loss": res.energy_loss, "damping": res.damping,
-                      "stiffness_lsq": res.stiffness_lsq, "stiffness_secant": res.stiffness_secant,
-                      "displacement_amplitude": res.displacement_amplitude,
-                      "force_amplitude": res.force_amplitude, "steady": res.steady.astype("i1")}
-            write_processed(item, "loop", arrays, {k: v for k, v in res.summary.items()
-                                                   if isinstance(v, (int, float))},
-                            {"energy_loss": "J", "damping": "N s/m", "stiffness_lsq": "N/m",
-                             "stiffness_secant": "N/m", "displacement_amplitude": "m",
-                             "force_amplitude": "N", "steady": "1"})
+            write_processed(item, "loop", *loop_processed(res))
     else:
+        if force != "joint":
+            raise InputError("an imported CSV record has one force column; --force reference "
+                             "applies to run files only", file=str(item.path or item.name),
+                             field="--force")
         res = analyze_run(item)
         name = item.name
         extra = {k: item.metadata.get(k) for k in ("excitation_vpp", "torque_nm")}
@@ -104,7 +103,8 @@ def analyze_paths(paths: list[str], method: str = "loop", force: str = "joint",
     from labjoint.identify.methods import analyze_runs
 
     for item in runs:
-        rows += analyze_runs([item], method, friction=friction, data_dir=data_dir, store=save)
+        rows += analyze_runs([item], method, friction=friction, data_dir=data_dir, store=save,
+                             force=force)
         bar.advance(note=str(rows[-1].get("run", "")))
     return rows
 
@@ -151,6 +151,7 @@ def run(args: argparse.Namespace) -> int:
     elif args.method == "loop":
         print_loop_table(rows)
     else:
-        from labjoint.identify.methods import format_table
+        from labjoint.identify.methods import MODEL_NOTE, format_table
         print(format_table(rows))
+        print("\n" + MODEL_NOTE)
     return 0
