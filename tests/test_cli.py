@@ -26,9 +26,10 @@ def _json(capsys):
     return json.loads(lines[0])
 
 
-def test_simulated_sweep_shows_microslip_trends(sweep, capsys):
-    """Seed 002: across the amplitude sweep the energy loss rises (faster than U^2, so
-    the loop fattens) and the stiffness softens as the slip annulus grows."""
+def test_simulated_sweep_shows_seed002_trends(sweep, capsys):
+    """Seed 002 Table 3 on the default simulated joint: across the amplitude sweep the
+    energy loss rises like U^2 (the shear layer's nearly constant damping, plus a little
+    micro-slip) and the stiffness softens slightly as the slip annulus grows."""
     rc = main(["simulate", "--sweep", "4,12,20", "--cycles", "20", "--sample-rate", "25000",
                "--out", str(sweep), "--json"])
     out = _json(capsys)
@@ -42,7 +43,9 @@ def test_simulated_sweep_shows_microslip_trends(sweep, capsys):
     assert np.all(np.diff(W) > 0)
     assert np.all(np.diff(K) < 0)
     slope = np.polyfit(np.log(U), np.log(W), 1)[0]
-    assert slope > 2.2  # micro-slip: dissipation grows faster than a linear damper's U^2
+    assert 1.8 < slope < 2.3        # a dry contact alone gives ~3.3 (test_sim_rig)
+    C = np.array([r["damping_ns_per_m"] for r in runs])
+    assert C.max() / C.min() < 1.15 and 1.2e3 < C.mean() < 2.4e3   # Table 3: 1.73-1.87 kNs/m
     assert all(ANALYZE_FIELDS <= set(r) for r in runs)
     assert len(list(sweep.glob("*.h5"))) == 3
 

@@ -344,13 +344,17 @@ def test_broadband_h1_matches_the_two_beam_closed_form(sim):
         v = run["volts"]
         records.append((f, v[0] * s[0], v[1] * s[1] - v[2] * s[2], FS))
     freqs, h1, coh = stepped_frf(records)
-    # beams m1 = m2 = m on supports k_s, joint stiffness K (stick), driven by +-F:
-    # m u'' = 2F - (2K + k_s) u  ->  1/H1 = K + k_s/2 - (m/2) w^2
-    dyn, contact = rig.sim.config.dynamics, rig.sim.config.contact
+    # beams m1 = m2 = m on supports k_s, joint complex stiffness K(w) (stick: the rings
+    # K_c in series with the shear layer k_l + i w c_l), driven by +-F:
+    # m u'' = 2F - (2K + k_s) u  ->  1/H1 = K(w) + k_s/2 - (m/2) w^2
+    cfg = rig.sim.config
+    dyn = cfg.dynamics
     m = dyn.beam_masses_kg[0]
     w = 2 * np.pi * freqs
-    expected = contact.shear_stiffness_n_per_m + dyn.support_stiffness_n_per_m / 2 - m / 2 * w ** 2
-    assert np.allclose(1 / np.abs(h1), expected, rtol=0.03)
+    k_l, c_l = cfg.layer
+    joint = 1 / (1 / (k_l + 1j * w * c_l) + 1 / cfg.ring_stiffness_n_per_m)
+    expected = joint + dyn.support_stiffness_n_per_m / 2 - m / 2 * w ** 2
+    assert np.allclose(1 / np.abs(h1), np.abs(expected), rtol=0.03)
     assert np.all(coh > 0.99)
 
 

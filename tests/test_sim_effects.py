@@ -94,7 +94,8 @@ def test_channel_delay_changes_loop_area_by_pi_f_u_sin_omega_tau(tau):
 
 def test_wear_makes_the_loss_drift_over_cycles():
     e_w = 0.5
-    rig = SimRig(SimConfig.from_dict({**QUIET, "effects": [{"name": "wear", "E_w": e_w}]}), CHANNELS, FS)
+    rig = SimRig(SimConfig.from_dict({**QUIET, "joint": "dry_microslip",
+                                      "effects": [{"name": "wear", "E_w": e_w}]}), CHANNELS, FS)
     s = GeneratorSettings(400.0, 20.0, 0.0, True)
     rig.advance(10000, s)
     losses = []

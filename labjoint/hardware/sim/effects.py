@@ -26,6 +26,10 @@ from labjoint.errors import ConfigError
 from labjoint.vocabulary import EFFECTS, HYSTERETIC
 
 #: Parameters that must be strictly positive for the law to be defined (vocabulary bounds are inclusive).
+#: Named contact joints (the rings of [sim.contact]) -> whether a shear layer sits in series:
+#: ``seed002`` (default) adds the viscoelastic layer that makes the joint dissipate like
+#: seed 002's (Tables 2-4); ``dry_microslip`` (alias ``contact``) is the dry contact alone.
+PRESETS = {"seed002": True, "dry_microslip": False, "contact": False}
 STRICT = {"coulomb": ("k", "f_s"), "iwan": ("F_S", "K_T"), "bouc_wen": ("k0", "F_y"),
           "valanis": ("E0",), "richard_abbott": ("ke", "F_y"), "wear": ("E_w",)}
 
@@ -47,6 +51,7 @@ class JointSpec:
     gap: float = 0.0
     tau: float = 0.0
     names: tuple[str, ...] = ()
+    layer: bool = False                            # seed002: shear layer in series
 
     @property
     def has_contact(self) -> bool:
@@ -91,13 +96,18 @@ def parse_joint(joint: str | dict[str, Any], effects: list[dict[str, Any]]) -> J
     10.0
     >>> parse_joint({"family": "coulomb", "k": 1e7, "f_s": 50.0}, []).family
     'coulomb'
+    >>> parse_joint("seed002", []).layer, parse_joint("dry_microslip", []).layer
+    (True, False)
     """
-    choices = f"use 'contact', 'none' or one of {list(HYSTERETIC)}"
+    choices = f"use {list(PRESETS)}, 'none' or one of {list(HYSTERETIC)}"
     if isinstance(joint, str):
         family, raw, where = joint, {}, "sim.joint"
     else:
         family, raw = _split(joint, "family", "sim.joint")
         where = "sim.joint.family"
+    layer = PRESETS.get(family, False)
+    if family in PRESETS:
+        family = "contact"
     if family in ("contact", "none"):
         if raw:
             raise ConfigError(f"joint {family!r} takes no parameters here (the contact's are in [sim.contact])",
@@ -150,4 +160,5 @@ def parse_joint(joint: str | dict[str, Any], effects: list[dict[str, Any]]) -> J
             acc["tau"] = p["tau"]
         else:  # pragma: no cover - vocabulary grew without the simulator
             raise ConfigError(f"effect {name!r} is not implemented by the simulator", field=f"{where}.name")
-    return JointSpec(family=family, params=params, hysteretic=tuple(hyst), names=tuple(names), **acc)
+    return JointSpec(family=family, params=params, hysteretic=tuple(hyst), names=tuple(names),
+                     layer=layer, **acc)

@@ -17,11 +17,12 @@ import math
 
 from numba import njit
 
-from labjoint.hardware.sim.joint import F0, M_IN, joint_force
+from labjoint.hardware.sim.joint import F0, M_IN, N_JOINT_STATE, joint_force
 
 # drive array: half Vpp, offset V, omega, output on, G*K_f (N/V), balance
 # dyn array: armature mass, suspension k, suspension c, link k, link c, m1, m2, support k, support c
-# st array: phase, u_eff previous, dissipated energy
+# st array: phase, then the joint state (joint.N_JOINT_STATE: u_eff previous, dissipated
+# energy, layer y, element force)
 # out rows:
 X1M, X2M, FL1M, FL2M, FSM, NCV, DRIVE, X1, X2, FJ, ED = range(11)
 N_OUT = 11
@@ -63,7 +64,7 @@ def integrate(n_samples, n_sub, dt, drive, dyn, q, v, acc, st,
     """
     vamp, voff, omega, on, gk, bal = drive[0], drive[1], drive[2], drive[3], drive[4], drive[5]
     vp = q.copy()
-    js = st[1:3].copy()
+    js = st[1:1 + N_JOINT_STATE].copy()
     nbuf = dbuf.shape[1]
     d_int = int(delay_steps)
     d_frac = delay_steps - d_int
@@ -90,7 +91,7 @@ def integrate(n_samples, n_sub, dt, drive, dyn, q, v, acc, st,
                 q[i] += dt * v[i]
             for i in range(4):
                 vp[i] = v[i] + 0.5 * dt * acc[i]
-            fj = joint_force(q[1] - q[2], vp[1] - vp[2], js, jk, jphi, jz, sm_code, sm_par, sm_st, eff)
+            fj = joint_force(q[1] - q[2], vp[1] - vp[2], dt, js, jk, jphi, jz, sm_code, sm_par, sm_st, eff)
             fl1, fl2 = _accel(q, vp, fs1, fs2, fj, dyn, acc)
             for i in range(4):
                 v[i] += 0.5 * dt * acc[i]
@@ -132,5 +133,4 @@ def integrate(n_samples, n_sub, dt, drive, dyn, q, v, acc, st,
             out[X1M, k] = q[1]
             out[X2M, k] = q[2]
     st[0] = phase
-    st[1] = js[0]
-    st[2] = js[1]
+    st[1:1 + N_JOINT_STATE] = js

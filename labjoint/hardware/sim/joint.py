@@ -6,6 +6,12 @@ displacement phi_i = f_i / k_i and slider position z_i, so the force of element 
 k_i (u - z_i) with -f_i s_- <= k_i (u - z_i) <= f_i s_+, where s_+ = w (1 + asym),
 s_- = w (1 - asym) and w = exp(-E_d / E_w) is the wear factor. Smooth laws (Bouc-Wen,
 Valanis, Richard-Abbott) are integrated in u with RK4 (or evaluated in closed form).
+
+The ``seed002`` joint puts a viscoelastic shear layer (Kelvin-Voigt: k_l parallel to c_l)
+in series with the hysteretic elements: with y the displacement the elements see, the
+force through the layer k_l (u - y) + c_l (du/dt - dy/dt) equals the elements' force
+F_c(y). Each step solves this linearly implicitly with the elements' elastic stiffness
+K_c (an upper bound of their tangent), so it is stable for any c_l / dt.
 """
 
 from __future__ import annotations
@@ -25,7 +31,9 @@ PARAM_ORDER = {"bouc_wen": ("k0", "F_y", "beta", "n"), "valanis": ("E0", "Et", "
                "richard_abbott": ("ke", "kp", "F_y", "n")}
 N_SMOOTH_STATE = 6
 # eff array layout
-K_LIN, K3, C_VISC, F0, M_IN, ASYM, INV_EW, HALF_GAP = range(8)
+K_LIN, K3, C_VISC, F0, M_IN, ASYM, INV_EW, HALF_GAP, LAYER_K, LAYER_C, LAYER_KC = range(11)
+#: joint state: [u_eff of the previous call, dissipated energy E_d, layer y, element force F_c]
+N_JOINT_STATE = 4
 
 
 def segalman_elements(F_S: float, K_T: float, chi: float, beta: float, n: int = 200,
@@ -76,8 +84,14 @@ class PackedJoint:
         self.sm_st[:, 4] = 1.0  # Richard-Abbott starts on its virgin curve
 
 
-def pack_joint(spec: JointSpec, rings: Rings | None) -> PackedJoint:
-    """Arrays for the numba kernels from a parsed joint and (for ``contact``) its rings."""
+def pack_joint(spec: JointSpec, rings: Rings | None,
+               layer: tuple[float, float] | None = None) -> PackedJoint:
+    """Arrays for the numba kernels from a parsed joint and (for ``contact``) its rings.
+
+    ``layer`` = (k_l N/m, c_l Ns/m) of the series shear layer (needed when ``spec.layer``).
+    """
+    if spec.layer and layer is None:
+        raise ValueError("the seed002 joint needs its shear layer (k_l, c_l)")
     ks: list[np.ndarray] = []
     fs: list[np.ndarray] = []
     smooth: list[tuple[str, dict[str, float]]] = []
@@ -105,8 +119,11 @@ def pack_joint(spec: JointSpec, rings: Rings | None) -> PackedJoint:
     jf = np.concatenate(fs) if fs else np.zeros(0)
     sm_code = np.array([SMOOTH_CODES[n] for n, _ in smooth], dtype=np.int64)
     sm_par = np.array([[p[k] for k in PARAM_ORDER[n]] for n, p in smooth], dtype=float).reshape(len(smooth), 4)
+    k_l, c_l = layer if spec.layer and layer is not None else (0.0, 0.0)
+    k_c = float(np.sum(jk)) + float(sum(p[PARAM_ORDER[n][0]] for n, p in smooth))
     eff = np.array([spec.k_lin, spec.k3, spec.c, spec.f0, spec.inertia_m, spec.asym,
-                    0.0 if math.isinf(spec.wear_e_w) else 1.0 / spec.wear_e_w, 0.5 * spec.gap])
+                    0.0 if math.isinf(spec.wear_e_w) else 1.0 / spec.wear_e_w, 0.5 * spec.gap,
+                    float(k_l), float(c_l), k_c])
     packed = PackedJoint(jk=jk.astype(float), jf=jf.astype(float), jphi=(jf / jk).astype(float) if len(jk) else jf,
                          jz=np.zeros(len(jk)), n_contact=n_contact, sm_code=sm_code, sm_par=sm_par,
                          sm_st=np.zeros((len(smooth), N_SMOOTH_STATE)), eff=eff)
@@ -271,16 +288,27 @@ def backlash(u, half_gap):
 
 
 @njit(cache=True, inline="always")
-def joint_force(u, v, state, jk, jphi, jz, sm_code, sm_par, sm_st, eff):
+def joint_force(u, v, dt, state, jk, jphi, jz, sm_code, sm_par, sm_st, eff):
     """Force the joint exerts (hysteretic + elastic + viscous, without the held preload F0).
 
-    ``state`` = [u_eff of the previous call, dissipated energy E_d]; both are updated.
+    ``state`` (N_JOINT_STATE): [u_eff of the previous call, dissipated energy E_d, layer
+    y, element force F_c]; all are updated. ``dt``: time since the previous call.
     """
     hg = eff[HALF_GAP]
     ue = backlash(u, hg)
     ve = v if (u > hg or u < -hg) else 0.0
     w = math.exp(-state[1] * eff[INV_EW]) if eff[INV_EW] > 0.0 else 1.0
-    fh, de = hysteretic_force(ue, ue - state[0], jk, jphi, jz, sm_code, sm_par, sm_st, w, eff[ASYM])
+    kl = eff[LAYER_K]
+    if kl > 0.0:
+        # series shear layer (module doc): one linearly implicit step for y
+        cl = eff[LAYER_C]
+        y = state[2]
+        dy = (cl * ve + kl * (ue - y) - state[3]) / (cl / dt + kl + eff[LAYER_KC])
+        fh, de = hysteretic_force(y + dy, dy, jk, jphi, jz, sm_code, sm_par, sm_st, w, eff[ASYM])
+        state[2] = y + dy
+        state[3] = fh
+    else:
+        fh, de = hysteretic_force(ue, ue - state[0], jk, jphi, jz, sm_code, sm_par, sm_st, w, eff[ASYM])
     state[0] = ue
     state[1] = max(state[1] + de, 0.0)
     return fh + eff[K_LIN] * ue + eff[K3] * ue * ue * ue + eff[C_VISC] * ve
@@ -293,19 +321,20 @@ def _prescribed(u, dt, state, jk, jphi, jz, sm_code, sm_par, sm_st, eff, out):
             v = 0.0
         else:
             v = (u[i] - u[i - 1]) / dt
-        out[i] = joint_force(u[i], v, state, jk, jphi, jz, sm_code, sm_par, sm_st, eff) + eff[F0]
+        out[i] = joint_force(u[i], v, dt, state, jk, jphi, jz, sm_code, sm_par, sm_st, eff) + eff[F0]
 
 
 def prescribed_displacement(spec: JointSpec, u: np.ndarray, dt: float = 1e-5,
-                            rings: Rings | None = None) -> np.ndarray:
+                            rings: Rings | None = None,
+                            layer: tuple[float, float] | None = None) -> np.ndarray:
     """Joint force (N) for a prescribed relative displacement history ``u`` (m) from rest.
 
     Uses the same laws as the simulated rig (without inertia and channel delay, which
     belong to the measurement path); velocity for ``viscous`` by backward difference.
     """
-    packed = pack_joint(spec, rings)
+    packed = pack_joint(spec, rings, layer)
     u = np.ascontiguousarray(u, dtype=float)
     out = np.empty_like(u)
-    _prescribed(u, float(dt), np.zeros(2), packed.jk, packed.jphi, packed.jz, packed.sm_code,
+    _prescribed(u, float(dt), np.zeros(N_JOINT_STATE), packed.jk, packed.jphi, packed.jz, packed.sm_code,
                 packed.sm_par, packed.sm_st, packed.eff, out)
     return out

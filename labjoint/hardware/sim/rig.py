@@ -12,7 +12,7 @@ from labjoint.hardware.interfaces import ChannelSpec, GeneratorSettings
 from labjoint.hardware.sim import integrator as ig
 from labjoint.hardware.sim.config import SimConfig
 from labjoint.hardware.sim.contact import Rings, make_rings
-from labjoint.hardware.sim.joint import INV_EW, pack_joint
+from labjoint.hardware.sim.joint import INV_EW, LAYER_C, N_JOINT_STATE, pack_joint
 from labjoint.hardware.sim.sensors import InputStage, make_stages, nanocomposite_sos
 
 #: Channel names the simulator recognises without a role table.
@@ -61,7 +61,7 @@ class SimRig:
         self._module = sim_config.module_spec
         self._torque = float(sim_config.contact.torque_nm)
         self._rings = self._make_rings() if self._spec.has_contact else None
-        self._joint = pack_joint(self._spec, self._rings)
+        self._joint = pack_joint(self._spec, self._rings, sim_config.layer)
         d = sim_config.dynamics
         self._dyn = np.array([d.armature_mass_kg, d.suspension_stiffness_n_per_m, d.suspension_damping_ns_per_m,
                               d.link_stiffness_n_per_m, d.link_damping_ns_per_m, d.beam_masses_kg[0],
@@ -77,7 +77,7 @@ class SimRig:
         c = self.config.contact
         return make_rings(normal_force_n=self.normal_force_n, bolt_radius_m=c.bolt_radius_m,
                           friction_coefficient=c.friction_coefficient,
-                          shear_stiffness_n_per_m=c.shear_stiffness_n_per_m, n_rings=c.rings,
+                          shear_stiffness_n_per_m=self.config.ring_stiffness_n_per_m, n_rings=c.rings,
                           contact_ratio=c.contact_ratio, edge_refinement=c.edge_refinement)
 
     def reset(self) -> None:
@@ -85,7 +85,7 @@ class SimRig:
         self._q = np.zeros(4)
         self._v = np.zeros(4)
         self._acc = np.zeros(4)
-        self._st = np.zeros(3)
+        self._st = np.zeros(1 + N_JOINT_STATE)
         self._joint.reset()
         self._time = 0.0
         self._samples = 0
@@ -124,7 +124,7 @@ class SimRig:
             k_joint += par[0]  # k0, E0 or ke: the initial stiffness of the smooth laws
         m = min(m1, m2)
         w2 = max((ks + kl) / ma, (kl + kb) / m + k_joint * (1 / m1 + 1 / m2))
-        damp = max((cs + cl) / ma, (cl + cb) / m + j.eff[2] * (1 / m1 + 1 / m2))
+        damp = max((cs + cl) / ma, (cl + cb) / m + (j.eff[2] + j.eff[LAYER_C]) * (1 / m1 + 1 / m2))
         if math.sqrt(w2) * self._dt > 0.5 or damp * self._dt > 0.5:
             raise ConfigError(f"integration step {self._dt:.3g} s is too coarse for the rig's stiffest mode "
                               f"({math.sqrt(w2) / (2 * math.pi):.0f} Hz) or damping; lower max_step_s or set substeps",
@@ -194,7 +194,7 @@ class SimRig:
         if self._rings is None:
             raise ConfigError("the simulated joint has no contact rings", field="sim.joint")
         n = self._joint.n_contact
-        u_eff = self._st[1]
+        u_eff = self._st[3] if self._spec.layer else self._st[1]   # the layer's far side y
         z = self._joint.jz[:n].copy()
         return {"r_in": self._rings.r_in, "r_out": self._rings.r_out, "stiffness": self._rings.stiffness,
                 "slip_force": self._rings.slip_force, "slider": z, "force": self._rings.stiffness * (u_eff - z)}
