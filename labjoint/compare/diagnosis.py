@@ -15,7 +15,10 @@
    the baseline's own parameters); flag ties, attach evidence and explanation
    (:mod:`labjoint.compare.evidence`).
 4. Adequate: pooled NRMSE <= ``factor`` x noise floor (default 1.5) and no significant
-   candidate. Otherwise the verdict names the best significant candidate, or says that
+   candidate. When the baseline is already at or below the noise floor of the validation
+   runs (and within the factor overall), no candidate is fitted: on data it was not
+   fitted on, nothing can do better than the noise, so the model is adequate and the
+   diagnosis says so at the cost of one fit. Otherwise the verdict names the best significant candidate, or says that
    structure remains that no known effect explains.
 """
 
@@ -274,6 +277,10 @@ def diagnose_prepared(runs: list[PreparedRun], model: Model | str, *,
     curves = physics_curves(ev)
     found = failures(ev, maps, curves, noise.nrmse, settings.factor)
     names, skipped = candidate_effects(model, settings.candidates)
+    near = ev.nrmse() <= settings.factor * noise.nrmse
+    quiet = near and ev.nrmse(val_names) <= floor_val
+    if quiet:
+        names = []
     fits = refit_candidates(base_fit, model, names, [r.data for r in fit_r],
                             [r.data for r in val_r], warm=settings.warm, n_jobs=settings.n_jobs,
                             multistart=settings.multistart, seed=settings.seed, progress=progress)
@@ -299,11 +306,14 @@ def diagnose_prepared(runs: list[PreparedRun], model: Model | str, *,
     t2 = time.perf_counter()
     _ties(cands, ev, val_names, floor_val, sig_s)
     cands.sort(key=lambda c: (not c.significant, c.nrmse_after_validation))
-    near = ev.nrmse() <= settings.factor * noise.nrmse
     best = next((c for c in cands if c.significant), None)
     adequate = near and best is None
     ratio = ev.nrmse() / noise.nrmse if noise.nrmse > 0 else float("inf")
-    if adequate:
+    if quiet:
+        verdict = (f"adequate: the validation NRMSE {100 * ev.nrmse(val_names):.3g} % is at or "
+                   f"below the validation runs' noise floor {100 * floor_val:.3g} %, so no "
+                   "effect can improve it beyond the noise (no candidate fitted)")
+    elif adequate:
         verdict = (f"adequate: NRMSE {100 * ev.nrmse():.3g} % is {ratio:.3g}x the noise floor "
                    f"(<= {settings.factor:g}x) and no candidate improves it significantly")
     elif best is not None:

@@ -43,6 +43,7 @@ from labjoint.errors import InputError
 from labjoint.identify import LoopResult, analyze_run
 from labjoint.compare.noise import stationary_cycles
 from labjoint.models import ModelInputs, RunData
+from labjoint.signal.mains import remove_mains
 from labjoint.storage import Run, read_run
 from labjoint.storage.csv_parse import parse_csv
 
@@ -181,6 +182,7 @@ def prepare_run(run: Run | str | Path, *, prime_cycles: int | str = "auto",
     if not isinstance(run, Run):
         raise InputError(f"expected a run file path or a Run, got {type(run).__name__}", field="runs")
     where = run.path or run.name
+    run, hum = _without_mains(run)
     try:
         loop = analyze_run(run, min_cycles=min_cycles)
     except InputError as exc:
@@ -206,6 +208,8 @@ def prepare_run(run: Run | str | Path, *, prime_cycles: int | str = "auto",
         if prime < 0:
             raise InputError("must be >= 0", field="prime_cycles")
     md = dict(run.metadata)
+    if hum:
+        md["mains_removed"] = hum
     md.setdefault("frequency_hz", loop.frequency_hz)
     f = float(loop.frequency_hz)
     fs = float(run.sample_rate_hz)
@@ -226,6 +230,25 @@ def prepare_run(run: Run | str | Path, *, prime_cycles: int | str = "auto",
     inputs = replace(full, n_prime=head.size)
     data = RunData(inputs, np.asarray(run.force[off:], dtype=float), keep[off:])
     return PreparedRun(run.name, data, loop, ids, spans - off, prime, off, transient, run.path, md)
+
+
+def _without_mains(run: Run) -> tuple[Run, dict[str, list[dict[str, float]]]]:
+    """The run with mains hum taken off force and displacement
+    (:func:`labjoint.signal.mains.remove_mains`), and the lines removed per channel."""
+    fs = float(run.sample_rate_hz)
+    F = np.asarray(run.force, dtype=float)
+    drive = run.frequency_hz
+    if not drive:
+        spec = np.abs(np.fft.rfft((F - F.mean()) * np.hanning(F.size)))
+        freqs = np.fft.rfftfreq(F.size, 1.0 / fs)
+        spec[freqs < 20.0] = 0.0
+        drive = float(freqs[int(np.argmax(spec))]) or None
+    force, lf = remove_mains(F, fs, drive)
+    disp, ld = remove_mains(np.asarray(run.displacement, dtype=float), fs, drive)
+    hum = {k: [line.to_dict() for line in v] for k, v in (("force", lf), ("displacement", ld)) if v}
+    if not hum:
+        return run, {}
+    return replace(run, force=force, displacement=disp), hum
 
 
 def displacement_reference(u: np.ndarray, spans: np.ndarray, at_start: bool) -> float:
