@@ -21,10 +21,12 @@ from labjoint.identify.loop import DEFAULT_STIFFNESS, PER_CYCLE, LoopResult, loo
 from labjoint.identify.resolution import correct_phase, resolution, sensor_phase
 from labjoint.signal import validate
 from labjoint.signal.cycles import DEFAULT_POINTS
-from labjoint.signal.excitation import detect_excitation, detect_streamed, require_sine
+from labjoint.signal.excitation import (Excitation, detect_excitation, detect_streamed,
+                                         require_sine)
 from labjoint.signal.filter import PAPER_CUTOFF_HZ, PAPER_ORDER, ZeroPhaseStream, analysis_cutoff
 from labjoint.signal.frequency import estimate_frequency
 from labjoint.signal.phase import CycleSegmenter
+from labjoint.signal.prefetch import prefetch
 from labjoint.signal.steady import detect_steady
 
 #: Samples per block when an in-memory record is fed through the streaming pipeline.
@@ -91,7 +93,7 @@ def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None 
     _check_int(n_points, "n_points", 8)
     _check_int(n_harmonics, "n_harmonics", 1, n_points // 2 - 1)
     stream = _LoopStream(fs, f, cutoff, order, n_points, n_harmonics)
-    stream.run(chain(head, it))
+    stream.run(chain(head, prefetch(it)))
     per_cycle, bounds = stream.finish()
     if per_cycle:
         correct_phase(per_cycle, float(phase_correction_rad), f)
@@ -176,7 +178,8 @@ def _checked(blocks: Iterable[Any]) -> Iterator[np.ndarray]:
         F = validate.signal(F, f"blocks[{i}].force", min_samples=0)
         validate.same_length(F, u, f"blocks[{i}].force", "displacement")
         if u.size:
-            yield np.stack([u, F])
+            yield blk if isinstance(blk, np.ndarray) and blk.dtype == np.float64 \
+                else np.stack([u, F])
 
 
 class _LoopStream:
@@ -193,35 +196,29 @@ class _LoopStream:
         self.used: list[np.ndarray] = []
         self.parts: list[dict[str, np.ndarray]] = []
         self.n_samples = 0
-
-    def push(self, block: np.ndarray) -> None:
-        self.n_samples += block.shape[1]
-        self._take(self.filter.push(block) if self.filter is not None else block)
+        self._settled = 0.0
 
     def run(self, blocks: Iterable[np.ndarray]) -> None:
-        """Push every block; the low-pass of block k+1 runs in a second thread while
-        block k is segmented and measured (scipy's filter releases the GIL), so the
-        two halves of the pipeline overlap on a multi-core machine. At most two
-        blocks are in flight, so memory stays bounded."""
-        if self.filter is None:
-            for blk in blocks:
-                self.push(blk)
-            return
+        """Push every block; the front half (low-pass and cycle boundaries) of block k+1
+        runs in a second thread while the cycles of block k are measured (the compiled
+        filter and demodulation release the GIL), so the two halves overlap on a
+        multi-core machine. At most two blocks are in flight, so memory stays bounded."""
         with ThreadPoolExecutor(1, thread_name_prefix="labjoint-loop") as pool:
             pending: Future | None = None
             for blk in blocks:
                 self.n_samples += blk.shape[1]
-                nxt = pool.submit(self.filter.push, blk)
+                nxt = pool.submit(self._front, blk)
                 if pending is not None:
-                    self._take(pending.result())
+                    self._take(*pending.result())
                 pending = nxt
             if pending is not None:
-                self._take(pending.result())
+                self._take(*pending.result())
 
     def finish(self) -> tuple[dict[str, np.ndarray], np.ndarray]:
         if self.filter is not None:
-            self._take(self.filter.finish())
+            self._take(*self._front(self.filter.finish(), raw=False))
         self.pending = np.concatenate([self.pending, self.seg.finish()])
+        self._settled = self.seg.settled_index
         self._process()
         if not self.parts:
             return {}, self.pending[:1]
@@ -229,11 +226,20 @@ class _LoopStream:
         bounds = np.concatenate([u[:-1] for u in self.used] + [self.used[-1][-1:]])
         return per_cycle, bounds
 
-    def _take(self, y: np.ndarray) -> None:
+    def _front(self, block: np.ndarray, raw: bool = True) -> tuple[np.ndarray, np.ndarray, float]:
+        """Filtered samples now final, the cycle boundaries they close, and the index
+        before which no later boundary can fall (taken here, with the boundaries, since
+        the segmenter runs ahead of :meth:`_take` in the pipeline)."""
+        y = self.filter.push(block) if raw and self.filter is not None else block
+        bounds = self.seg.push(y[0]) if y.size else np.empty(0)
+        return y, bounds, self.seg.settled_index
+
+    def _take(self, y: np.ndarray, bounds: np.ndarray, settled: float) -> None:
         if y.size == 0:
             return
-        self.buf = np.concatenate([self.buf, y], axis=1)
-        self.pending = np.concatenate([self.pending, self.seg.push(y[0])])
+        self.buf = np.concatenate([self.buf, y], axis=1) if self.buf.shape[1] else y
+        self.pending = np.concatenate([self.pending, bounds])
+        self._settled = settled
         self._process()
 
     def _process(self) -> None:
@@ -247,7 +253,7 @@ class _LoopStream:
             self.parts.append(metrics)
             self.used.append(b)
             self.pending = self.pending[nb - 1:]
-        keep = self.seg.settled_index if self.pending.size == 0 else self.pending[0]
+        keep = self._settled if self.pending.size == 0 else self.pending[0]
         cut = int(np.floor(keep)) - 2 - self.buf_start
         if cut > 0:
             self.buf = self.buf[:, cut:].copy()
@@ -324,24 +330,41 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
         f = frequency_hz if frequency_hz is not None else rf.frequency_hz
         step = FILE_BLOCK_SAMPLES
 
-        def blocks() -> Iterator[np.ndarray]:
-            for a in range(0, rf.n_samples, step):
-                b = a + step
-                u = rf.physical(disp[0], a, b)
-                if len(disp) == 2:
-                    u = u - rf.physical(disp[1], a, b)
-                yield np.stack([u, rf.physical(fch, a, b)])
-
+        scale = [rf.channel(c).units_per_volt(rf.frequency_hz) for c in [*disp, fch]]
         ref = rf.metadata.get("reference_force_channel") or "force_ref"
         xch = ref if ref in rf.channel_names else fch
-        require_sine(detect_streamed(lambda a, b: rf.physical(xch, a, b), rf.n_samples,
-                                     rf.sample_rate_hz, rf.metadata), PIPELINE,
-                     f"run {rf.name} ({xch})")
+
+        def check_excitation(found: Excitation) -> None:
+            require_sine(found, PIPELINE, f"run {rf.name} ({xch})")
+
+        def blocks() -> Iterator[np.ndarray]:
+            for a in range(0, rf.n_samples, step):         # as RunFile.physical, in place
+                if detected.done():                        # refuse as soon as it is known
+                    check_excitation(detected.result())
+                b = min(a + step, rf.n_samples)
+                blk = np.empty((2, b - a))
+                np.multiply(rf.volts(disp[0], a, b), scale[0], out=blk[0])
+                if len(disp) == 2:
+                    blk[0] -= np.multiply(rf.volts(disp[1], a, b), scale[1])
+                np.multiply(rf.volts(fch, a, b), scale[-1], out=blk[1])
+                yield blk
+
         if "phase_correction_rad" not in kwargs and f is not None:
             delta, u, note = sensor_phase(rf.channel(fch), [rf.channel(c) for c in disp], f,
                                           rf.metadata.get("phase_uncertainty_deg"))
             kwargs.update(phase_correction_rad=delta, phase_uncertainty_rad=u, phase_note=note)
-        result = analyze_blocks(blocks(), rf.sample_rate_hz, f, cutoff_hz, **kwargs)
+        # the excitation is identified alongside the analysis (its spectra overlap the
+        # filtering); a record that is not a steady sine is refused either way, and its
+        # refusal takes precedence over any error the analysis ran into
+        with ThreadPoolExecutor(1, thread_name_prefix="labjoint-detect") as pool:
+            detected = pool.submit(detect_streamed, lambda a, b: rf.physical(xch, a, b),
+                                   rf.n_samples, rf.sample_rate_hz, rf.metadata)
+            try:
+                result = analyze_blocks(blocks(), rf.sample_rate_hz, f, cutoff_hz, **kwargs)
+            except InputError:
+                check_excitation(detected.result())
+                raise
+            check_excitation(detected.result())
         result.metadata.update(run=rf.name, path=str(rf.path), force_channel=fch,
                                **{k: rf.metadata.get(k) for k in RUN_KEYS if k in rf.metadata})
         return result

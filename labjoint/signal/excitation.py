@@ -28,6 +28,7 @@ else with an error naming what was found and the command that handles it.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -162,8 +163,15 @@ def _longest_run(mask: np.ndarray) -> tuple[int, int]:
     return int(starts[k]), int(stops[k])
 
 
+@lru_cache(maxsize=8)
+def _hann(n: int) -> np.ndarray:
+    w = np.hanning(n)
+    w.flags.writeable = False
+    return w
+
+
 def _spectrum(x: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
-    p = np.abs(np.fft.rfft(x * np.hanning(x.size))) ** 2
+    p = np.abs(np.fft.rfft(x * _hann(x.size))) ** 2
     p[0] = 0.0
     return np.fft.rfftfreq(x.size, 1.0 / fs), p
 

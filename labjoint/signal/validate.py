@@ -36,9 +36,13 @@ def signal(x: object, name: str, *, min_samples: int = 1, ndim: tuple[int, ...] 
                          f"got shape {arr.shape}", field=name)
     if arr.shape[-1] < min_samples:
         raise InputError(f"needs at least {min_samples} samples, got {arr.shape[-1]}", field=name)
-    if not np.isfinite(arr).all():
-        bad = int(np.flatnonzero(~np.isfinite(arr).reshape(-1, arr.shape[-1]).all(axis=0))[0])
-        raise InputError(f"has a non-finite value (NaN or inf) at sample {bad}", field=name)
+    # the sum is finite unless a sample is NaN or inf (or the sum overflows): one pass,
+    # no temporary mask, on the common path
+    if arr.size and not np.isfinite(arr.sum()):
+        bad_samples = np.flatnonzero(~np.isfinite(arr).reshape(-1, arr.shape[-1]).all(axis=0))
+        if bad_samples.size:
+            raise InputError(f"has a non-finite value (NaN or inf) at sample "
+                             f"{int(bad_samples[0])}", field=name)
     return arr
 
 
