@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from labjoint.acquisition.documents import Block, RunStart, RunStop
+from labjoint.documents import Block, RunStart, RunStop
 from labjoint.acquisition.rig import Rig, open_rig
 from labjoint.config import load_config
 from labjoint.daemon import Daemon, JobQueue

@@ -81,7 +81,7 @@ def synth_blocks(seconds: float, seed: int = 0, fs: float = FS):
 def write_run(directory: Path, name: str, seconds: float, fs: float = FS) -> tuple[Path, str]:
     """Write the synthetic record as a labjoint run file (or a plain h5py file)."""
     try:
-        from labjoint.acquisition.documents import Block, RunStart, RunStop
+        from labjoint.documents import Block, RunStart, RunStop
         from labjoint.hardware.interfaces import ChannelSpec
         from labjoint.storage.writer import RunWriter
     except ImportError as exc:                            # storage layer not there yet

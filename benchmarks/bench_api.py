@@ -35,7 +35,7 @@ def make_catalog(data_dir: Path, n_runs: int) -> list[str]:
     """``n_runs`` catalogued run files in ``data_dir`` (a sweep over Vpp and torque)."""
     import numpy as np
 
-    from labjoint.acquisition.documents import Block, RunStart, RunStop
+    from labjoint.documents import Block, RunStart, RunStop
     from labjoint.hardware.interfaces import ChannelSpec
     from labjoint.storage import Catalog, open_run
     from labjoint.storage.catalog import record_from_run

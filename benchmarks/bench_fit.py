@@ -64,10 +64,10 @@ def main() -> None:
     t0 = time.perf_counter()
     res = ModelFitter("linear_stiffness+iwan").fit(runs)
     wall = time.perf_counter() - t0
-    print(f"fit linear_stiffness+iwan: {len(runs)} runs, {n} samples, {res.n_evals} model "
+    print(f"fit linear_stiffness+iwan: {len(runs)} runs, {n} samples, {res.n_evals_} model "
           f"evaluations, {len(res.start_costs_)} starts")
     print(f"wall time {wall:.2f} s (target {TARGET_S:.0f} s, ratio {wall / TARGET_S:.2f}); "
-          f"{n * res.n_evals / wall / 1e6:.1f} M samples/s")
+          f"{n * res.n_evals_ / wall / 1e6:.1f} M samples/s")
     print(f"NRMSE {res.nrmse_:.4f}; success {res.success}")
     for k, v in TRUE.items():
         p = res.params_[k]

@@ -6,7 +6,6 @@ itself when config selects it, so nothing here imports the simulator.
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 from typing import Any, Literal
 
@@ -15,6 +14,7 @@ from pydantic import (BaseModel, ConfigDict, Field, ValidationError, ValidationI
 
 from labjoint.errors import ConfigError
 from labjoint.hardware.interfaces import ChannelSpec
+from labjoint.tomlfile import read_toml
 
 #: Repository (or editable-install) configs folder.
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"
@@ -167,13 +167,7 @@ class RigConfig(_Strict):
 def load_config(path: str | Path | None = None, overrides: dict[str, Any] | None = None) -> RigConfig:
     """Read and validate a rig config (default: the simulated rig)."""
     p = Path(path) if path is not None else DEFAULT_CONFIG
-    try:
-        with open(p, "rb") as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise ConfigError("config file not found", file=str(p)) from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"not valid TOML: {exc}", file=str(p)) from None
+    data = read_toml(p, ConfigError, "config file")
     if overrides:
         data = _merge(data, overrides)
     data["source"] = str(p)

@@ -13,7 +13,7 @@ from typing import Any, Iterator
 import numpy as np
 import uvicorn
 
-from labjoint.acquisition.documents import Block, RunStart, RunStop
+from labjoint.documents import Block, RunStart, RunStop
 from labjoint.hardware.interfaces import ChannelSpec
 from labjoint.storage import Catalog
 from labjoint.storage.writer import RunWriter

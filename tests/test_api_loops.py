@@ -12,7 +12,7 @@ import httpx
 import numpy as np
 import pytest
 
-from labjoint.acquisition.documents import RunStop
+from labjoint.documents import RunStop
 from labjoint.api import ApiSettings, create_app
 from labjoint.identify.loop import loop_area
 from labjoint.storage import Catalog, write_processed

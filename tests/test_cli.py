@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 
 import numpy as np
@@ -14,9 +16,22 @@ ANALYZE_FIELDS = {"run", "frequency_hz", "displacement_amplitude_m", "force_ampl
 
 
 @pytest.fixture(scope="module")
-def sweep(tmp_path_factory):
+def simulated_sweep(tmp_path_factory):
+    """(directory, JSON output) of ``labjoint simulate --sweep 4,12,20``, made once for the
+    module by whichever test asks first (so no test depends on another having run)."""
     out = tmp_path_factory.mktemp("sweep")
-    return out
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        rc = main(["simulate", "--sweep", "4,12,20", "--cycles", "20", "--sample-rate",
+                   "25000", "--out", str(out), "--json"])
+    lines = [ln for ln in buf.getvalue().splitlines() if ln.strip()]
+    assert rc == 0 and len(lines) == 1, buf.getvalue()
+    return out, json.loads(lines[0])
+
+
+@pytest.fixture(scope="module")
+def sweep(simulated_sweep):
+    return simulated_sweep[0]
 
 
 def _json(capsys):
@@ -26,14 +41,12 @@ def _json(capsys):
     return json.loads(lines[0])
 
 
-def test_simulated_sweep_shows_seed002_trends(sweep, capsys):
+def test_simulated_sweep_shows_seed002_trends(simulated_sweep):
     """Seed 002 Table 3 on the default simulated joint: across the amplitude sweep the
     energy loss rises like U^2 (the shear layer's nearly constant damping, plus a little
     micro-slip) and the stiffness softens slightly as the slip annulus grows."""
-    rc = main(["simulate", "--sweep", "4,12,20", "--cycles", "20", "--sample-rate", "25000",
-               "--out", str(sweep), "--json"])
-    out = _json(capsys)
-    assert rc == 0 and out["status"] == "complete"
+    sweep, out = simulated_sweep
+    assert out["status"] == "complete"
     runs = out["runs"]
     assert [r["excitation_vpp"] for r in runs] == [4.0, 12.0, 20.0]
     U = np.array([r["displacement_amplitude_m"] for r in runs])

@@ -186,7 +186,7 @@ def test_bad_input_names_the_file_and_what_is_wrong(calibrated, tmp_path):
 
 
 def test_calibrate_refuses_a_run_without_reference_force_channel(calibrated, tmp_path):
-    from labjoint.acquisition.documents import Block, RunStart, RunStop
+    from labjoint.documents import Block, RunStart, RunStop
     from labjoint.storage import RunWriter
 
     src = calibrated["cal_files"][1]

@@ -9,7 +9,7 @@ import pytest
 
 from labjoint.daemon import JobQueue, JobStateError
 from labjoint.daemon.__main__ import main
-from labjoint.daemon.cli_glue import (cancel_job, confirm_torque, open_queue, output_off,
+from labjoint.cli.daemon_glue import (cancel_job, confirm_torque, open_queue, output_off,
                                       submit_plan)
 from labjoint.errors import InputError
 

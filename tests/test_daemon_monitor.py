@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from labjoint.acquisition.documents import Block, RunStart, RunStop
+from labjoint.documents import Block, RunStart, RunStop
 from labjoint.acquisition.engine import PlanResult
 from labjoint.acquisition.messages import Configure, Record
 from labjoint.acquisition.plans import dwell

@@ -70,7 +70,7 @@ def test_linear_stiffness_plus_viscous_is_exact_linear_least_squares():
             F = k * u + c * 2 * np.pi * f * U * np.cos(ph)       # analytic velocity
             runs.append(noisy_run(u, F, f, rng, f"{f}-{U}"))
     res = ModelFitter("linear_stiffness+viscous").fit(runs)
-    assert res.success and "exact" in res.message and res.start_costs_ and len(res.start_costs_) == 1
+    assert res.success_ and "exact" in res.message_ and res.start_costs_ and len(res.start_costs_) == 1
     within(res, {"linear_stiffness.k": k, "viscous.c": c}, rel=0.02)
     assert res.nrmse_ == pytest.approx(0.01 * np.sqrt(2), rel=0.15)   # noise only
 
@@ -83,7 +83,7 @@ def test_coulomb_recovered_from_closed_form_loops():
         t, ph, u = sine(U, 200.0, 8)
         runs.append(noisy_run(u, jenkins_loop(u, ph, k, fs_), 200.0, rng, f"U{U}"))
     res = ModelFitter("coulomb").fit(runs)
-    assert res.success
+    assert res.success_
     within(res, {"coulomb.k": k, "coulomb.f_s": fs_})
 
 
@@ -97,6 +97,6 @@ def test_iwan_with_linear_stiffness_recovered_from_closed_form_masing_loops():
             t, ph, u = sine(U, f, 6)
             runs.append(noisy_run(u, k * u + iwan_loop(u, ph, **true), f, rng, f"{f}-{U}"))
     res = ModelFitter("linear_stiffness+iwan", seed=0).fit(runs)
-    assert res.success
+    assert res.success_
     within(res, {"linear_stiffness.k": k, **{f"iwan.{a}": b for a, b in true.items()}})
     assert res.nrmse_ < 0.02

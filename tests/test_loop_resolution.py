@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from labjoint.acquisition.documents import Block, RunStart, RunStop
+from labjoint.documents import Block, RunStart, RunStop
 from labjoint.identify.analyze import analyze_file
 from labjoint.storage.writer import RunWriter
 from test_storage_fixtures import FS, quantise, rig_channels

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from labjoint.acquisition.documents import Block, RunStart, RunStop
+from labjoint.documents import Block, RunStart, RunStop
 from labjoint.config import load_config
 from labjoint.hardware.interfaces import GeneratorSettings
 from labjoint.hardware.sim.config import SimConfig

@@ -113,7 +113,7 @@ def test_rebuild_from_files_gives_the_same_index(catalog, tmp_path):
 
 
 def test_running_runs_are_indexed_at_start_and_updated_at_stop(tmp_path):
-    from labjoint.acquisition.documents import Block, RunStart, RunStop
+    from labjoint.documents import Block, RunStart, RunStop
     from labjoint.storage.writer import RunWriter
     from test_storage_fixtures import rig_channels
 

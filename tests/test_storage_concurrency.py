@@ -8,7 +8,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from labjoint.acquisition.documents import Block, RunStart, RunStop
+from labjoint.documents import Block, RunStart, RunStop
 from labjoint.storage import open_run
 from labjoint.storage.writer import RunWriter
 from test_storage_fixtures import FS, rig_channels
@@ -155,7 +155,7 @@ def test_reads_while_another_process_appends(tmp_path):
     code = f"""
 import sys, time, numpy as np
 sys.path.insert(0, {str(__import__('pathlib').Path(__file__).parent)!r})
-from labjoint.acquisition.documents import Block, RunStart, RunStop
+from labjoint.documents import Block, RunStart, RunStop
 from labjoint.storage.writer import RunWriter
 from test_storage_fixtures import FS, rig_channels
 v = np.load({str(tmp_path / 'volts.npy')!r})

@@ -7,7 +7,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from labjoint.acquisition.documents import Block, RunStart, RunStop
+from labjoint.documents import Block, RunStart, RunStop
 from labjoint.hardware.interfaces import ChannelSpec
 from labjoint.storage.writer import RunWriter
 

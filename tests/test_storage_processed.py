@@ -6,7 +6,7 @@ import h5py
 import numpy as np
 import pytest
 
-from labjoint.acquisition.documents import RunStart, RunStop
+from labjoint.documents import RunStart, RunStop
 from labjoint.errors import InputError
 from labjoint.storage import open_run, read_processed, write_processed
 from labjoint.storage.writer import RunWriter

@@ -13,7 +13,7 @@ import h5py
 import numpy as np
 import pytest
 
-from labjoint.acquisition.documents import Block, RunStart, RunStop
+from labjoint.documents import Block, RunStart, RunStop
 from labjoint.errors import InputError
 from labjoint.storage import Catalog, open_run, recover, recover_all
 from labjoint.storage.recover import clear_status_flags, lookup3
@@ -32,7 +32,7 @@ READER = textwrap.dedent("""
 
 WRITER = textwrap.dedent("""
     import sys, numpy as np
-    from labjoint.acquisition.documents import Block, RunStart
+    from labjoint.documents import Block, RunStart
     from labjoint.hardware.interfaces import ChannelSpec
     from labjoint.storage.writer import RunWriter
     chans = [ChannelSpec(n, "voltage", "voltage", "V", 1.0) for n in ("a", "b")]

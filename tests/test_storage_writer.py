@@ -6,7 +6,7 @@ import h5py
 import numpy as np
 import pytest
 
-from labjoint.acquisition.documents import Block, Marker, RunStart, RunStop
+from labjoint.documents import Block, Marker, RunStart, RunStop
 from labjoint.errors import InputError
 from labjoint.storage import open_run, read_run
 from labjoint.storage.writer import RunWriter

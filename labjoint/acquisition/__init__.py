@@ -1,3 +1,4 @@
-"""Acquisition: plans (generators of small commands), the engine that runs them on
-real or simulated devices, and the documents a run emits (which storage subscribes to).
+"""Acquisition: plans (generators of small commands) and the engine that runs them on
+real or simulated devices, emitting the documents of :mod:`labjoint.documents` (which
+storage subscribes to).
 """

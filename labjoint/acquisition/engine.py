@@ -42,7 +42,7 @@ from typing import Any, Callable, Iterator, Mapping, Sequence
 import numpy as np
 
 from labjoint import __version__
-from labjoint.acquisition.documents import Marker, RunStart, RunStop
+from labjoint.documents import Marker, RunStart, RunStop
 from labjoint.acquisition.drive import FLOOR_VPP, Abort, DriveMixin
 from labjoint.acquisition.gate import GateCancelled, TorqueGate
 from labjoint.acquisition.messages import (Checkpoint, Configure, Measure, Output, Pause, Ramp,

@@ -18,8 +18,6 @@ from __future__ import annotations
 import functools
 import json
 import math
-import re
-import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Callable, Generator, Literal, Mapping
 
@@ -29,6 +27,7 @@ from pydantic import Field, ValidationError, validate_call
 from labjoint.acquisition.messages import (Configure, Measure, Measurement, Message, Output,
                                            Ramp, Record, SetTorque, WaitSteady)
 from labjoint.errors import InputError
+from labjoint.tomlfile import read_toml
 
 Plan = Generator[Message, Any, None]
 
@@ -345,7 +344,7 @@ def load_plan(source: str | Path | Mapping[str, Any]) -> Plan:
     else:
         path = Path(source)
         where = str(path)
-        data = _read_plan_file(path)
+        data = read_plan_file(path)
     name = data.pop("plan", None)
     if name is None:
         raise InputError("missing the plan name (plan = \"...\")", file=where, field="plan")
@@ -357,23 +356,20 @@ def load_plan(source: str | Path | Mapping[str, Any]) -> Plan:
         raise InputError(exc.message, file=where, field=exc.field) from None
 
 
-def _read_plan_file(path: Path) -> dict[str, Any]:
+def read_plan_file(path: Path) -> dict[str, Any]:
+    """The mapping in a plan file (.toml or .json); errors name the file and line."""
     suffix = path.suffix.lower()
     if suffix not in (".toml", ".json"):
         raise InputError(f"plan files are .toml or .json, got {suffix or 'no suffix'!r}",
                          file=str(path))
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise InputError(f"cannot read plan file: {exc.strerror or exc}", file=str(path)) from None
     if suffix == ".toml":
-        try:
-            data = tomllib.loads(raw.decode("utf-8"))
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-            line = re.search(r"at line (\d+)", str(exc))
-            raise InputError(f"not valid TOML: {exc}", file=str(path),
-                             line=int(line.group(1)) if line else None) from None
+        data: Any = read_toml(path, InputError, "plan file")
     else:
+        try:
+            raw = path.read_bytes()
+        except OSError as exc:
+            raise InputError(f"cannot read plan file: {exc.strerror or exc}",
+                             file=str(path)) from None
         try:
             data = json.loads(raw)
         except json.JSONDecodeError as exc:

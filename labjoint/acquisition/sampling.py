@@ -9,7 +9,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from labjoint.acquisition.documents import Block
+from labjoint.documents import Block
 from labjoint.acquisition.messages import Measure, Measurement, SteadyResult, WaitSteady
 from labjoint.acquisition.online import CycleAmplitudes, fundamental
 from labjoint.acquisition.safety import check_block

@@ -18,6 +18,7 @@ from typing import Any
 from labjoint.api.errors import ApiError, not_found
 from labjoint.api.schemas import RUN_NAME
 from labjoint.storage import Catalog, RunFile, RunRecord, open_run
+from labjoint.storage.roles import channel_roles
 
 _NAME = re.compile(RUN_NAME)
 
@@ -76,24 +77,6 @@ class RunResolver:
 
 
 def roles(rf: RunFile) -> dict[str, Any]:
-    """Channels holding the relative displacement and the joint/reference force.
-
-    Same rules as :meth:`labjoint.storage.reader.RunFile.to_run`: metadata
-    ``displacement_channels`` (two: disp_1 - disp_2, one: as is), else a ``displacement``
-    channel, else disp_1/disp_2; the joint force is ``joint_force_channel`` (else
-    ``force`` or ``shear_nc``).
-    """
-    md = rf.metadata
-    names = set(rf.channel_names)
-    if "displacement_channels" in md:
-        disp = [str(c) for c in md["displacement_channels"]]
-    elif "displacement" in names:
-        disp = ["displacement"]
-    else:
-        disp = ["disp_1", "disp_2"]
-    joint = md.get("joint_force_channel") or ("force" if "force" in names else "shear_nc")
-    reference = md.get("reference_force_channel") or "force_ref"
-    ok = 1 <= len(disp) <= 2 and all(c in names for c in disp)
-    return {"displacement": disp if ok else [],
-            "force": [joint] if joint in names else [],
-            "reference_force": [reference] if reference in names else []}
+    """Channels holding the relative displacement and the joint/reference force
+    (:mod:`labjoint.storage.roles`); a role with no channel present is empty."""
+    return channel_roles(rf.metadata, rf.channel_names).present

@@ -15,7 +15,6 @@ import secrets
 import socket
 import sys
 import threading
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,6 +26,7 @@ from labjoint.api.settings import ENV_CONTROL, ApiSettings, load_settings
 from labjoint.config import DEFAULT_CONFIG, RigConfig, parse_config
 from labjoint.daemon import Daemon, JobQueue
 from labjoint.errors import ConfigError
+from labjoint.tomlfile import read_toml
 
 log = logging.getLogger(__name__)
 QUEUE_FILE = "queue.sqlite"
@@ -35,13 +35,7 @@ QUEUE_FILE = "queue.sqlite"
 def load_rig_config(path: str | Path | None) -> RigConfig:
     """The rig config, its ``[api]`` table set aside (the API validates that itself)."""
     p = Path(path) if path is not None else DEFAULT_CONFIG
-    try:
-        with open(p, "rb") as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise ConfigError("config file not found", file=str(p)) from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"not valid TOML: {exc}", file=str(p)) from None
+    data = read_toml(p, ConfigError, "config file")
     data.pop("api", None)
     data["source"] = str(p)
     return parse_config(data, source=str(p))

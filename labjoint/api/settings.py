@@ -24,13 +24,13 @@ from __future__ import annotations
 
 import hmac
 import os
-import tomllib
 from pathlib import Path
 from typing import Any, Literal, Mapping
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from labjoint.errors import ConfigError
+from labjoint.tomlfile import read_toml
 
 ENV_CONTROL = "LABJOINT_API_TOKEN"
 ENV_READ = "LABJOINT_API_READ_TOKEN"
@@ -85,13 +85,7 @@ def api_table(config_path: str | Path | None) -> dict[str, Any]:
     if config_path is None:
         return {}
     p = Path(config_path)
-    try:
-        with open(p, "rb") as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise ConfigError("config file not found", file=str(p)) from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"not valid TOML: {exc}", file=str(p)) from None
+    data = read_toml(p, ConfigError, "config file")
     table = data.get("api", {})
     if not isinstance(table, dict):
         raise ConfigError("[api] must be a table", file=str(p), field="api")

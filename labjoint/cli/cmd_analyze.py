@@ -7,6 +7,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from labjoint.cli.inputs import load_runs
 from labjoint.cli.output import Progress, emit_json, table
 from labjoint.errors import InputError
 
@@ -33,24 +34,6 @@ def add_analyze_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--save", action="store_true",
                    help="store results in each run file: processed/loop (methods loop, both) "
                         "and processed/stickslip (stickslip, both)")
-
-
-def load_runs(paths: list[str]) -> list[Any]:
-    """Run files stay paths (streamed); CSV files are parsed into in-memory runs."""
-    out: list[Any] = []
-    for p in paths:
-        path = Path(p)
-        if not path.exists():
-            raise InputError("no such file", file=p)
-        out.append(csv_run(path) if path.suffix.lower() in (".csv", ".txt") else path)
-    return out
-
-
-def csv_run(path: Path) -> Any:
-    """A CSV file in the import format as a :class:`labjoint.storage.run.Run`."""
-    from labjoint.storage.csv_parse import parse_csv
-
-    return parse_csv(path).to_run()
 
 
 def loop_row(item: Any, force: str, save: bool) -> dict[str, Any]:

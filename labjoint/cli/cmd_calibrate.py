@@ -22,6 +22,7 @@ from typing import Any
 
 from labjoint.cli.output import emit_json, table
 from labjoint.errors import InputError
+from labjoint.storage.roles import channel_roles
 
 CALIBRATION_PLAN = "sensor_calibration"
 FRICTION_PLAN = "friction_test"
@@ -91,18 +92,18 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
 def check_calibration_run(path: str | Path, channel: str | None, any_plan: bool) -> str:
     """Refuse what cannot be a calibration record (InputError naming file and field);
     returns the sensor channel's name."""
-    from labjoint.storage import open_run
+    from labjoint.storage import is_csv, open_run
 
     p = Path(path)
-    if p.suffix.lower() in (".csv", ".txt"):
+    if is_csv(p):
         raise InputError("calibration needs an acquired HDF5 run (raw sensor volts), "
                          "not an imported CSV file", file=str(p))
     with open_run(p) as rf:
         md = rf.metadata
         _check_plan(md, CALIBRATION_PLAN, p, any_plan)
-        sensor = channel or md.get("joint_force_channel") or "shear_nc"
-        ref = md.get("reference_force_channel") or "force_ref"
-        disp1 = (md.get("displacement_channels") or ["disp_1"])[0]
+        roles = channel_roles(md, rf.channel_names)
+        sensor = channel or roles.joint_force
+        ref, disp1 = roles.reference_force, roles.displacement[0]
         names = rf.channel_names
         for role, name in (("sensor channel", sensor), ("reference force channel", ref),
                            ("beam-1 displacement channel", disp1)):
@@ -203,7 +204,7 @@ def add_friction_arguments(p: argparse.ArgumentParser) -> None:
 def friction_from_file(path: str | Path, torque_to_normal: float | None = None,
                        any_plan: bool = False) -> Any:
     """mu (an :class:`~labjoint.identify.friction.Identified`) from a friction-test file."""
-    from labjoint.cli.cmd_analyze import load_runs
+    from labjoint.cli.inputs import load_runs
     from labjoint.identify.friction import identify_friction
     from labjoint.storage import read_run
 

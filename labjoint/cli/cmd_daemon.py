@@ -24,7 +24,7 @@ def add_torque_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from labjoint.daemon.cli_glue import run_daemon
+    from labjoint.cli.daemon_glue import run_daemon
 
     return run_daemon(args.config, args.data)
 
@@ -38,14 +38,14 @@ def _show(job: object, as_json: bool) -> None:
 
 
 def submit(args: argparse.Namespace) -> int:
-    from labjoint.daemon.cli_glue import submit_plan
+    from labjoint.cli.daemon_glue import submit_plan
 
     _show(submit_plan(args.plan, config_path=args.config, data_dir=args.data), args.json)
     return 0
 
 
 def torque(args: argparse.Namespace) -> int:
-    from labjoint.daemon.cli_glue import confirm_torque
+    from labjoint.cli.daemon_glue import confirm_torque
 
     _show(confirm_torque(args.job, args.torque_nm, config_path=args.config, data_dir=args.data),
           args.json)

@@ -22,7 +22,9 @@ from labjoint.compare.ladders import Ladder, LadderStep, build_ladder
 from labjoint.compare.metrics import Evaluation, RunEval, evaluate
 from labjoint.compare.noise import NoiseFloor, noise_floor
 from labjoint.compare.residuals import ResidualMaps, residual_maps
-from labjoint.compare.runs import PreparedRun, prepare_run, prepare_runs, read_any
+from labjoint.compare.prepared import PreparedRun
+from labjoint.compare.runs import prepare_run, prepare_runs
+from labjoint.storage import read_any
 from labjoint.compare.significance import SignificanceSettings
 from labjoint.compare.store import load_ladder, load_ladders, save_ladder
 

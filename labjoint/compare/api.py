@@ -120,7 +120,7 @@ class FitReport:
             "fit_runs": list(self.fit.fit_runs_), "validation_runs": self.validation_runs,
             "nrmse_validation": (self.evaluation.nrmse(self.validation_runs)
                                  if self.validation_runs else None),
-            "success": self.fit.success, "message": self.fit.message,
+            "success": self.fit.success_, "message": self.fit.message_,
         }
         if full:
             d.update(curves=self.curves.to_dict(), maps=self.maps.to_dict(),

@@ -19,7 +19,7 @@ import numpy as np
 
 from labjoint.compare.runs import PreparedRun
 from labjoint.identify.loop import loop_metrics
-from labjoint.models import Model, Parameters
+from labjoint.models import Model, Parameters, nrmse_from_sums, pooled_nrmse
 
 
 @dataclass(frozen=True, eq=False)
@@ -52,7 +52,7 @@ class RunEval:
 
     @property
     def nrmse(self) -> float:
-        return float(np.sqrt(self.sse / self.ssf)) if self.ssf > 0 else float("inf")
+        return nrmse_from_sums(self.sse, self.ssf)
 
     def cycle_sse(self) -> np.ndarray:
         """Sum of squared residuals of each steady cycle (N^2)."""
@@ -147,8 +147,7 @@ class Evaluation:
     def nrmse(self, names: Iterable[str] | None = None) -> float:
         """Pooled NRMSE over the named runs (all by default)."""
         rs = self.subset(names)
-        den = sum(r.ssf for r in rs)
-        return float(np.sqrt(sum(r.sse for r in rs) / den)) if den > 0 else float("nan")
+        return pooled_nrmse([r.sse for r in rs], [r.ssf for r in rs])
 
     def by_run(self) -> dict[str, float]:
         return {r.name: r.nrmse for r in self.runs}

@@ -32,15 +32,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import stats
 
+from labjoint.compare.prepared import PreparedRun
 from labjoint.signal.cycles import cycles as resample_cycles
-
-if TYPE_CHECKING:
-    from labjoint.compare.runs import PreparedRun
 
 WINDOW_CYCLES = 8
 MIN_WINDOW_CYCLES = 5
@@ -154,7 +151,7 @@ def quietest_variance(x: np.ndarray, groups: Sequence[np.ndarray],
     return min(w[0] for w in win) if win else float("nan")
 
 
-def run_noise(run: "PreparedRun", window_cycles: int = WINDOW_CYCLES) -> RunNoise:
+def run_noise(run: PreparedRun, window_cycles: int = WINDOW_CYCLES) -> RunNoise:
     """Noise of one run over its steady cycles (module docstring)."""
     groups = run.cycle_bounds()
     var_f, n_cyc, n_win = scatter_variance(run.data.force, groups, window_cycles)
@@ -189,7 +186,7 @@ class NoiseFloor:
                           "equivalent_std_n": r.equivalent_std} for r in self.runs]}
 
 
-def noise_floor(runs: Sequence["PreparedRun"], window_cycles: int = WINDOW_CYCLES) -> NoiseFloor:
+def noise_floor(runs: Sequence[PreparedRun], window_cycles: int = WINDOW_CYCLES) -> NoiseFloor:
     """Pooled noise floor of ``runs`` (same steady samples and weighting as the NRMSE)."""
     per = tuple(run_noise(r, window_cycles) for r in runs)
     num = den = 0.0

@@ -12,7 +12,7 @@ import json
 import sys
 from typing import Sequence
 
-from labjoint.daemon.cli_glue import output_off, run_daemon
+from labjoint.cli.daemon_glue import output_off, run_daemon
 from labjoint.errors import HardwareError, InputError, LabjointError
 
 

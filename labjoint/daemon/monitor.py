@@ -18,7 +18,7 @@ import threading
 from dataclasses import asdict
 from typing import Any, Callable, Generator, Mapping
 
-from labjoint.acquisition.documents import Block, RunStart, RunStop
+from labjoint.documents import Block, RunStart, RunStop
 from labjoint.acquisition.engine import PlanResult
 from labjoint.acquisition.messages import (Configure, Measure, Measurement, Record,
                                            SteadyResult, WaitSteady)

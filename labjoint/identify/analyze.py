@@ -28,6 +28,7 @@ from labjoint.signal.frequency import estimate_frequency
 from labjoint.signal.phase import CycleSegmenter
 from labjoint.signal.prefetch import prefetch
 from labjoint.signal.steady import detect_steady
+from labjoint.storage.roles import channel_roles
 
 #: Samples per block when an in-memory record is fed through the streaming pipeline.
 BLOCK_SAMPLES = 1 << 18
@@ -331,7 +332,7 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
         step = FILE_BLOCK_SAMPLES
 
         scale = [rf.channel(c).units_per_volt(rf.frequency_hz) for c in [*disp, fch]]
-        ref = rf.metadata.get("reference_force_channel") or "force_ref"
+        ref = channel_roles(rf.metadata, rf.channel_names).reference_force
         xch = ref if ref in rf.channel_names else fch
 
         def check_excitation(found: Excitation) -> None:
@@ -372,22 +373,4 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
 
 def _roles(rf: Any, force: str) -> tuple[list[str], str]:
     """Displacement channel(s) and the force channel of an open run file."""
-    md, names = rf.metadata, set(rf.channel_names)
-    if "displacement_channels" in md:
-        disp = list(md["displacement_channels"])
-    elif "displacement" in names:
-        disp = ["displacement"]
-    else:
-        disp = ["disp_1", "disp_2"]
-    if force == "joint":
-        fch = md.get("joint_force_channel") or ("force" if "force" in names else "shear_nc")
-    elif force == "reference":
-        fch = md.get("reference_force_channel") or "force_ref"
-    else:
-        raise InputError(f"force must be 'joint' or 'reference', got {force!r}", field="force")
-    for c in [*disp, fch]:
-        rf.channel(c)
-    if len(disp) not in (1, 2):
-        raise InputError("displacement_channels must name one or two channels",
-                         file=str(rf.path), field="displacement_channels")
-    return disp, fch
+    return channel_roles(rf.metadata, rf.channel_names).require(force, str(rf.path))

@@ -38,6 +38,7 @@ import numpy as np
 
 from labjoint.errors import InputError
 from labjoint.hardware.interfaces import ChannelSpec
+from labjoint.storage.roles import channel_roles
 
 STORE_NAME = "calibrations.json"
 STORE_VERSION = 1
@@ -244,9 +245,9 @@ def calibrate_run(path: str | Path, *, beam_mass_kg: float | None = None,
     from labjoint.storage import open_run          # storage is below identify
     with open_run(path) as rf:
         md = rf.metadata
-        sensor = channel or md.get("joint_force_channel") or "shear_nc"
-        ref = md.get("reference_force_channel") or "force_ref"
-        disp1 = (md.get("displacement_channels") or ["disp_1"])[0]
+        roles = channel_roles(md, rf.channel_names)
+        sensor = channel or roles.joint_force
+        ref, disp1 = roles.reference_force, roles.displacement[0]
         mass = beam_mass_kg if beam_mass_kg is not None else md.get(MASS_KEY)
         if mass is None:
             raise InputError("beam-1 mass between the reference sensor and the joint is "
@@ -283,7 +284,7 @@ def calibrate_runs(paths: list[str | Path], store: CalibrationStore, *, channel:
     for p in paths:
         point = calibrate_run(p, channel=channel, **kwargs)
         with open_run(p) as rf:
-            sensor = channel or rf.metadata.get("joint_force_channel") or "shear_nc"
+            sensor = channel or channel_roles(rf.metadata, rf.channel_names).joint_force
         store.add(sensor, point)
         points.append(point)
         if write_processed:

@@ -20,14 +20,15 @@ from labjoint.models.effects.base import (
     ModifierEffect,
     SlipModifiers,
 )
-from labjoint.models.fit import ModelFitter, nrmse, split_runs
+from labjoint.models.fit import ModelFitter, nrmse
+from labjoint.models.scores import nrmse_from_sums, pooled_nrmse
 from labjoint.models.inputs import ModelInputs, RunData, derivatives, estimate_frequency
 from labjoint.models.params import Parameter, Parameters
 from labjoint.models.result import FitResult
 from labjoint.models.summary import LoopSummary, RunLoop, noise_floor
 
 __all__ = [
-    "Model", "ModelFitter", "FitResult", "nrmse", "split_runs", "ModelInputs", "RunData",
+    "Model", "ModelFitter", "FitResult", "nrmse", "nrmse_from_sums", "pooled_nrmse", "ModelInputs", "RunData",
     "derivatives", "estimate_frequency", "Parameter", "Parameters", "LoopSummary", "RunLoop",
     "noise_floor",
     "REGISTRY", "get_effect", "Effect", "ForceEffect", "HystereticEffect", "InputEffect",

@@ -27,7 +27,7 @@ error make them optimistic.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Collection, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,6 +40,7 @@ from labjoint.models.effects.base import ForceEffect
 from labjoint.models.inputs import RunData
 from labjoint.models.params import Parameters
 from labjoint.models.result import FitResult
+from labjoint.models.scores import nrmse_from_sums
 from labjoint.models.summary import LoopSummary, noise_floor
 
 TRUST = 1e6
@@ -83,23 +84,10 @@ def nrmse(model: Model | str, params: Parameters | dict[str, Any],
         m = r.steady
         e = r.force[m] - model.eval(params, r)[m]
         se, sf = float(e @ e), float(r.force[m] @ r.force[m])
-        per[lab] = float(np.sqrt(se / sf)) if sf > 0 else float("inf")
+        per[lab] = nrmse_from_sums(se, sf)
         num += se
         den += sf
-    return (float(np.sqrt(num / den)) if den > 0 else float("inf")), per
-
-
-def split_runs(runs: Sequence[RunData], fit: Callable[[RunData], bool] | Collection[str]
-               ) -> tuple[list[RunData], list[RunData]]:
-    """(fit runs, validation runs): ``fit`` is a predicate or a collection of run names,
-    e.g. ``split_runs(runs, lambda r: r.frequency_hz == 100.0)`` fits on the 100 Hz runs
-    and validates on the others (seed 000 fits on one mode, validates on another)."""
-    pred = fit if callable(fit) else (lambda r, names=set(fit): r.name in names)
-    a = [r for r in runs if pred(r)]
-    b = [r for r in runs if not pred(r)]
-    if not a:
-        raise InputError("the split leaves no run to fit", field="fit")
-    return a, b
+    return nrmse_from_sums(num, den), per
 
 
 @dataclass

@@ -48,19 +48,6 @@ class FitResult:
     fit_runs_: tuple[str, ...] = ()
     validation_runs_: tuple[str, ...] = ()
 
-    # the brief's plain names for the status fields
-    @property
-    def n_evals(self) -> int:
-        return self.n_evals_
-
-    @property
-    def success(self) -> bool:
-        return self.success_
-
-    @property
-    def message(self) -> str:
-        return self.message_
-
     @property
     def values_(self) -> dict[str, float]:
         return self.params_.valuesdict()

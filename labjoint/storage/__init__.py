@@ -7,11 +7,11 @@ physical units (:class:`labjoint.storage.run.Run`).
 from labjoint.storage.catalog import Catalog, RunRecord
 from labjoint.storage.csv_import import import_csv
 from labjoint.storage.processed import read_processed, write_processed
-from labjoint.storage.reader import DataBlock, RunFile, open_run, read_run
+from labjoint.storage.reader import DataBlock, RunFile, is_csv, open_run, read_any, read_run
 from labjoint.storage.recover import recover, recover_all
 from labjoint.storage.run import Run
 from labjoint.storage.writer import RunWriter
 
 __all__ = ["Catalog", "RunRecord", "import_csv", "read_processed", "write_processed",
-           "DataBlock", "RunFile", "open_run", "read_run", "recover", "recover_all", "Run",
+           "DataBlock", "RunFile", "is_csv", "open_run", "read_any", "read_run", "recover", "recover_all", "Run",
            "RunWriter"]

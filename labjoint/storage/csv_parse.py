@@ -57,7 +57,7 @@ class ParsedCSV:
 
     def to_run(self) -> Run:
         """The CSV as a :class:`Run` without storing it (channels named as an imported
-        run file's: ``displacement``, ``force`` and the extra columns; ``path`` None)."""
+        run file's: ``displacement``, ``force`` and the extra columns; ``path`` the CSV)."""
         chans = {"displacement": self.column("displacement_m"), "force": self.column("force_N")}
         for c in self.columns:
             if c.lower() not in ("time_s", "displacement_m", "force_n"):
@@ -68,7 +68,7 @@ class ParsedCSV:
                   joint_force_channel="force")
         return Run(name=self.path.stem, time=self.column("time_s"),
                    displacement=chans["displacement"], force=chans["force"],
-                   metadata=md, channels=chans, path=None)
+                   metadata=md, channels=chans, path=str(self.path))
 
 
 def unit_of(column: str) -> str:

@@ -28,6 +28,8 @@ import numpy as np
 from labjoint.errors import InputError
 from labjoint.hardware.interfaces import ChannelSpec
 from labjoint.storage import layout
+from labjoint.storage.csv_parse import parse_csv
+from labjoint.storage.roles import channel_roles
 from labjoint.storage.run import Run
 
 
@@ -227,31 +229,9 @@ class RunFile:
     def to_run(self, force: str = "joint") -> Run:
         """The run in SI units: relative displacement and the joint (or reference) force."""
         md = self.metadata
-        names = set(self.channel_names)
-        if "displacement_channels" in md:
-            disp = list(md["displacement_channels"])
-        elif "displacement" in names:
-            disp = ["displacement"]
-        else:
-            disp = ["disp_1", "disp_2"]
-        if force == "joint":
-            fch = md.get("joint_force_channel") or ("force" if "force" in names else "shear_nc")
-        elif force == "reference":
-            fch = md.get("reference_force_channel") or "force_ref"
-        else:
-            raise InputError(f"force must be 'joint' or 'reference', got {force!r}", field="force")
+        disp, fch = channel_roles(md, self.channel_names).require(force, str(self.path))
         chans = {c: self.physical(c) for c in self.channel_names}
-        for c in [*disp, fch]:
-            if c not in chans:
-                raise InputError(f"run has no channel {c!r}; channels: {self.channel_names}",
-                                 file=str(self.path), field=c)
-        if len(disp) == 2:
-            displacement = chans[disp[0]] - chans[disp[1]]
-        elif len(disp) == 1:
-            displacement = chans[disp[0]].copy()
-        else:
-            raise InputError("displacement_channels must name one or two channels",
-                             file=str(self.path), field="displacement_channels")
+        displacement = chans[disp[0]] - chans[disp[1]] if len(disp) == 2 else chans[disp[0]].copy()
         return Run(name=self.name, time=self.time(), displacement=displacement,
                    force=chans[fch].copy(), metadata=dict(md), channels=chans,
                    path=str(self.path))
@@ -350,3 +330,25 @@ def read_run(path: str | Path, force: str = "joint") -> Run:
     """
     with open_run(path) as rf:
         return rf.to_run(force=force)
+
+
+#: File suffixes read as CSV records in the import format (design.md); anything else is a run file.
+CSV_SUFFIXES = (".csv", ".txt")
+
+
+def is_csv(path: str | Path) -> bool:
+    """Whether ``path`` is read as a CSV record (by its suffix)."""
+    return Path(path).suffix.lower() in CSV_SUFFIXES
+
+
+def read_any(path: str | Path, force: str = "joint") -> Run:
+    """A whole run from a run file or a CSV record (by suffix), with the same channel
+    names either way: an imported run file's (``displacement``, ``force`` and the extra
+    columns), so a CSV and the run file ``labjoint import`` makes of it read alike."""
+    p = Path(path)
+    if is_csv(p):
+        if force != "joint":
+            raise InputError("a CSV record has one force column; force='reference' applies "
+                             "to run files only", file=str(p), field="force")
+        return parse_csv(p).to_run()
+    return read_run(p, force=force)

@@ -7,6 +7,8 @@ from typing import Any
 
 import numpy as np
 
+from labjoint.storage.roles import channel_roles
+
 
 @dataclass
 class Run:
@@ -42,7 +44,7 @@ class Run:
         """The signal that tells what excites the run: the reference (drive) force if
         recorded, else the joint force (a joint's own force may fade, e.g. with wear,
         under a steady drive)."""
-        ref = self.channels.get(self.metadata.get("reference_force_channel") or "force_ref")
+        ref = self.channels.get(channel_roles(self.metadata, self.channels).reference_force)
         return self.force if ref is None or len(ref) != len(self.force) else ref
 
     def __len__(self) -> int:

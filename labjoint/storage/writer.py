@@ -1,7 +1,7 @@
 """Streams run documents into one NeXus-style HDF5 file per run (SWMR, crash-safe).
 
 ``RunWriter`` is a document callback (``writer(name, doc)``, see
-:mod:`labjoint.acquisition.documents`). The file is created under a hidden temporary
+:mod:`labjoint.documents`). The file is created under a hidden temporary
 name, laid out completely, switched to SWMR mode and only then linked to
 ``<data_dir>/<run name>.h5``, so a half-created file never exists under a run's name.
 From then on the writer only appends to or overwrites pre-created datasets (the SWMR
@@ -26,7 +26,7 @@ from typing import Any, Callable
 import h5py
 import numpy as np
 
-from labjoint.acquisition.documents import RUN_STATUSES, Block, Marker, RunStart, RunStop
+from labjoint.documents import RUN_STATUSES, Block, Marker, RunStart, RunStop
 from labjoint.errors import InputError
 from labjoint.storage import layout
 

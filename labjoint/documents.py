@@ -1,6 +1,7 @@
 """Documents a run emits, bluesky-style: ``("start", RunStart)``, ``("block", Block)``...,
 ``("stop", RunStop)``. Storage subscribes with a callable ``callback(name, doc)``, so
-acquisition code never touches HDF5.
+acquisition code never touches HDF5. The documents sit below both (acquisition emits
+them, storage and the daemon's live view consume them), so neither imports the other.
 """
 
 from __future__ import annotations

@@ -7,12 +7,11 @@ Paths default as the daemon's do: data in the config's ``rig.data_dir``, the que
 from __future__ import annotations
 
 import getpass
-import json
 import logging
-import tomllib
 from pathlib import Path
 from typing import Any
 
+from labjoint.acquisition import plans
 from labjoint.acquisition.plans import load_plan
 from labjoint.config import RigConfig, load_config
 from labjoint.daemon.daemon import Daemon, default_paths
@@ -49,9 +48,7 @@ def read_plan_file(path: str | Path) -> dict[str, Any]:
     """The plan mapping in a TOML/JSON file, validated (errors name the file and field)."""
     p = Path(path)
     load_plan(p).close()  # validation: InputError naming the file and field
-    raw = p.read_bytes()
-    data = tomllib.loads(raw.decode("utf-8")) if p.suffix.lower() == ".toml" else json.loads(raw)
-    return dict(data)
+    return dict(plans.read_plan_file(p))
 
 
 def submit_plan(path: str | Path, queue_db: str | Path | None = None, *,
