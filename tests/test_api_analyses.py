@@ -76,7 +76,7 @@ def test_both_methods_side_by_side(served):
 
 
 def test_stick_slip_needs_a_friction_coefficient(served):
-    from labjoint.identify.friction import Identified, save_identified
+    from labjoint.identify.identified import Identified, save_identified
     http, d = served
     r = http.post("/analyses", json={"runs": ["lin_b"], "method": "stick_slip"})
     assert r.status_code == 422 and "friction" in r.json()["error"]["message"]

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from labjoint.errors import InputError
-from labjoint.identify.friction import (Identified, friction_coefficient, identify_friction,
-                                        load_identified, loop_stiffness, normal_force,
-                                        save_identified, shear_layer_stiffness, sliding_force)
+from labjoint.identify.friction import (friction_coefficient, identify_friction, loop_stiffness,
+                                        normal_force, shear_layer_stiffness, sliding_force)
+from labjoint.identify.identified import Identified, load_identified, save_identified
 from labjoint.signal.filter import lowpass
 from labjoint.storage import read_run
 

@@ -58,7 +58,8 @@ def write_sim_run(data_dir: Path, name: str, frequency_hz: float, vpp: float,
 # ---- tests ------------------------------------------------------------------------------
 
 from labjoint.hardware.sim.config import SimConfig as _SimConfig  # noqa: E402
-from labjoint.identify.friction import Identified, identify_friction, save_identified  # noqa: E402
+from labjoint.identify.friction import identify_friction  # noqa: E402
+from labjoint.identify.identified import Identified, save_identified  # noqa: E402
 from labjoint.identify.methods import analyze_runs, format_table  # noqa: E402
 from labjoint.storage import read_processed  # noqa: E402
 

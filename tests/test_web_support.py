@@ -15,7 +15,8 @@ import httpx
 import pytest
 
 from labjoint.api.server import Service, build
-from labjoint.identify.friction import identify_friction, save_identified
+from labjoint.identify.friction import identify_friction
+from labjoint.identify.identified import save_identified
 from labjoint.storage import read_run
 from test_api_helpers import CONTROL, SHORT, sim_config_file, wait_for
 

@@ -20,7 +20,7 @@ from labjoint.api.errors import ApiError
 from labjoint.api.resolve import RunResolver, roles
 from labjoint.errors import InputError
 from labjoint.identify.analyze import analyze_blocks
-from labjoint.identify.friction import load_identified
+from labjoint.identify.identified import load_identified
 from labjoint.identify.methods import analyze_runs
 from labjoint.signal.filter import PAPER_CUTOFF_HZ
 from labjoint.storage import RunFile

@@ -218,7 +218,7 @@ def friction_from_file(path: str | Path, torque_to_normal: float | None = None,
 
 
 def friction(args: argparse.Namespace) -> int:
-    from labjoint.identify.friction import save_identified
+    from labjoint.identify.identified import save_identified
 
     mu = friction_from_file(args.run, args.torque_to_normal, args.any_plan)
     stored = save_identified(_data_dir(args), mu)

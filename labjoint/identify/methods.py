@@ -21,7 +21,7 @@ import numpy as np
 
 from labjoint.errors import InputError
 from labjoint.identify.analyze import analyze_run
-from labjoint.identify.friction import Identified, load_identified
+from labjoint.identify.identified import Identified, load_identified
 from labjoint.identify.loop import LoopResult
 from labjoint.identify.stickslip import BASIS as STICKSLIP_BASIS
 from labjoint.identify.stickslip import StickSlipIdentifier

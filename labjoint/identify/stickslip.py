@@ -39,8 +39,9 @@ from numba import njit
 
 from labjoint.errors import InputError
 from labjoint.identify.contact import ContactPressure, horner, invert_loads
-from labjoint.identify.friction import (DEFAULT_TORQUE_TO_NORMAL_N_PER_NM, RATIO_KEY, Identified,
-                                        normal_force, shear_layer_stiffness)
+from labjoint.identify.friction import (DEFAULT_TORQUE_TO_NORMAL_N_PER_NM, RATIO_KEY, normal_force,
+                                        shear_layer_stiffness)
+from labjoint.identify.identified import Identified
 from labjoint.signal import validate
 from labjoint.signal.filter import PAPER_CUTOFF_HZ, analysis_cutoff, lowpass
 from labjoint.signal.frequency import estimate_frequency

@@ -36,6 +36,7 @@ from scipy.optimize import least_squares, lsq_linear
 
 from labjoint.errors import InputError
 from labjoint.models.composition import Model
+from labjoint.models.covariance import covariance
 from labjoint.models.effects.base import ForceEffect
 from labjoint.models.inputs import RunData
 from labjoint.models.params import Parameters
@@ -222,27 +223,6 @@ class _Problem:
         return (np.column_stack(cols) if cols else np.zeros((self.y.size, 0))), names
 
 
-def _covariance(J: np.ndarray, ssr: float) -> tuple[np.ndarray, str]:
-    """s^2 (J^T J)^-1 via SVD of the column-scaled Jacobian; inf variance along
-    directions the data do not determine."""
-    n, p = J.shape
-    if p == 0:
-        return np.zeros((0, 0)), ""
-    norms = np.sqrt(np.sum(J * J, axis=0))
-    norms[norms == 0] = 1.0
-    _, s, vt = np.linalg.svd(J / norms, full_matrices=False)
-    ok = s > 1e-10 * s[0]
-    s2 = ssr / max(n - p, 1)
-    cov = (vt[ok].T / s[ok] ** 2) @ vt[ok] * s2 / np.outer(norms, norms)
-    note = ""
-    if not ok.all():
-        bad = np.any(np.abs(vt[~ok]) > 0.1, axis=0)
-        cov[bad, :] = np.inf
-        cov[:, bad] = np.inf
-        note = "; Jacobian rank-deficient: some parameters are not determined by the data"
-    return cov, note
-
-
 class ModelFitter:
     """Estimator: ``ModelFitter(model, ...).fit(runs) -> FitResult`` (settings only here;
     the last result is also kept as ``result_``).
@@ -396,7 +376,7 @@ class ModelFitter:
         r = prob.residual(x_best)
         ssr = float(r @ r)
         J, names = prob.jacobian(out.valuesdict())
-        cov, note = _covariance(J, ssr)
+        cov, note = covariance(J, ssr)
         se = np.sqrt(np.abs(np.diag(cov))) if names else np.zeros(0)
         with np.errstate(invalid="ignore", divide="ignore"):
             corr = cov / np.outer(se, se) if names else cov
