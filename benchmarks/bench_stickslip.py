@@ -57,8 +57,8 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=60.0)
     args = ap.parse_args()
     from labjoint.identify.contact import ContactPressure
-    from labjoint.identify.stickslip import (StickSlipIdentifier, rising_quarters,
-                                             stick_slip_curves)
+    from labjoint.identify.quarters import rising_quarters
+    from labjoint.identify.stickslip import StickSlipIdentifier, stick_slip_curves
     from labjoint.signal.filter import lowpass
 
     t0 = time.perf_counter()

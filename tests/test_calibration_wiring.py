@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from labjoint.acquisition.engine import channel_calibrations
+from labjoint.acquisition.calibrations import channel_calibrations
 from labjoint.acquisition.plans import dwell
 from labjoint.acquisition.rig import open_rig
 from labjoint.config import CONFIG_DIR, RigSection, load_config

@@ -8,7 +8,8 @@ from scipy.optimize import brentq
 from labjoint.errors import InputError
 from labjoint.identify.contact import (CONTACT_RATIO, PRESSURE_COEFFICIENTS, X_ZERO,
                                        ContactPressure, pressure_ratio)
-from labjoint.identify.stickslip import rising_quarters, stick_slip_curves
+from labjoint.identify.quarters import rising_quarters
+from labjoint.identify.stickslip import stick_slip_curves
 
 RB = 4e-3
 N = 5 * 478.0

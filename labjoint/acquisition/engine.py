@@ -43,6 +43,7 @@ import numpy as np
 
 from labjoint import __version__
 from labjoint.documents import Marker, RunStart, RunStop
+from labjoint.acquisition.calibrations import channel_calibrations
 from labjoint.acquisition.drive import FLOOR_VPP, Abort, DriveMixin
 from labjoint.acquisition.gate import GateCancelled, TorqueGate
 from labjoint.acquisition.messages import (Checkpoint, Configure, Measure, Output, Pause, Ramp,
@@ -50,7 +51,7 @@ from labjoint.acquisition.messages import (Checkpoint, Configure, Measure, Outpu
 from labjoint.acquisition.sampling import SamplingMixin
 from labjoint.config import LimitsConfig, RigConfig
 from labjoint.errors import ConfigError, HardwareError, InputError, LimitExceeded
-from labjoint.hardware.interfaces import DAQ, ChannelSpec, GeneratorSettings, SignalGenerator
+from labjoint.hardware.interfaces import DAQ, GeneratorSettings, SignalGenerator
 
 __all__ = ["FLOOR_VPP", "PlanResult", "RunEngine", "channel_calibrations", "stop_on_signals",
            "utc_now"]
@@ -63,62 +64,6 @@ DEFAULT_TORQUE_RATIO = 478.0  # N per N*m, seed 002
 def utc_now() -> str:
     """Current UTC time, ISO 8601."""
     return datetime.now(timezone.utc).isoformat()
-
-
-def channel_calibrations(channels: Sequence[ChannelSpec], frequency_hz: float,
-                         sources: Mapping[str, Sequence[Mapping[str, Any]]] | None = None
-                         ) -> dict[str, dict[str, Any]]:
-    """Per channel, the factor a run at ``frequency_hz`` is read with, and where it came from.
-
-    The reader converts volts with ``ChannelSpec.units_per_volt`` at the run's
-    ``frequency_hz`` (the generator's read-back frequency): the channel's calibration
-    table interpolated linearly there (held at the nearest end outside the table), else
-    its ``sensitivity``. ``points`` are the table entries that factor comes from (one
-    if it matches a point or lies outside the table, else the two around it), each with
-    its provenance from ``sources`` (e.g. the calibration runs) when known.
-
-    >>> spec = ChannelSpec("nc", "nanocomposite", "force", "N", 301.0,
-    ...                    calibration=((300.0, 280.0), (500.0, 300.0)))
-    >>> c = channel_calibrations([spec], 400.0, {"nc": [{"frequency_hz": 300.0, "runs": ["a"]}]})
-    >>> c["nc"]["factor"], c["nc"]["interpolation"], c["nc"]["points"][0]["runs"]
-    (290.0, 'linear', ['a'])
-    """
-    out: dict[str, dict[str, Any]] = {}
-    f = float(frequency_hz)
-    for spec in channels:
-        entry: dict[str, Any] = {"factor": spec.units_per_volt(f), "unit": f"{spec.unit}/V",
-                                 "frequency_hz": f}
-        if not spec.calibration:
-            entry.update(source="sensitivity", interpolation="none")
-            out[spec.name] = entry
-            continue
-        tab = sorted((float(a), float(b)) for a, b in spec.calibration)
-        freqs = np.array([a for a, _ in tab])
-        i = int(np.searchsorted(freqs, f))
-        exact = np.flatnonzero(np.isclose(freqs, f, rtol=1e-9, atol=1e-9))
-        if exact.size:
-            used, how = [int(exact[0])], "exact"
-        elif i == 0 or i == len(tab):
-            used, how = [min(i, len(tab) - 1)], "nearest (outside the calibrated range)"
-        else:
-            used, how = [i - 1, i], "linear"
-        known = list((sources or {}).get(spec.name, ()))
-        points = []
-        for j in used:
-            fj, kj = tab[j]
-            prov = next((dict(p) for p in known
-                         if abs(float(p.get("frequency_hz", np.nan)) - fj) <= 1e-6), None)
-            point: dict[str, Any] = {"frequency_hz": fj, "factor": kj}
-            if prov is None:
-                point["source"] = "channel calibration table (config)"
-            else:
-                point.update({k: v for k, v in prov.items()
-                              if k not in ("frequency_hz", "factor", "n_per_v")})
-            points.append(point)
-        entry.update(source="calibration table", interpolation=how, points=points,
-                     table=[list(p) for p in tab])
-        out[spec.name] = entry
-    return out
 
 
 @dataclass

@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     from labjoint.acquisition.rig import open_rig
     from labjoint.cli.cmd_analyze import analyze_paths, print_loop_table
     from labjoint.config import load_config
-    from labjoint.daemon.daemon import calibrated_config
+    from labjoint.daemon.setup import calibrated_config
     from labjoint.storage.catalog import Catalog
     from labjoint.storage.writer import RunWriter
 

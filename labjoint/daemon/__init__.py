@@ -4,7 +4,8 @@ The daemon owns the rig and runs queued plans (:class:`Daemon`); the CLI and the
 service write to the queue (:class:`JobQueue`, SQLite in WAL mode) from any process.
 """
 
-from labjoint.daemon.daemon import Daemon, default_paths
+from labjoint.daemon.daemon import Daemon
+from labjoint.daemon.setup import default_paths
 from labjoint.daemon.lock import DaemonBusy
 from labjoint.daemon.queue import JOB_STATUSES, Job, JobNotFound, JobQueue, JobStateError
 

@@ -10,7 +10,7 @@ catalog follows) and to a :class:`~labjoint.daemon.monitor.RunTracker` (sample c
 counter continuity). Samples never stay in memory beyond the block being written.
 The sensor calibrations stored in ``<data_dir>/calibrations.json`` (``labjoint
 calibrate``) are applied to the DAQ channels when the rig opens and re-read before
-every job (:func:`calibrated_config`); each run's metadata records the factor used.
+every job (:class:`~labjoint.daemon.setup.Calibrations`); each run's metadata records the factor used.
 
 A watcher thread polls the queue every ``poll_s`` while a job runs: a cancel request or
 an emergency stop aborts the run (output off at once, no ramp); it also publishes the
@@ -22,7 +22,6 @@ back) after every job and on every way out, whatever happened.
 from __future__ import annotations
 
 import logging
-import math
 import os
 import signal
 import socket
@@ -40,64 +39,15 @@ from labjoint.daemon.lock import DaemonLock
 from labjoint.daemon.monitor import (RunTracker, WatchedGenerator, expected_records, job_outcome,
                                     observe)
 from labjoint.daemon.queue import Job, JobQueue, utc_now
-from labjoint.errors import HardwareError, InputError
+from labjoint.daemon.setup import Calibrations, default_paths, open_rig_lazily
+from labjoint.daemon.watch import JobWatcher
+from labjoint.errors import HardwareError
 from labjoint.storage import Catalog, RunWriter, recover_all
 
 log = logging.getLogger(__name__)
 
 #: How often the daemon's status is written to the queue database (s).
 PUBLISH_INTERVAL_S = 1.0
-
-
-def _open_rig(config: RigConfig) -> Any:
-    """:func:`labjoint.acquisition.rig.open_rig`, imported when first needed (it loads
-    the simulator or the instrument drivers)."""
-    from labjoint.acquisition.rig import open_rig
-
-    return open_rig(config)
-
-
-def calibrated_config(config: RigConfig, data_dir: str | Path
-                      ) -> tuple[RigConfig, dict[str, list[dict[str, Any]]]]:
-    """``config`` with the calibrations stored in ``<data_dir>/calibrations.json`` applied.
-
-    Each calibrated channel gets the store's whole (frequency_hz, N/V) table
-    (:meth:`~labjoint.identify.calibration.CalibrationStore.apply`); the factor a run is
-    read with is that table interpolated at the run's drive frequency (the generator's
-    read-back ``frequency_hz`` in its metadata), by the reader and the engine's safety
-    checks alike. Also returns, per channel, the provenance of every table point (N/V,
-    uncertainty, calibration runs, store file) for the engine to record in each run's
-    metadata. An unreadable store raises InputError naming it.
-    """
-    from labjoint.identify.calibration import CalibrationStore  # identify is below daemon
-
-    store = CalibrationStore.open(Path(data_dir))
-    specs = {s.name: s for s in store.apply(config.daq.specs()) if s.calibration}
-    tables = {name: s.calibration for name, s in specs.items()}
-    if not tables:
-        return config, {}
-    chans = [c.model_copy(update={
-        "calibration": [tuple(p) for p in tables[c.name]],
-        "calibration_phase": [tuple(p) for p in specs[c.name].calibration_phase]})
-        if c.name in tables else c for c in config.daq.channels]
-    cfg = config.model_copy(update={"daq": config.daq.model_copy(update={"channels": chans})})
-    sources = {name: [{"frequency_hz": q.frequency_hz, "n_per_v": q.n_per_v,
-                       "uncertainty": q.uncertainty, "phase_deg": q.phase_deg,
-                       "phase_uncertainty_deg": (q.phase_uncertainty_deg if
-                                                 math.isfinite(q.phase_uncertainty_deg) else None),
-                       "runs": list(q.runs),
-                       "created": q.created, "store": str(store.path.resolve())}
-                      for q in store.channels[name]] for name in tables}
-    return cfg, sources
-
-
-def default_paths(config: RigConfig, data_dir: str | Path | None = None,
-                  queue_db: str | Path | None = None) -> tuple[Path, Path, Path]:
-    """(data dir, queue db, catalog db): ``config.rig.data_dir`` (relative to the working
-    directory), ``<data_dir>/queue.sqlite`` and ``<data_dir>/catalog.sqlite``."""
-    d = Path(data_dir) if data_dir is not None else Path(config.rig.data_dir)
-    q = Path(queue_db) if queue_db is not None else d / "queue.sqlite"
-    return d, q, d / "catalog.sqlite"
 
 
 class Daemon:
@@ -121,7 +71,7 @@ class Daemon:
         self.config = config
         self.data_dir, self.queue_db, self.catalog_db = default_paths(config, data_dir, queue_db)
         self.poll_s, self.clock, self.sleep = float(poll_s), clock, sleep
-        self.rig_factory = rig_factory or _open_rig
+        self.rig_factory = rig_factory or open_rig_lazily
         self.operator_torque = operator_torque
         self.flush_interval_s = flush_interval_s
         self.worker_id = worker_id or f"{socket.gethostname()}:{os.getpid()}"
@@ -142,8 +92,7 @@ class Daemon:
         self._job: Job | None = None
         self._tracker: RunTracker | None = None
         self._abort_kind: str | None = None
-        self._cal_specs: list[Any] = []
-        self._cal_sources: dict[str, list[dict[str, Any]]] = {}
+        self._cal = Calibrations(config, self.data_dir)
         self._last_publish = -1e300
         self._thread: threading.Thread | None = None
 
@@ -155,13 +104,7 @@ class Daemon:
         self._state = "starting"
         self._lock.acquire()
         try:
-            try:
-                cfg, self._cal_sources = calibrated_config(self.config, self.data_dir)
-            except InputError as exc:  # each job retries and fails with this message
-                log.error("stored calibrations not applied: %s", exc)
-                cfg, self._cal_sources = self.config, {}
-            self._cal_specs = cfg.daq.specs()
-            self._rig = self.rig_factory(cfg)
+            self._rig = self.rig_factory(self._cal.initial())
             self._gen = WatchedGenerator(self._rig.generator)
             self._daq = self._rig.daq
             if not self._output_off("daemon start"):
@@ -317,7 +260,7 @@ class Daemon:
 
     def _execute(self, job: Job) -> Job:
         log.info("job %s: plan %s", job.id, job.plan.get("plan"))
-        tracker, done = RunTracker(), threading.Event()
+        tracker = RunTracker()
         n_expected = expected_records(job.plan)
         self._job, self._tracker, self._abort_kind = job, tracker, None
         self._state = "running"
@@ -326,14 +269,13 @@ class Daemon:
         status, message, error, pending = "failed", "", None, None
         watcher = None
         try:
-            self._refresh_calibrations()
+            self._cal.refresh(self._daq)
             engine = self._make_engine(job, [writer, tracker])
             plan = observe(load_plan(dict(job.plan)), tracker, self._daq.sample_rate_hz)
             plan.__name__ = str(job.plan.get("plan", "plan"))
-            watcher = threading.Thread(target=self._watch, name=f"job-{job.id[:8]}-watch",
-                                       args=(job.id, engine, tracker, n_expected, done),
-                                       daemon=True)
-            watcher.start()
+            watcher = JobWatcher(self.queue, job.id, engine, tracker, n_expected,
+                                 poll_s=self.poll_s, abort_request=self._abort_request,
+                                 on_abort=self._note_abort, publish=self._publish)
             prefix = f"{datetime.now(timezone.utc):%Y%m%dT%H%M%SZ}-{job.id[:8]}"
             result = engine.run(plan, name_prefix=prefix)
             status, message, error = job_outcome(result, tracker.n_gaps, self._cancelled(job.id))
@@ -345,9 +287,8 @@ class Daemon:
             status, error, pending = "aborted", f"{type(exc).__name__}: {exc}", exc
             message = f"aborted: {error}"
         finally:
-            done.set()
             if watcher is not None:
-                watcher.join()
+                watcher.finish()
             try:
                 writer.close()  # a run that never got its RunStop is marked incomplete
             except Exception as exc:
@@ -366,17 +307,6 @@ class Daemon:
         log.info("job %s %s: %s", job.id, final.status, final.message)
         return final
 
-    def _refresh_calibrations(self) -> None:
-        """Re-read the calibration store before a job; reconfigure the DAQ's channels
-        (output off between jobs) only if the calibrated channels changed."""
-        cfg, sources = calibrated_config(self.config, self.data_dir)
-        specs = cfg.daq.specs()
-        if specs != self._cal_specs:
-            self._daq.configure(specs, self._daq.sample_rate_hz)
-            log.info("calibrations applied: %s", {n: len(v) for n, v in sources.items()})
-            self._cal_specs = specs
-        self._cal_sources = sources
-
     def _make_engine(self, job: Job, callbacks: list) -> RunEngine:
         sim = getattr(self._rig, "sim", None)
         on_operator = self.operator_torque if self.operator_torque is not None else sim is None
@@ -385,7 +315,7 @@ class Daemon:
         self._engine = RunEngine(self._gen, self._daq, self.config.limits, callbacks,
                                  clock=self.clock, sleep=self.sleep, torque_gate=self._gate,
                                  rig=None if on_operator else sim, config=self.config,
-                                 calibration_sources=self._cal_sources)
+                                 calibration_sources=self._cal.sources)
         return self._engine
 
     def _cancelled(self, job_id: str) -> bool:
@@ -394,20 +324,8 @@ class Daemon:
         job = self.queue.get(job_id)  # the gate saw the cancel before the watcher did
         return job is not None and job.cancel_requested
 
-    def _watch(self, job_id: str, engine: RunEngine, tracker: RunTracker,
-               n_expected: int | None, done: threading.Event) -> None:
-        """Poll cancel/estop/stop while the job runs; publish its progress."""
-        while not done.wait(self.poll_s):
-            try:
-                kind, reason = self._abort_request(job_id)
-                if kind is not None and engine.state != "idle":
-                    self._abort_kind = self._abort_kind or kind
-                    engine.emergency_stop(reason)
-                self.queue.update(job_id, progress=tracker.progress(n_expected),
-                                  runs=list(tracker.runs), gaps=list(tracker.gaps))
-                self._publish()
-            except Exception as exc:  # never let the watcher die while a run goes on
-                log.warning("job %s watcher: %s", job_id, exc)
+    def _note_abort(self, kind: str) -> None:
+        self._abort_kind = self._abort_kind or kind
 
     def _abort_request(self, job_id: str) -> tuple[str | None, str]:
         if self._stopping():
