@@ -14,7 +14,8 @@ from typing import Any
 from labjoint.acquisition import plans
 from labjoint.acquisition.plans import load_plan
 from labjoint.config import RigConfig, load_config
-from labjoint.daemon.daemon import Daemon, default_paths
+from labjoint.daemon.daemon import Daemon
+from labjoint.daemon.setup import default_paths
 from labjoint.daemon.queue import Job, JobQueue
 from labjoint.errors import HardwareError, InputError
 
@@ -47,8 +48,12 @@ def run_daemon(config_path: str | Path | None = None, data_dir: str | Path | Non
 def read_plan_file(path: str | Path) -> dict[str, Any]:
     """The plan mapping in a TOML/JSON file, validated (errors name the file and field)."""
     p = Path(path)
-    load_plan(p).close()  # validation: InputError naming the file and field
-    return dict(plans.read_plan_file(p))
+    data = plans.read_plan_file(p)
+    try:
+        load_plan(data).close()  # validation, on the mapping read once
+    except InputError as exc:
+        raise InputError(exc.message, file=str(p), line=exc.line, field=exc.field) from None
+    return dict(data)
 
 
 def submit_plan(path: str | Path, queue_db: str | Path | None = None, *,

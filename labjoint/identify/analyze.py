@@ -217,7 +217,7 @@ class _LoopStream:
 
     def finish(self) -> tuple[dict[str, np.ndarray], np.ndarray]:
         if self.filter is not None:
-            self._take(*self._front(self.filter.finish(), raw=False))
+            self._take(*self._segment(self.filter.finish()))
         self.pending = np.concatenate([self.pending, self.seg.finish()])
         self._settled = self.seg.settled_index
         self._process()
@@ -227,11 +227,14 @@ class _LoopStream:
         bounds = np.concatenate([u[:-1] for u in self.used] + [self.used[-1][-1:]])
         return per_cycle, bounds
 
-    def _front(self, block: np.ndarray, raw: bool = True) -> tuple[np.ndarray, np.ndarray, float]:
-        """Filtered samples now final, the cycle boundaries they close, and the index
-        before which no later boundary can fall (taken here, with the boundaries, since
-        the segmenter runs ahead of :meth:`_take` in the pipeline)."""
-        y = self.filter.push(block) if raw and self.filter is not None else block
+    def _front(self, block: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        """:meth:`_segment` of the filtered samples of ``block`` that are now final."""
+        return self._segment(self.filter.push(block) if self.filter is not None else block)
+
+    def _segment(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        """``y``, the cycle boundaries it closes, and the index before which no later
+        boundary can fall (taken here, with the boundaries, since the segmenter runs
+        ahead of :meth:`_take` in the pipeline)."""
         bounds = self.seg.push(y[0]) if y.size else np.empty(0)
         return y, bounds, self.seg.settled_index
 
@@ -331,7 +334,6 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
         f = frequency_hz if frequency_hz is not None else rf.frequency_hz
         step = FILE_BLOCK_SAMPLES
 
-        scale = [rf.channel(c).units_per_volt(rf.frequency_hz) for c in [*disp, fch]]
         ref = channel_roles(rf.metadata, rf.channel_names).reference_force
         xch = ref if ref in rf.channel_names else fch
 
@@ -339,15 +341,15 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
             require_sine(found, PIPELINE, f"run {rf.name} ({xch})")
 
         def blocks() -> Iterator[np.ndarray]:
-            for a in range(0, rf.n_samples, step):         # as RunFile.physical, in place
+            for a in range(0, rf.n_samples, step):
                 if detected.done():                        # refuse as soon as it is known
                     check_excitation(detected.result())
                 b = min(a + step, rf.n_samples)
                 blk = np.empty((2, b - a))
-                np.multiply(rf.volts(disp[0], a, b), scale[0], out=blk[0])
+                rf.physical(disp[0], a, b, out=blk[0])
                 if len(disp) == 2:
-                    blk[0] -= np.multiply(rf.volts(disp[1], a, b), scale[1])
-                np.multiply(rf.volts(fch, a, b), scale[-1], out=blk[1])
+                    blk[0] -= rf.physical(disp[1], a, b)
+                rf.physical(fch, a, b, out=blk[1])
                 yield blk
 
         if "phase_correction_rad" not in kwargs and f is not None:

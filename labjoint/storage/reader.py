@@ -190,10 +190,13 @@ class RunFile:
         self.channel(channel)
         return self._ds[channel][self._slice(start, stop)]
 
-    def physical(self, channel: str, start: int = 0, stop: int | None = None) -> np.ndarray:
-        """``channel`` in its physical unit: volts times the calibration at the run's frequency."""
+    def physical(self, channel: str, start: int = 0, stop: int | None = None, *,
+                 out: np.ndarray | None = None) -> np.ndarray:
+        """``channel`` in its physical unit: volts times the calibration at the run's
+        frequency (written into ``out`` if given, e.g. a row of a block being filled)."""
         spec = self.channel(channel)
-        return self.volts(channel, start, stop) * spec.units_per_volt(self.frequency_hz)
+        return np.multiply(self.volts(channel, start, stop), spec.units_per_volt(self.frequency_hz),
+                           out=out)
 
     def iter_blocks(self, block_samples: int, channels: list[str] | None = None,
                     overlap: int = 0, physical: bool = True) -> Iterator[DataBlock]:
