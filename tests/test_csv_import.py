@@ -119,6 +119,7 @@ H = 4  # header line of the default file (after three metadata lines)
     ("rate_mismatch", 1, "sample_rate_hz", "disagrees"),
     ("drive_at_nyquist", 1, "frequency_hz", "Nyquist"),
     ("drive_above_nyquist", 1, "frequency_hz", "Nyquist"),
+    ("metadata_with_equals", 2, "frequency_hz", "not with '='"),
     ("missing_sample", H + 11, "time_s", "irregular"),
     ("short_row", H + 5, "accel_g", "expected 4 values"),
     ("long_row", H + 5, "#5", "expected 4 values"),
@@ -178,6 +179,8 @@ def _bad(tmp_path, case: str):
         return _csv(tmp_path, meta=("# frequency_hz: 500", "# a: 1", "# b: 2"))
     if case == "drive_above_nyquist":
         return _csv(tmp_path, meta=("# frequency_hz: 4e3", "# a: 1", "# b: 2"))
+    if case == "metadata_with_equals":                    # would be dropped as a comment
+        return _csv(tmp_path, meta=("# a: 1", "# frequency_hz = 4e3", "# b: 2"))
     if case == "missing_sample":
         del rows[10]
         return _csv(tmp_path, rows)

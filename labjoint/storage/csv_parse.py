@@ -126,8 +126,14 @@ def parse_csv(path: str | Path) -> ParsedCSV:
 def _meta_line(body: str, md: dict, lines: dict, f: str, lineno: int) -> None:
     key, sep, value = body.partition(":")
     key, value = key.strip(), value.strip()
-    if not sep or not key:
+    if not sep:
+        other = body.partition("=")[0].strip()
+        if other in KNOWN_KEYS and "=" in body:      # looks like metadata: never drop it silently
+            raise InputError(f"metadata is written '# {other}: value', not with '='",
+                             file=f, line=lineno, column=other)
         return  # a plain comment
+    if not key:
+        return
     if key in md:
         raise InputError(f"metadata key {key!r} given twice (line {lines[key]})",
                          file=f, line=lineno, column=key)
