@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from labjoint.compare.metrics import evaluate
-from labjoint.compare.noise import noise_floor, scatter_variance
+from labjoint.compare.measurement import noise_floor
+from labjoint.compare.noise import scatter_variance
 from labjoint.compare.runs import prepare_run, prepare_runs
 from labjoint.models import Model
 from test_compare_synth import FS, sweep, synth_run

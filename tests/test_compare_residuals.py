@@ -7,7 +7,7 @@ import pytest
 from labjoint.compare.curves import mean_loops, physics_curves
 from labjoint.compare.describe import failures
 from labjoint.compare.metrics import evaluate
-from labjoint.compare.noise import noise_floor
+from labjoint.compare.measurement import noise_floor
 from labjoint.compare.residuals import harmonic_parts, residual_maps
 from labjoint.compare.runs import prepare_runs
 from labjoint.models import Model

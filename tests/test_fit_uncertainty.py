@@ -9,7 +9,7 @@ import pytest
 
 from labjoint.errors import InputError
 from labjoint.models import Model, ModelFitter, Parameters, RunData, nrmse
-from labjoint.models.summary import noise_floor
+from labjoint.models.summary import period_shift_floor as noise_floor
 
 FS = 25600.0
 

@@ -51,7 +51,7 @@ def test_multisine_period_and_lines(snr_db):
     assert e.period_s == pytest.approx(period)
     assert abs(len(e.lines_hz) - n_lines) <= 0.02 * n_lines
     assert min(e.lines_hz) == pytest.approx(5.0, abs=0.2) and max(e.lines_hz) == pytest.approx(150.0, abs=0.2)
-    with pytest.raises(InputError, match="multisine.*not a steady sine.*fit --error simulation"):
+    with pytest.raises(InputError, match="multisine.*not a steady sine.*labjoint fit"):
         require_sine(e, "`labjoint analyze`")
 
 

@@ -31,6 +31,12 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--prime-cycles", default="auto",
                    help="cycles of priming for records that start in steady state ('auto')")
     p.add_argument("--seed", type=int, default=0, help="seed of the fitter's extra starts")
+    p.add_argument("--kind", choices=("auto", "sine", "record"), default="auto",
+                   help="judge steady-sine cycles (sine) or the record along its history under "
+                        "any excitation (record); auto: sine when every run is a steady sine")
+    p.add_argument("--warmup", default="auto", metavar="S",
+                   help="record kind: seconds left unjudged at the start (auto: until the "
+                        "displacement has reached both its extremes)")
 
 
 def _judging(p: argparse.ArgumentParser) -> None:
@@ -67,7 +73,7 @@ def _prime(v: str) -> int | str:
 
 def _options(args: argparse.Namespace, judging: bool) -> dict[str, Any]:
     o: dict[str, Any] = {"validate": args.validate, "prime_cycles": _prime(args.prime_cycles),
-                         "seed": args.seed}
+                         "seed": args.seed, "kind": args.kind, "warmup": args.warmup}
     if judging:
         o.update(factor=args.factor, alpha=args.alpha, n_jobs=args.jobs,
                  candidates=args.candidates)

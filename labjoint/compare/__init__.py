@@ -20,7 +20,7 @@ from labjoint.compare.curves import PhysicsCurves, mean_loops, physics_curves
 from labjoint.compare.diagnosis import CandidateResult, DiagnoseSettings, Diagnosis, diagnose_prepared
 from labjoint.compare.ladders import Ladder, LadderStep, build_ladder
 from labjoint.compare.metrics import Evaluation, RunEval, evaluate
-from labjoint.compare.noise import NoiseFloor, noise_floor
+from labjoint.compare.measurement import NoiseFloor, noise_floor
 from labjoint.compare.residuals import ResidualMaps, residual_maps
 from labjoint.compare.prepared import PreparedRun
 from labjoint.compare.runs import prepare_run, prepare_runs

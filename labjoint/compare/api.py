@@ -24,14 +24,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from labjoint.compare.curves import PhysicsCurves, mean_loops, physics_curves
 from labjoint.compare.diagnosis import DiagnoseSettings, Diagnosis, diagnose_prepared, parameters_dict
 from labjoint.compare.jsonsafe import clean
 from labjoint.compare.ladders import Ladder, build_ladder
 from labjoint.compare.metrics import Evaluation, evaluate
-from labjoint.compare.noise import NoiseFloor, noise_floor
-from labjoint.compare.residuals import ResidualMaps, residual_maps
-from labjoint.compare.runs import PreparedRun, prepare_runs, split_by_names
+from labjoint.compare.measurement import Measurement, NoiseFloor, noise_floor
+from labjoint.compare.kinds import kind_of, prepare
+from labjoint.compare.runs import split_by_names
 from labjoint.compare.significance import SignificanceSettings
 from labjoint.compare.store import save_ladder
 from labjoint.errors import InputError
@@ -40,10 +39,11 @@ from labjoint.models import FitResult, Model, ModelFitter
 SIG_KEYS = ("alpha", "practical", "min_rel", "tie_tol", "tie_corr")
 
 
-def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | str = "auto"
-         ) -> tuple[list[PreparedRun], list[str] | None]:
-    """Prepared runs (validation runs named but not among ``runs`` are added) and the
-    validation run names."""
+def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | str = "auto",
+         kind: str = "auto", warmup: str | float = "auto"
+         ) -> tuple[list[Measurement], list[str] | None]:
+    """Prepared measurements of one kind (:func:`labjoint.compare.kinds.prepare`;
+    validation runs named but not among ``runs`` are added) and the validation run names."""
     if isinstance(runs, (str, Path)) or not isinstance(runs, Iterable):
         runs = [runs]
     items = list(runs)
@@ -55,7 +55,7 @@ def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | s
                                           if isinstance(x, (str, Path))}
         extra = [v for v in validate if isinstance(v, (str, Path)) and Path(str(v)).is_file()
                  and str(Path(str(v)).resolve()) not in given and str(v) not in given]
-    prepared = prepare_runs(items + extra, prime_cycles=prime_cycles)
+    prepared = prepare(items + extra, kind=kind, prime_cycles=prime_cycles, warmup=warmup)
     if not validate:
         return prepared, None
     _, val, _ = split_by_names(prepared, [str(v) for v in validate])
@@ -97,7 +97,7 @@ def _check(options: dict[str, Any], allowed: Iterable[str]) -> None:
         raise InputError(f"unknown option(s) {unknown}; known: {sorted(allowed)}", field=unknown[0])
 
 
-COMMON = ("validate", "prime_cycles", "multistart", "seed", "full", "progress")
+COMMON = ("validate", "prime_cycles", "multistart", "seed", "full", "progress", "kind", "warmup")
 DIAG = COMMON + SIG_KEYS + ("factor", "n_jobs", "candidates", "warm")
 
 
@@ -108,13 +108,14 @@ class FitReport:
     fit: FitResult
     evaluation: Evaluation
     noise: NoiseFloor
-    curves: PhysicsCurves
-    maps: ResidualMaps
+    curves: Any
+    maps: Any
     validation_runs: list[str]
 
     def to_dict(self, full: bool = False) -> dict[str, Any]:
         d: dict[str, Any] = {
-            "model": self.fit.model.expr, "parameters": parameters_dict(self.fit),
+            "model": self.fit.model.expr, "kind": self.evaluation.runs[0].run.kind,
+            "parameters": parameters_dict(self.fit),
             "nrmse": self.evaluation.nrmse(), "noise_floor": self.noise.nrmse,
             "runs": [r.to_dict() for r in self.evaluation.runs],
             "fit_runs": list(self.fit.fit_runs_), "validation_runs": self.validation_runs,
@@ -124,7 +125,7 @@ class FitReport:
         }
         if full:
             d.update(curves=self.curves.to_dict(), maps=self.maps.to_dict(),
-                     loops=mean_loops(self.evaluation), noise=self.noise.to_dict(),
+                     loops=kind_of(self.evaluation.runs_measured()).loops(self.evaluation.runs), noise=self.noise.to_dict(),
                      correlation={"parameters": list(self.fit.varied_),
                                   "matrix": self.fit.correlation_})
         return d
@@ -133,17 +134,20 @@ class FitReport:
 def fit_report(runs: Any, model: str | Model, **options: Any) -> FitReport:
     """Fit ``model`` to the runs (all of them, or all but ``validate``)."""
     _check(options, COMMON)
-    prepared, val = load(runs, options.get("validate"), options.get("prime_cycles", "auto"))
+    prepared, val = load(runs, options.get("validate"), options.get("prime_cycles", "auto"),
+                          options.get("kind", "auto"), options.get("warmup", "auto"))
     val = val or []
     fit_r = [r for r in prepared if r.name not in set(val)]
     val_r = [r for r in prepared if r.name in set(val)]
     m = Model.parse(model)
+    kind = kind_of(prepared)
+    nf = noise_floor(prepared)
     fit = ModelFitter(m, multistart=options.get("multistart", "auto"),
                       seed=int(options.get("seed", 0))).fit(
-        [r.data for r in fit_r], validation=[r.data for r in val_r] or None)
+        [r.data for r in fit_r], validation=[r.data for r in val_r] or None,
+        floor=nf.over(fit_r))
     ev = evaluate(m, fit.params_, prepared)
-    nf = noise_floor(prepared)
-    return FitReport(fit, ev, nf, physics_curves(ev), residual_maps(ev, nf.by_run()), val)
+    return FitReport(fit, ev, nf, kind.curves(ev.runs), kind.maps(ev.runs, nf.by_run()), val)
 
 
 def fit_runs(runs: Any, model: str | Model, **options: Any) -> dict[str, Any]:
@@ -155,7 +159,8 @@ def fit_runs(runs: Any, model: str | Model, **options: Any) -> dict[str, Any]:
 def diagnose_report(runs: Any, model: str | Model, **options: Any) -> Diagnosis:
     """Where ``model`` fails and which effect is missing (:mod:`.diagnosis`)."""
     _check(options, DIAG)
-    prepared, val = load(runs, options.get("validate"), options.get("prime_cycles", "auto"))
+    prepared, val = load(runs, options.get("validate"), options.get("prime_cycles", "auto"),
+                          options.get("kind", "auto"), options.get("warmup", "auto"))
     return diagnose_prepared(prepared, model, validate=val, settings=settings_from(options),
                              progress=options.get("progress"))
 
@@ -166,7 +171,7 @@ def diagnose_runs(runs: Any, model: str | Model, **options: Any) -> dict[str, An
     report = diagnose_report(runs, model, **options)
     d = report.to_dict(full=full)
     if full and "loops" not in d:
-        d["loops"] = mean_loops(report.evaluation)
+        d["loops"] = kind_of(report.evaluation.runs_measured()).loops(report.evaluation.runs)
     return clean(d)
 
 
@@ -176,7 +181,8 @@ def ladder_report(runs: Any, model: str | Model, max_steps: int | None = None,
     that could not take it (path -> reason)."""
     save = bool(options.pop("save", True))
     _check(options, DIAG)
-    prepared, val = load(runs, options.get("validate"), options.get("prime_cycles", "auto"))
+    prepared, val = load(runs, options.get("validate"), options.get("prime_cycles", "auto"),
+                          options.get("kind", "auto"), options.get("warmup", "auto"))
     lad = build_ladder(prepared, model, max_steps=max_steps, auto=bool(auto), validate=val,
                        settings=settings_from(options), progress=options.get("progress"))
     errors: dict[str, str] = {}
@@ -192,7 +198,7 @@ def ladder_runs(runs: Any, model: str | Model, max_steps: int | None = None, aut
     d = lad.to_dict(full=full)
     fd, dg = d.get("final_diagnosis"), lad.steps[-1].diagnosis
     if full and isinstance(fd, dict) and dg is not None and "loops" not in fd:
-        fd["loops"] = mean_loops(dg.evaluation)
+        fd["loops"] = kind_of(dg.evaluation.runs_measured()).loops(dg.evaluation.runs)
     d["saved"] = saved
     if errors:
         d["not_saved"] = errors

@@ -141,7 +141,8 @@ def _refit(expr: str, params: Parameters | None, multistart: int | str, seed: in
            staged: bool) -> FitResult:
     fit_runs, val_runs = _WORK["fit"], _WORK["val"]
     if not staged or params is None:
-        return ModelFitter(expr, multistart=multistart, seed=seed).fit(fit_runs, validation=val_runs)
+        return ModelFitter(expr, multistart=multistart, seed=seed).fit(
+            fit_runs, validation=val_runs, floor=_WORK.get("floor"))
     n_new = sum(1 for q in params.values() if q.vary)
     screen = ModelFitter(expr, multistart=1, seed=seed, params=params,
                          max_nfev=_limit(SCREEN_NFEV, n_new)).fit(fit_runs, validation=val_runs)
@@ -162,16 +163,18 @@ def _refine(expr: str, staged: FitResult, seed: int) -> FitResult:
     return cold if cold.ssr_ < staged.ssr_ else staged
 
 
-def _init_worker(fit_runs: list[RunData], val_runs: list[RunData]) -> None:
-    _WORK["fit"], _WORK["val"] = fit_runs, val_runs
+def _init_worker(fit_runs: list[RunData], val_runs: list[RunData],
+                 floor: float | None = None) -> None:
+    _WORK["fit"], _WORK["val"], _WORK["floor"] = fit_runs, val_runs, floor
 
 
 def _run(tasks: list[tuple[str, Callable[..., FitResult], tuple]], fit_runs: list[RunData],
-         val_runs: list[RunData], jobs: int, progress: Any) -> dict[str, FitResult]:
+         val_runs: list[RunData], jobs: int, progress: Any, floor: float | None = None
+         ) -> dict[str, FitResult]:
     """Run ``(name, function, args)`` tasks serially or in ``jobs`` forked workers."""
     out: dict[str, FitResult] = {}
     if jobs <= 1 or len(tasks) <= 1:
-        _init_worker(fit_runs, val_runs)
+        _init_worker(fit_runs, val_runs, floor)
         try:
             for name, fn, args in tasks:
                 out[name] = fn(*args)
@@ -181,7 +184,7 @@ def _run(tasks: list[tuple[str, Callable[..., FitResult], tuple]], fit_runs: lis
             _WORK.clear()
         return out
     with ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context(_start_method()),
-                             initializer=_init_worker, initargs=(fit_runs, val_runs)) as ex:
+                             initializer=_init_worker, initargs=(fit_runs, val_runs, floor)) as ex:
         futs = {name: ex.submit(fn, *args) for name, fn, args in tasks}
         for name, fut in futs.items():
             out[name] = fut.result()
@@ -206,9 +209,10 @@ def _jobs(n_jobs: int | None) -> int:
 def refit_candidates(base: FitResult | None, base_model: Model, names: Sequence[str],
                      fit_runs: list[RunData], val_runs: list[RunData], *, warm: bool = True,
                      n_jobs: int | None = None, multistart: int | str = "auto", seed: int = 0,
-                     progress: Any = None) -> dict[str, FitResult]:
+                     progress: Any = None, floor: float | None = None) -> dict[str, FitResult]:
     """Fit ``base_model + name`` for every candidate; staged from ``base`` (module
-    docstring) unless ``warm`` is False (naive: from the data's guesses, serial)."""
+    docstring) unless ``warm`` is False (naive: from the data's guesses, serial, multi-start
+    stopping at ``floor``, the fit runs' noise floor)."""
     summary = LoopSummary.from_runs(fit_runs)
     staged = warm and base is not None
     tasks = []
@@ -216,7 +220,7 @@ def refit_candidates(base: FitResult | None, base_model: Model, names: Sequence[
         model = Model.parse(f"{base_model.expr}+{name}")
         params = screen_params(model, base_model, name, base, summary) if staged else None
         tasks.append((name, _refit, (model.expr, params, multistart, seed, staged)))
-    return _run(tasks, fit_runs, val_runs, _jobs(n_jobs) if warm else 1, progress)
+    return _run(tasks, fit_runs, val_runs, _jobs(n_jobs) if warm else 1, progress, floor)
 
 
 def refine(fits: dict[str, FitResult], names: Sequence[str], fit_runs: list[RunData],

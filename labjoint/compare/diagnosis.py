@@ -32,13 +32,11 @@ from typing import Any
 import numpy as np
 
 from labjoint.compare.candidates import ablate, candidate_effects, refine, refit_candidates
-from labjoint.compare.curves import PhysicsCurves, physics_curves
-from labjoint.compare.describe import failures
-from labjoint.compare.evidence import evidence, explanation
+from labjoint.compare.evidence import explanation
+from labjoint.compare.kinds import kind_of
+from labjoint.compare.measurement import Kind, Measurement, NoiseFloor, noise_floor
 from labjoint.compare.metrics import Evaluation, evaluate
-from labjoint.compare.noise import NoiseFloor, noise_floor
-from labjoint.compare.residuals import ResidualMaps, residual_maps
-from labjoint.compare.runs import PreparedRun, default_split, split_by_names
+from labjoint.compare.runs import split_by_names
 from labjoint.compare.significance import (PairedTest, SignificanceSettings, correlation,
                                            is_significant, nrmse_se, paired_test)
 from labjoint.compare.ties import tie_reason
@@ -114,8 +112,8 @@ class Diagnosis:
     fit_runs: list[str]
     validation_runs: list[str]
     split_rule: str
-    maps: ResidualMaps
-    curves: PhysicsCurves
+    maps: Any
+    curves: Any
     failures: list[dict[str, Any]]
     candidates: list[CandidateResult]
     not_applicable: dict[str, str]
@@ -139,7 +137,8 @@ class Diagnosis:
 
     def to_dict(self, full: bool = False) -> dict[str, Any]:
         d: dict[str, Any] = {
-            "model": self.model.expr, "nrmse": self.nrmse, "noise_floor": self.noise.nrmse,
+            "model": self.model.expr, "kind": self.evaluation.runs[0].run.kind,
+            "nrmse": self.nrmse, "noise_floor": self.noise.nrmse,
             "adequate": self.adequate, "verdict": self.verdict, "factor": self.settings.factor,
             "nrmse_validation": self.nrmse_validation,
             "noise_floor_validation": self.noise_floor_validation,
@@ -163,39 +162,40 @@ class Diagnosis:
         return d
 
 
-def pooled_floor(noise: NoiseFloor, ev: Evaluation, names: Sequence[str]) -> float:
-    """Noise-floor NRMSE pooled over the named runs."""
-    per = noise.by_run()
-    num = den = 0.0
-    for r in ev.subset(names):
-        x = per.get(r.name, np.nan)
-        if np.isfinite(x):
-            num += x * x * r.ssf
-            den += r.ssf
-    return float(np.sqrt(num / den)) if den > 0 else float("nan")
+@dataclass(frozen=True, eq=False)
+class Baseline:
+    """What candidates are judged against: the baseline evaluated on every measurement,
+    its residual maps, the validation measurements and their noise floor, the test."""
 
+    kind: Kind
+    runs: Sequence[Measurement]
+    evaluation: Evaluation
+    maps: Any
+    validation: list[str]
+    floor: float
+    significance: SignificanceSettings
 
-def _judge(name: str, fit: FitResult, runs: list[PreparedRun], base_ev: Evaluation,
-           base_maps: ResidualMaps, val: list[str], floor_val: float,
-           s: SignificanceSettings, ablated: Evaluation | None = None) -> CandidateResult:
-    """Judge a candidate on the validation runs against the baseline, or against the
-    baseline refitted from the candidate's optimum (``ablated``) where that validates better."""
-    ev = evaluate(fit.model, fit.params_, runs, loops=False)
-    ref = base_ev
-    if ablated is not None and ablated.nrmse(val) < base_ev.nrmse(val):
-        ref = ablated
-    b = np.concatenate([r.cycle_sse() for r in ref.subset(val)])
-    c = np.concatenate([r.cycle_sse() for r in ev.subset(val)])
-    test = paired_test(b, c)
-    nv_base, nv = ref.nrmse(val), ev.nrmse(val)
-    sig, reason = is_significant(test, nv_base, nv, floor_val, s)
-    maps = residual_maps(ev)
-    against = "" if ref is base_ev else " (against the baseline refitted from its optimum)"
-    val_txt = (f"validation NRMSE {100 * nv_base:.3g} % -> {100 * nv:.3g} %{against} (noise "
-               f"floor {100 * floor_val:.3g} %), {reason}")
-    return CandidateResult(name, fit, ev, ev.nrmse(), nv, test, sig, reason,
-                           evidence(name, base_ev, ev, base_maps, maps, fit, val_txt),
-                           explanation(name))
+    def judge(self, name: str, fit: FitResult, ablated: Evaluation | None = None
+              ) -> CandidateResult:
+        """Judge a candidate on the validation runs against the baseline, or against the
+        baseline refitted from the candidate's optimum (``ablated``) where that validates
+        better."""
+        val, base_ev = self.validation, self.evaluation
+        ev = evaluate(fit.model, fit.params_, self.runs, loops=False)
+        ref = base_ev
+        if ablated is not None and ablated.nrmse(val) < base_ev.nrmse(val):
+            ref = ablated
+        test = paired_test(np.concatenate([r.unit_sse() for r in ref.subset(val)]),
+                           np.concatenate([r.unit_sse() for r in ev.subset(val)]))
+        nv_base, nv = ref.nrmse(val), ev.nrmse(val)
+        sig, reason = is_significant(test, nv_base, nv, self.floor, self.significance)
+        maps = self.kind.maps(ev.runs, {})
+        against = "" if ref is base_ev else " (against the baseline refitted from its optimum)"
+        val_txt = (f"validation NRMSE {100 * nv_base:.3g} % -> {100 * nv:.3g} %{against} (noise "
+                   f"floor {100 * self.floor:.3g} %), {reason}")
+        return CandidateResult(name, fit, ev, ev.nrmse(), nv, test, sig, reason,
+                               self.kind.evidence(name, base_ev, ev, self.maps, maps, fit, val_txt),
+                               explanation(name))
 
 
 def _ties(cands: list[CandidateResult], base_ev: Evaluation, val: list[str], floor: float,
@@ -211,8 +211,8 @@ def _ties(cands: list[CandidateResult], base_ev: Evaluation, val: list[str], flo
     useful = [c for c in cands if c.significant]
     for i, a in enumerate(useful):
         for bb in useful[i + 1:]:
-            test = paired_test(np.concatenate([r.cycle_sse() for r in a.evaluation.subset(val)]),
-                               np.concatenate([r.cycle_sse() for r in bb.evaluation.subset(val)]))
+            test = paired_test(np.concatenate([r.unit_sse() for r in a.evaluation.subset(val)]),
+                               np.concatenate([r.unit_sse() for r in bb.evaluation.subset(val)]))
             diff = abs(a.nrmse_after_validation - bb.nrmse_after_validation)
             unc = max(2 * nrmse_se(test, a.nrmse_after_validation, bb.nrmse_after_validation, ssf),
                       s.tie_tol * floor)
@@ -227,6 +227,15 @@ def _ties(cands: list[CandidateResult], base_ev: Evaluation, val: list[str], flo
                 if y.effect not in x.tie_with:
                     x.tie_with.append(y.effect)
                     x.tie_reason = why if not x.tie_reason else x.tie_reason
+
+
+def judged_runs(runs: Sequence[Measurement], fit_r: Sequence[Measurement],
+                val_r: Sequence[Measurement]) -> list[Measurement]:
+    """The measurements a diagnosis evaluates: ``runs``, or the fit and validation parts
+    when the split made parts (one record split in time)."""
+    if {r.name for r in runs} == {r.name for r in (*fit_r, *val_r)}:
+        return list(runs)
+    return [*fit_r, *val_r]
 
 
 def contenders(cands: list[CandidateResult], base_validation: float, n: int) -> list[str]:
@@ -254,28 +263,31 @@ def contenders(cands: list[CandidateResult], base_validation: float, n: int) -> 
     return out
 
 
-def diagnose_prepared(runs: list[PreparedRun], model: Model | str, *,
+def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
                       validate: Sequence[str] | None = None,
                       settings: DiagnoseSettings = DiagnoseSettings(),
                       base_fit: FitResult | None = None, noise: NoiseFloor | None = None,
                       progress: Callable[[str], None] | None = None) -> Diagnosis:
     """Diagnose ``model`` on prepared runs (module docstring)."""
     model = Model.parse(model)
+    kind = kind_of(runs)
     t0 = time.perf_counter()
-    fit_r, val_r, rule = split_by_names(runs, validate) if validate else default_split(runs)
+    fit_r, val_r, rule = split_by_names(runs, validate) if validate else kind.split(runs)
+    runs = judged_runs(runs, fit_r, val_r)
     fit_names, val_names = [r.name for r in fit_r], [r.name for r in val_r]
     noise = noise or noise_floor(runs)
     if base_fit is None:
         base_fit = ModelFitter(model, multistart=settings.multistart, seed=settings.seed).fit(
-            [r.data for r in fit_r], validation=[r.data for r in val_r])
+            [r.data for r in fit_r], validation=[r.data for r in val_r],
+            floor=noise.over(runs, fit_names))
     t1 = time.perf_counter()
     if progress:
         progress(f"fitted {model.expr}")
     ev = evaluate(model, base_fit.params_, runs)
-    floor_val = pooled_floor(noise, ev, val_names)
-    maps = residual_maps(ev, noise.by_run())
-    curves = physics_curves(ev)
-    found = failures(ev, maps, curves, noise.nrmse, settings.factor)
+    floor_val = noise.over(runs, val_names)
+    maps = kind.maps(ev.runs, noise.by_run())
+    curves = kind.curves(ev.runs)
+    found = kind.failures(ev, maps, curves, noise.nrmse, settings.factor)
     names, skipped = candidate_effects(model, settings.candidates)
     near = ev.nrmse() <= settings.factor * noise.nrmse
     quiet = near and ev.nrmse(val_names) <= floor_val
@@ -283,9 +295,11 @@ def diagnose_prepared(runs: list[PreparedRun], model: Model | str, *,
         names = []
     fits = refit_candidates(base_fit, model, names, [r.data for r in fit_r],
                             [r.data for r in val_r], warm=settings.warm, n_jobs=settings.n_jobs,
-                            multistart=settings.multistart, seed=settings.seed, progress=progress)
+                            multistart=settings.multistart, seed=settings.seed, progress=progress,
+                            floor=noise.over(runs, fit_names))
     sig_s = settings.significance
-    cands = [_judge(n, fits[n], runs, ev, maps, val_names, floor_val, sig_s) for n in names]
+    judge = Baseline(kind, runs, ev, maps, val_names, floor_val, sig_s).judge
+    cands = [judge(n, fits[n]) for n in names]
     cands.sort(key=lambda c: c.nrmse_after_validation)
     at_floor = ev.nrmse(val_names) <= settings.factor * floor_val
     top = contenders(cands, ev.nrmse(val_names), settings.refine) \
@@ -295,13 +309,11 @@ def diagnose_prepared(runs: list[PreparedRun], model: Model | str, *,
         better = refine(fits, top, fd, vd, n_jobs=settings.n_jobs, seed=settings.seed)
         for i, c in enumerate(cands):
             if c.effect in top and better[c.effect] is not fits[c.effect]:
-                cands[i] = _judge(c.effect, better[c.effect], runs, ev, maps, val_names,
-                                  floor_val, sig_s)
+                cands[i] = judge(c.effect, better[c.effect])
     for i, c in enumerate(cands):
         if c.significant:
             ab = ablate(c.fit, model, fd, vd, settings.seed)
-            cands[i] = _judge(c.effect, c.fit, runs, ev, maps, val_names, floor_val, sig_s,
-                              evaluate(model, ab.params_, runs, loops=False))
+            cands[i] = judge(c.effect, c.fit, evaluate(model, ab.params_, runs, loops=False))
     cands.sort(key=lambda c: c.nrmse_after_validation)
     t2 = time.perf_counter()
     _ties(cands, ev, val_names, floor_val, sig_s)

@@ -20,10 +20,11 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from labjoint.compare.diagnosis import (DiagnoseSettings, Diagnosis, diagnose_prepared,
-                                       parameters_dict, pooled_floor)
+                                       judged_runs, parameters_dict)
+from labjoint.compare.kinds import kind_of
+from labjoint.compare.measurement import Measurement, noise_floor
 from labjoint.compare.metrics import evaluate
-from labjoint.compare.noise import noise_floor
-from labjoint.compare.runs import PreparedRun, default_split, split_by_names
+from labjoint.compare.runs import split_by_names
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model, ModelFitter
 
@@ -114,7 +115,7 @@ def prefixes(expr: str | Model) -> list[Model]:
     return out
 
 
-def build_ladder(runs: list[PreparedRun], model: Model | str, *, max_steps: int | None = None,
+def build_ladder(runs: Sequence[Measurement], model: Model | str, *, max_steps: int | None = None,
                  auto: bool = True, validate: Sequence[str] | None = None,
                  settings: DiagnoseSettings = DiagnoseSettings(),
                  progress: Callable[[str], None] | None = None) -> Ladder:
@@ -122,9 +123,11 @@ def build_ladder(runs: list[PreparedRun], model: Model | str, *, max_steps: int 
     model = Model.parse(model)
     if max_steps is not None and (isinstance(max_steps, bool) or int(max_steps) < 0):
         raise InputError(f"must be a whole number >= 0, got {max_steps!r}", field="max_steps")
-    fit_r, val_r, rule = split_by_names(runs, validate) if validate else default_split(runs)
+    fit_r, val_r, rule = split_by_names(runs, validate) if validate else kind_of(runs).split(runs)
+    runs = judged_runs(runs, fit_r, val_r)
     val_names = [r.name for r in val_r]
     noise = noise_floor(runs)
+    floor_fit = noise.over(runs, [r.name for r in fit_r])
     steps: list[LadderStep] = []
     if auto:
         fit: FitResult | None = None
@@ -152,7 +155,8 @@ def build_ladder(runs: list[PreparedRun], model: Model | str, *, max_steps: int 
         for i, m in enumerate(chain):
             last = i == len(chain) - 1
             fit = ModelFitter(m, multistart=settings.multistart, seed=settings.seed).fit(
-                [r.data for r in fit_r], validation=[r.data for r in val_r], init=fit)
+                [r.data for r in fit_r], validation=[r.data for r in val_r], init=fit,
+                floor=floor_fit)
             added = None if i == 0 else next(n for n in m.names if n not in chain[i - 1].names)
             if last:
                 dg = diagnose_prepared(runs, m, validate=val_names, settings=settings,
@@ -165,8 +169,7 @@ def build_ladder(runs: list[PreparedRun], model: Model | str, *, max_steps: int 
                                         parameters_dict(fit)))
         stop = "end of the given expression"
     final = steps[-1]
-    ev_any = steps[-1].diagnosis.evaluation if steps[-1].diagnosis else None
-    floor_val = pooled_floor(noise, ev_any, val_names) if ev_any is not None else float("nan")
+    floor_val = noise.over(runs, val_names)
     return Ladder(model.expr, steps, noise.nrmse, floor_val, final.adequate, stop,
                   [r.name for r in runs], [r.name for r in fit_r], val_names, rule, auto,
                   settings.factor)

@@ -17,19 +17,18 @@ from typing import Any
 
 import numpy as np
 
-from labjoint.compare.runs import PreparedRun
-from labjoint.identify.loop import loop_metrics
+from labjoint.compare.measurement import Measurement, predict, unit_sums
 from labjoint.models import Model, Parameters, nrmse_from_sums, pooled_nrmse
 
 
 @dataclass(frozen=True, eq=False)
 class RunEval:
-    """A model evaluated on one run: model force on the record samples and derived figures."""
+    """A model evaluated on one measurement: model force on the record samples and the
+    measurement's figures (energy loss, stiffness; :data:`.measurement.FIGURES`)."""
 
-    run: PreparedRun
+    run: Measurement
     model_force: np.ndarray
-    loop_measured: dict[str, np.ndarray] = field(default_factory=dict)
-    loop_model: dict[str, np.ndarray] = field(default_factory=dict)
+    figures: dict[str, float] = field(default_factory=dict)
 
     @property
     def name(self) -> str:
@@ -42,49 +41,45 @@ class RunEval:
 
     @property
     def sse(self) -> float:
-        e = self.residual[self.run.steady]
+        e = self.residual[self.run.data.steady]
         return float(e @ e)
 
     @property
     def ssf(self) -> float:
-        f = self.run.data.force[self.run.steady]
+        f = self.run.data.force[self.run.data.steady]
         return float(f @ f)
 
     @property
     def nrmse(self) -> float:
         return nrmse_from_sums(self.sse, self.ssf)
 
-    def cycle_sse(self) -> np.ndarray:
-        """Sum of squared residuals of each steady cycle (N^2)."""
-        e2 = self.residual ** 2
-        return np.array([e2[a:b].sum() for a, b in self.run.cycles])
+    def unit_sse(self) -> np.ndarray:
+        """Sum of squared residuals of each independent unit (N^2)."""
+        return unit_sums(self.residual ** 2, self.run.units())
 
-    def cycle_ssf(self) -> np.ndarray:
-        f2 = self.run.data.force ** 2
-        return np.array([f2[a:b].sum() for a, b in self.run.cycles])
+    def unit_ssf(self) -> np.ndarray:
+        return unit_sums(self.run.data.force ** 2, self.run.units())
 
-    def _mean(self, d: dict[str, np.ndarray], key: str) -> float:
-        x = d.get(key)
-        x = np.asarray(x, dtype=float)[np.isfinite(x)] if x is not None else np.zeros(0)
-        return float(np.mean(x)) if x.size else float("nan")
+    def _figure(self, key: str) -> float:
+        return float(self.figures.get(key, float("nan")))
 
     @property
     def energy_measured(self) -> float:
-        """Energy loss per cycle, measured (J, seed 002 Fig. 2 loop area)."""
-        return self._mean(self.loop_measured, "energy_loss")
+        """Energy loss, measured (J; per cycle for sines, seed 002 Fig. 2 loop area)."""
+        return self._figure("energy_loss_measured_j")
 
     @property
     def energy_model(self) -> float:
-        return self._mean(self.loop_model, "energy_loss")
+        return self._figure("energy_loss_model_j")
 
     @property
     def stiffness_measured(self) -> float:
-        """Loop stiffness, least-squares slope (N/m)."""
-        return self._mean(self.loop_measured, "stiffness_lsq")
+        """Stiffness, least-squares slope (N/m)."""
+        return self._figure("stiffness_measured_n_per_m")
 
     @property
     def stiffness_model(self) -> float:
-        return self._mean(self.loop_model, "stiffness_lsq")
+        return self._figure("stiffness_model_n_per_m")
 
     @property
     def energy_loss_error_pct(self) -> float:
@@ -100,34 +95,14 @@ class RunEval:
         return {"run": self.name, "nrmse": self.nrmse,
                 "energy_loss_error_pct": self.energy_loss_error_pct,
                 "stiffness_error_pct": self.stiffness_error_pct,
-                "frequency_hz": self.run.frequency_hz,
-                "displacement_amplitude_m": self.run.amplitude_m,
-                "energy_loss_measured_j": self.energy_measured,
-                "energy_loss_model_j": self.energy_model,
-                "stiffness_measured_n_per_m": self.stiffness_measured,
-                "stiffness_model_n_per_m": self.stiffness_model}
+                **self.run.axes(), **self.figures}
 
 
-def _loop(u: np.ndarray, f: np.ndarray, groups: list[np.ndarray], freq: float
-          ) -> dict[str, np.ndarray]:
-    if not groups:
-        return {}
-    parts = [loop_metrics(u, f, g, freq) for g in groups]
-    return {k: np.concatenate([p[k] for p in parts]) for k in ("energy_loss", "stiffness_lsq",
-                                                               "displacement_amplitude",
-                                                               "force_amplitude")}
-
-
-def evaluate_run(model: Model, params: Parameters | dict, run: PreparedRun,
+def evaluate_run(model: Model, params: Parameters | dict, run: Measurement,
                  loops: bool = True) -> RunEval:
-    """Evaluate ``model`` on ``run`` (and, if ``loops``, the loop quantities of both forces)."""
-    F = model.eval(params, run.data)
-    if not loops:
-        return RunEval(run, F)
-    groups = run.cycle_bounds()
-    u = run.data.inputs.u
-    return RunEval(run, F, _loop(u, run.data.force, groups, run.frequency_hz),
-                   _loop(u, F, groups, run.frequency_hz))
+    """Evaluate ``model`` on ``run`` (and, if ``loops``, its energy and stiffness figures)."""
+    F = predict(model, params, run)
+    return RunEval(run, F, run.figures(F) if loops else {})
 
 
 @dataclass(frozen=True, eq=False)
@@ -152,6 +127,10 @@ class Evaluation:
     def by_run(self) -> dict[str, float]:
         return {r.name: r.nrmse for r in self.runs}
 
+    def runs_measured(self) -> list[Measurement]:
+        """The measurements evaluated."""
+        return [r.run for r in self.runs]
+
     def run(self, name: str) -> RunEval:
         for r in self.runs:
             if r.name == name:
@@ -159,7 +138,7 @@ class Evaluation:
         raise KeyError(name)
 
 
-def evaluate(model: Model, params: Parameters | dict, runs: Sequence[PreparedRun],
+def evaluate(model: Model, params: Parameters | dict, runs: Sequence[Measurement],
              loops: bool = True) -> Evaluation:
     """Evaluate ``model`` with ``params`` on every run."""
     p = params if isinstance(params, Parameters) else model.make_params(values=params)

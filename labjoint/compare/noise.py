@@ -1,4 +1,4 @@
-"""The noise floor: the NRMSE that measurement noise alone would leave.
+"""The noise floor of steady-sine runs: the NRMSE that measurement noise alone would leave.
 
 Method (cycle-to-cycle scatter, slow drift removed). The steady cycles of a run, from the
 displacement fundamental's upward zero crossings, are resampled to M points each (M: the
@@ -23,20 +23,17 @@ Displacement noise reaches the residual through the model (F_model is evaluated 
 measured displacement), approximately as the joint's stiffness times that noise, so the
 force-equivalent noise of a run is sigma_F^2 + k^2 sigma_u^2 with k the loop's
 least-squares stiffness (seed 002's loop slope) and sigma_u from the displacement's
-quietest window (:func:`quietest_variance`). The pooled noise floor is
-sqrt(sum_runs n_r sigma_r^2 / sum_runs sum F^2) over the same steady samples as the
-NRMSE (design.md).
+quietest window (:func:`quietest_variance`). The pooled noise floor
+(:func:`labjoint.compare.measurement.noise_floor`) is sqrt(sum_runs n_r sigma_r^2 /
+sum_runs sum F^2) over the same steady samples as the NRMSE (design.md).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
-
 import numpy as np
 from scipy import stats
 
-from labjoint.compare.prepared import PreparedRun
 from labjoint.signal.cycles import cycles as resample_cycles
 
 WINDOW_CYCLES = 8
@@ -46,21 +43,7 @@ EXCESS_P = 1e-3
 RESOLUTION = 1e-7
 
 
-@dataclass(frozen=True)
-class RunNoise:
-    """Noise of one run: force and displacement std (N, m), force-equivalent std (N),
-    the run's noise-floor NRMSE and the number of cycles and windows used."""
-
-    name: str
-    force_std: float
-    displacement_std: float
-    equivalent_std: float
-    nrmse: float
-    n_cycles: int
-    n_windows: int
-
-
-def _gain(bounds: np.ndarray, m: int) -> float:
+def interpolation_gain(bounds: np.ndarray, m: int) -> float:
     """Mean sum of squared Catmull-Rom weights at the resampled points (white-noise gain)."""
     t = bounds[:-1, None] + np.arange(m)[None, :] * (np.diff(bounds)[:, None] / m)
     s = t - np.floor(t)
@@ -98,7 +81,7 @@ def window_scatter(x: np.ndarray, groups: Sequence[np.ndarray], window_cycles: i
             c = resample_cycles(x, bw, m, check=False)
             r = _detrended(c, TREND_DEGREE)
             dof = (b - a - TREND_DEGREE - 1) * m
-            out.append((float(np.sum(r * r)) / dof / _gain(bw, m), dof, gi, int(a), int(b),
+            out.append((float(np.sum(r * r)) / dof / interpolation_gain(bw, m), dof, gi, int(a), int(b),
                         float(np.mean(c * c))))
     return out
 
@@ -151,48 +134,8 @@ def quietest_variance(x: np.ndarray, groups: Sequence[np.ndarray],
     return min(w[0] for w in win) if win else float("nan")
 
 
-def run_noise(run: PreparedRun, window_cycles: int = WINDOW_CYCLES) -> RunNoise:
-    """Noise of one run over its steady cycles (module docstring)."""
-    groups = run.cycle_bounds()
-    var_f, n_cyc, n_win = scatter_variance(run.data.force, groups, window_cycles)
-    var_u = quietest_variance(run.data.inputs.u, groups, window_cycles)
-    k = float(run.loop.summary["stiffness_n_per_m"])
-    var_eq = var_f + (k * k * var_u if np.isfinite(var_u) else 0.0)
-    f = run.data.force[run.steady]
-    rms = float(np.sqrt(np.mean(f * f))) if f.size else float("nan")
-    eq = float(np.sqrt(var_eq)) if np.isfinite(var_eq) else float("nan")
-    return RunNoise(run.name, float(np.sqrt(var_f)), float(np.sqrt(var_u)), eq,
-                    eq / rms if rms > 0 else float("nan"), n_cyc, n_win)
-
-
-@dataclass(frozen=True)
-class NoiseFloor:
-    """Pooled noise floor (NRMSE) of a set of runs and the per-run figures."""
-
-    nrmse: float
-    runs: tuple[RunNoise, ...]
-    method: str = ("cycle-to-cycle scatter: resampled steady cycles minus a per-phase linear "
-                   f"trend over windows of {WINDOW_CYCLES} cycles, windows with excess scatter "
-                   f"left out (F-test, p < {EXCESS_P:g}); force noise plus displacement noise "
-                   "times the loop stiffness")
-
-    def by_run(self) -> dict[str, float]:
-        return {r.name: r.nrmse for r in self.runs}
-
-    def to_dict(self) -> dict:
-        return {"nrmse": self.nrmse, "method": self.method,
-                "runs": [{"run": r.name, "nrmse": r.nrmse, "force_std_n": r.force_std,
-                          "displacement_std_m": r.displacement_std,
-                          "equivalent_std_n": r.equivalent_std} for r in self.runs]}
-
-
-def noise_floor(runs: Sequence[PreparedRun], window_cycles: int = WINDOW_CYCLES) -> NoiseFloor:
-    """Pooled noise floor of ``runs`` (same steady samples and weighting as the NRMSE)."""
-    per = tuple(run_noise(r, window_cycles) for r in runs)
-    num = den = 0.0
-    for r, n in zip(runs, per):
-        f = r.data.force[r.steady]
-        if np.isfinite(n.equivalent_std):
-            num += f.size * n.equivalent_std ** 2
-            den += float(f @ f)
-    return NoiseFloor(float(np.sqrt(num / den)) if den > 0 else float("nan"), per)
+#: the method in words (the sine kind's ``noise_method``)
+METHOD = ("cycle-to-cycle scatter: resampled steady cycles minus a per-phase linear "
+          f"trend over windows of {WINDOW_CYCLES} cycles, windows with excess scatter "
+          f"left out (F-test, p < {EXCESS_P:g}); force noise plus displacement noise "
+          "times the loop stiffness")

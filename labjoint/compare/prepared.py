@@ -1,17 +1,22 @@
-"""A run ready for comparison: model inputs, the steady cycles and the loop result.
+"""A steady-sine run ready for comparison: model inputs, the steady cycles, the loop result.
 
-Made by :func:`labjoint.compare.runs.prepare_run`; read by the noise floor, residuals,
-diagnosis and ladders (its own module so those need not import the preparation).
+The measurement of the ``sine`` kind (:mod:`labjoint.compare.measurement`,
+:mod:`labjoint.compare.kinds.sine`). Made by :func:`labjoint.compare.runs.prepare_run`;
+read by the noise floor, residuals, diagnosis and ladders (its own module so those need
+not import the preparation).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass, field, replace
+from typing import Any, ClassVar
 
 import numpy as np
 
+from labjoint.compare.measurement import RunNoise
+from labjoint.compare.noise import METHOD, quietest_variance, scatter_variance
 from labjoint.identify import LoopResult
+from labjoint.identify.loop import loop_metrics
 from labjoint.models import RunData
 
 
@@ -29,6 +34,8 @@ class PreparedRun:
     so the priming begins at the loop's centre crossing).
     """
 
+    kind: ClassVar[str] = "sine"
+    noise_method: ClassVar[str] = METHOD
     name: str
     data: RunData
     loop: LoopResult
@@ -64,6 +71,49 @@ class PreparedRun:
     @property
     def n_cycles(self) -> int:
         return int(self.cycles.shape[0])
+
+    def units(self) -> np.ndarray:
+        """The independent units: the steady cycles' (start, stop) samples."""
+        return self.cycles
+
+    def noise(self) -> RunNoise:
+        """Noise over the steady cycles: force scatter plus the displacement's times the
+        loop stiffness (:mod:`labjoint.compare.noise`)."""
+        groups = self.cycle_bounds()
+        var_f, n_cyc, n_win = scatter_variance(self.data.force, groups)
+        var_u = quietest_variance(self.data.inputs.u, groups)
+        k = float(self.loop.summary["stiffness_n_per_m"])
+        var_eq = var_f + (k * k * var_u if np.isfinite(var_u) else 0.0)
+        f = self.data.force[self.steady]
+        rms = float(np.sqrt(np.mean(f * f))) if f.size else float("nan")
+        eq = float(np.sqrt(var_eq)) if np.isfinite(var_eq) else float("nan")
+        return RunNoise(self.name, float(np.sqrt(var_f)), float(np.sqrt(var_u)), eq,
+                        eq / rms if rms > 0 else float("nan"), n_cyc, n_win)
+
+    def axes(self) -> dict[str, float]:
+        return {"frequency_hz": self.frequency_hz, "displacement_amplitude_m": self.amplitude_m}
+
+    def figures(self, model_force: np.ndarray) -> dict[str, float]:
+        """Energy loss per cycle and loop stiffness, measured and model: means over the
+        steady cycles of seed 002's loop quantities (Eq. 1 loop area; least-squares loop
+        slope), both from the same displacement and estimator
+        (:func:`labjoint.identify.loop.loop_metrics`)."""
+        groups = self.cycle_bounds()
+        u = self.data.inputs.u
+        out = {}
+        for side, f in (("measured", self.data.force), ("model", model_force)):
+            parts = [loop_metrics(u, f, g, self.frequency_hz) for g in groups]
+            for key, name in (("energy_loss", "energy_loss_{}_j"),
+                              ("stiffness_lsq", "stiffness_{}_n_per_m")):
+                x = np.concatenate([p[key] for p in parts]) if parts else np.zeros(0)
+                x = x[np.isfinite(x)]
+                out[name.format(side)] = float(np.mean(x)) if x.size else float("nan")
+        return out
+
+    def renamed(self, name: str) -> PreparedRun:
+        d = self.data
+        return replace(self, name=name, data=RunData(replace(d.inputs, name=name), d.force,
+                                                     d.steady))
 
     def cycle_index(self) -> np.ndarray:
         """Per sample: index of its steady cycle (-1 outside them)."""

@@ -196,7 +196,7 @@ def residual_maps(ev: Evaluation | Sequence[RunEval], noise: dict[str, float] | 
         ssf_r = float(f[m] @ f[m])
         run_h[r.name] = {k: float(np.sqrt(hp[k] / ssf_r)) for k in parts}
         with np.errstate(invalid="ignore", divide="ignore"):
-            cyc[r.name] = np.sqrt(r.cycle_sse() / r.cycle_ssf())
+            cyc[r.name] = np.sqrt(r.unit_sse() / r.unit_ssf())
     mean_f2 = ssf_all / max(n_all, 1)
     with np.errstate(invalid="ignore", divide="ignore"):
         phase_rms = np.sqrt(e2_bin / n_bin / mean_f2)

@@ -34,7 +34,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -47,6 +47,7 @@ from labjoint.models import ModelInputs, RunData
 from labjoint.signal.mains import remove_mains
 from labjoint.storage import Run, read_any
 
+M = TypeVar("M")
 PRIME_CYCLES = 5
 REST_FRACTION = 0.1
 REST_SAMPLES = 8
@@ -200,12 +201,8 @@ def prepare_runs(runs: Iterable[Run | str | Path | PreparedRun], **kwargs: Any) 
         seen[r.name] = seen.get(r.name, 0) + 1
         if seen[r.name] > 1:
             new = f"{r.name}#{seen[r.name]}"
-            out[i] = replace(r, name=new, data=_renamed(r.data, new))
+            out[i] = r.renamed(new)
     return out
-
-
-def _renamed(d: RunData, name: str) -> RunData:
-    return RunData(replace(d.inputs, name=name), d.force, d.steady)
 
 
 def default_split(runs: Sequence[PreparedRun], every: int = 3
@@ -226,16 +223,27 @@ def default_split(runs: Sequence[PreparedRun], every: int = 3
         val = [r for r, t in zip(runs, top) if t]
         f = float(np.median(freqs[top]))
         return fit, val, f"validation: the highest frequency ({f:g} Hz), held out"
-    order = np.argsort([r.amplitude_m for r in runs], kind="stable")
-    pick = np.zeros(len(runs), bool)
-    inner = order[1:-1] if len(runs) > 2 else order[1:]
-    pick[inner[::max(int(every), 2)]] = True
-    fit = [r for r, p in zip(runs, pick) if not p]
-    val = [r for r, p in zip(runs, pick) if p]
+    return split_every_nth(runs, [r.amplitude_m for r in runs], every,
+                           "by amplitude (one frequency only)")
+
+
+def split_every_nth(ms: Sequence[M], keys: Sequence[float], every: int = 3,
+                    what: str = "by amplitude") -> tuple[list[M], list[M], str]:
+    """(fit, validation, rule): every ``every``-th measurement in order of ``keys`` among
+    all but the smallest and the largest (both ends stay in the fit), starting from the
+    second smallest."""
+    if len(ms) < 2:
+        raise InputError("at least two runs are needed to fit on some and validate on others",
+                         field="runs")
+    order = np.argsort(np.asarray(keys, dtype=float), kind="stable")
+    pick = np.zeros(len(ms), bool)
+    inner = order[1:-1] if len(ms) > 2 else order[1:]
     k = max(int(every), 2)
+    pick[inner[::k]] = True
+    fit = [r for r, p in zip(ms, pick) if not p]
+    val = [r for r, p in zip(ms, pick) if p]
     nth = {2: "2nd", 3: "3rd"}.get(k, f"{k}th")
-    return fit, val, (f"validation: every {nth} run by amplitude "
-                      "(one frequency only)")
+    return fit, val, f"validation: every {nth} run {what}"
 
 
 def _levels(freqs: np.ndarray, rel: float = 0.02) -> np.ndarray:

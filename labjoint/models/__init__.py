@@ -25,12 +25,12 @@ from labjoint.models.scores import nrmse_from_sums, pooled_nrmse
 from labjoint.models.inputs import ModelInputs, RunData, derivatives, estimate_frequency
 from labjoint.models.params import Parameter, Parameters
 from labjoint.models.result import FitResult
-from labjoint.models.summary import LoopSummary, RunLoop, noise_floor
+from labjoint.models.summary import LoopSummary, RunLoop, period_shift_floor
 
 __all__ = [
     "Model", "ModelFitter", "FitResult", "nrmse", "nrmse_from_sums", "pooled_nrmse", "ModelInputs", "RunData",
     "derivatives", "estimate_frequency", "Parameter", "Parameters", "LoopSummary", "RunLoop",
-    "noise_floor",
+    "period_shift_floor",
     "REGISTRY", "get_effect", "Effect", "ForceEffect", "HystereticEffect", "InputEffect",
     "ModifierEffect", "SlipModifiers",
 ]

@@ -13,8 +13,9 @@ magnitude, so every x is of order one (a trust box of x1e6 around the start keep
 parameters finite). Starting values come from the data's loop quantities (slope, area,
 force amplitude; :mod:`labjoint.models.summary`) or from a previous fit (warm start).
 Multi-start: the first start is polished; with multistart="auto" further starts are
-tried only while the pooled NRMSE stays above 1.2 x the noise floor (cycle-to-cycle
-scatter of the measured force, :func:`labjoint.models.summary.noise_floor`), each from
+tried only while the pooled NRMSE stays above 1.2 x the noise floor (the caller's, e.g.
+the comparison's estimate for its kind of measurement; else the period-to-period scatter
+of the measured force, :func:`labjoint.models.summary.period_shift_floor`), each from
 the best of 4 random draws around the first start (log-normal x3 for scale
 parameters, uniform within finite bounds, +-1 typical magnitude otherwise); the lowest
 cost wins. With a warm start only the new parameters are drawn.
@@ -42,7 +43,7 @@ from labjoint.models.inputs import RunData
 from labjoint.models.params import Parameters
 from labjoint.models.result import FitResult
 from labjoint.models.scores import nrmse_from_sums
-from labjoint.models.summary import LoopSummary, noise_floor
+from labjoint.models.summary import LoopSummary, period_shift_floor
 
 TRUST = 1e6
 FD_REL = 1e-5
@@ -305,7 +306,7 @@ class ModelFitter:
 
     def _multistart(self, model: Model, prob: _Problem, x0: np.ndarray, lb: np.ndarray,
                     ub: np.ndarray, warm: set[str], runs: list[RunData],
-                    costs: list[float]) -> tuple[np.ndarray, bool, str]:
+                    costs: list[float], floor: float | None) -> tuple[np.ndarray, bool, str]:
         """Polish the first start; if its NRMSE is above STOP_FACTOR x the noise floor, polish
         further starts, each the best (by initial cost) of SCREEN random draws."""
         rng = np.random.default_rng(self.seed)
@@ -313,7 +314,10 @@ class ModelFitter:
         n_starts = self._n_starts(model, prob, warm)
         auto = self.multistart == "auto"
         y2 = float(prob.y @ prob.y)
-        floor = noise_floor(runs) if auto and n_starts > 1 else np.nan
+        if not (auto and n_starts > 1):
+            floor = np.nan
+        elif floor is None:
+            floor = period_shift_floor(runs)
         best = None
         for k in range(n_starts):
             if k == 0:
@@ -333,13 +337,15 @@ class ModelFitter:
         return best.x, bool(best.success), str(best.message)
 
     def fit(self, runs: RunData | Sequence[RunData], validation: Sequence[RunData] | None = None,
-            init: FitResult | Parameters | dict[str, float] | None = None) -> FitResult:
+            init: FitResult | Parameters | dict[str, float] | None = None,
+            floor: float | None = None) -> FitResult:
         """Fit the model to ``runs`` (steady samples), report NRMSE on ``validation``.
 
         ``init``: a previous FitResult (or parameter values) to start from; parameters it
         names keep their values in every start, and added modifier or input effects
         start at their neutral values (no change), so a refit with one extra effect is
-        cheap and cannot end worse than the previous fit.
+        cheap and cannot end worse than the previous fit. ``floor``: the runs' noise-floor
+        NRMSE, where multi-start "auto" stops (module docstring).
         """
         model = Model.parse(self.model)
         runs = _as_runs(runs, "runs")
@@ -363,7 +369,7 @@ class ModelFitter:
             x_best, ok, msg = x0, True, "linear least squares (exact)"
             costs.append(0.5 * float(np.sum(prob.residual(x0) ** 2)))
         else:
-            x_best, ok, msg = self._multistart(model, prob, x0, lb, ub, warm, runs, costs)
+            x_best, ok, msg = self._multistart(model, prob, x0, lb, ub, warm, runs, costs, floor)
             if init is not None:  # keep the warm start itself if no start beat it
                 c_raw = 0.5 * float(np.sum(prob.residual(x_raw) ** 2))
                 if c_raw < min(costs):

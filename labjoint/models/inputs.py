@@ -86,12 +86,19 @@ def _spectral(u: np.ndarray, fs: float, band: float) -> tuple[np.ndarray, np.nda
 
 
 def derivatives(u: np.ndarray, fs: float, band_hz: float | None = None,
-                frequency_hz: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Velocity (m/s) and acceleration (m/s^2) of ``u`` (module docstring: the method)."""
+                frequency_hz: float | None = None, periodic: bool = True
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Velocity (m/s) and acceleration (m/s^2) of ``u`` (module docstring: the method).
+
+    ``periodic=False``: a record that does not repeat (random, transient) is not continued
+    periodically at its edges; only the cubic end matching and odd extension are used.
+    """
     u = np.asarray(u, dtype=float)
     if u.size < 2 * EDGE_WINDOW:
         raise InputError(f"record has {u.size} samples, need at least {2 * EDGE_WINDOW}",
                          field="displacement")
+    if not periodic:
+        return _spectral(u, fs, default_band(fs, frequency_hz, band_hz))
     f = frequency_hz
     if f is None:
         try:

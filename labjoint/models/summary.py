@@ -160,9 +160,11 @@ class LoopSummary:
         return float(sum(4 * r.Fa * r.U * max(r.cycle_energy.size, 1) for r in self.runs))
 
 
-def noise_floor(runs: Sequence[RunData]) -> float:
-    """NRMSE that measurement noise alone would leave (design.md), pooled over the steady
-    samples: the force is compared with itself one period later (4-point cubic shift by
+def period_shift_floor(runs: Sequence[RunData]) -> float:
+    """A quick noise-floor NRMSE of periodic runs, where the fitter's multi-start stops
+    when no caller gives one (the comparison's stated estimates are in
+    :mod:`labjoint.compare`), pooled over the steady samples: the force is compared with
+    itself one period later (4-point cubic shift by
     the fractional period); for white noise of variance s^2 the difference has variance
     s^2 (1 + sum w_k^2), w_k the interpolation weights."""
     num = den = 0.0

@@ -46,8 +46,8 @@ FLAT_TOLERANCE = 0.15
 #: ...over at least this fraction of the active part (a start-up overshoot, then steady).
 STEADY_FRACTION = 0.5
 #: Commands for records that are not a steady sine (named in refusals).
-BROADBAND_COMMANDS = ("`labjoint fit --error simulation` and `labjoint predict` "
-                      "(identification and prediction from any excitation)")
+BROADBAND_COMMANDS = ("`labjoint fit`, `labjoint diagnose` or `labjoint ladder`, which judge "
+                      "a model along a record under any excitation")
 
 
 @dataclass

@@ -1,0 +1,79 @@
+"""Kinds of measurement the comparison works on (:mod:`labjoint.compare.measurement`).
+
+- ``sine``: the steady cycles of a run under a steady sine (:mod:`.sine`);
+- ``record``: a record under any excitation, judged sample by sample along its history
+  (:mod:`.record`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+from labjoint.compare.kinds.record import RECORD, RecordMeasurement, prepare_record
+from labjoint.compare.kinds.sine import SINE
+from labjoint.compare.measurement import Kind, Measurement
+from labjoint.compare.prepared import PreparedRun
+from labjoint.compare.runs import prepare_run
+from labjoint.errors import InputError
+from labjoint.signal.excitation import detect_excitation
+from labjoint.storage import Run, read_any
+
+KINDS: dict[str, Kind] = {SINE.name: SINE, RECORD.name: RECORD}
+
+
+def kind_of(ms: Sequence[Measurement]) -> Kind:
+    """The one kind of a set of measurements (a set mixing kinds is refused)."""
+    names = sorted({m.kind for m in ms})
+    if not names:
+        raise InputError("no measurements given", field="runs")
+    if len(names) > 1:
+        raise InputError(f"the runs mix kinds of measurement {names}; prepare them all as "
+                         "one kind (kind='record' takes any excitation)", field="runs")
+    return KINDS[names[0]]
+
+
+def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str = "auto",
+            warmup: str | float = "auto") -> list[Measurement]:
+    """Measurements of one kind from run-file or CSV paths, Runs or prepared measurements
+    (these pass through); names made unique.
+
+    ``kind``: "sine" (steady cycles), "record" (any excitation, along the history) or
+    "auto": sine when every run's force is a steady sine
+    (:func:`labjoint.signal.excitation.detect_excitation`), else record for all of them,
+    so that one set is judged one way.
+    """
+    if kind not in ("auto", *KINDS):
+        raise InputError(f"unknown kind {kind!r}; known: auto, {', '.join(KINDS)}", field="kind")
+    items = [read_any(r) if isinstance(r, (str, Path)) else r for r in runs]
+    if not items:
+        raise InputError("no runs given", field="runs")
+    if kind == "auto":
+        raw = [r for r in items if isinstance(r, Run)]
+        given = {r.kind for r in items if isinstance(r, (PreparedRun, RecordMeasurement))}
+        sine = all(detect_excitation(r.excitation, r.sample_rate_hz, dict(r.metadata)).kind == "sine"
+                   for r in raw)
+        kind = "sine" if sine and given <= {"sine"} else "record"
+    out: list[Measurement] = []
+    for r in items:
+        if isinstance(r, (PreparedRun, RecordMeasurement)):
+            if r.kind != kind:
+                raise InputError(f"run '{r.name}' was prepared as {r.kind}, the set as {kind}",
+                                 field="kind")
+            out.append(r)
+        elif isinstance(r, Run):
+            out.append(prepare_run(r, prime_cycles=prime_cycles) if kind == "sine"
+                       else prepare_record(r, warmup=warmup))
+        else:
+            raise InputError(f"expected a run file path or a Run, got {type(r).__name__}",
+                             field="runs")
+    seen: dict[str, int] = {}
+    for i, m in enumerate(out):
+        seen[m.name] = seen.get(m.name, 0) + 1
+        if seen[m.name] > 1:
+            out[i] = m.renamed(f"{m.name}#{seen[m.name]}")
+    return out
+
+
+__all__ = ["KINDS", "kind_of", "prepare", "SINE", "RECORD"]

@@ -1,0 +1,268 @@
+"""The ``record`` kind: a record under any excitation, judged sample by sample along its history.
+
+Multisine, swept sine, random, transient or a sine: nothing assumes cycles. The model
+runs along the whole measured displacement history from the record's first sample,
+every hysteretic state with it (:mod:`labjoint.models.inputs`), and is judged on the
+force, sample by sample (NRMSE, design.md), from the end of a warm-up on.
+
+Preparation (:func:`prepare_record`):
+
+- excitation: :func:`labjoint.signal.excitation.detect_excitation` on the run's excitation
+  signal (the reference force if recorded, else the joint force); a
+  silent record is refused. Periodic (a sine, a multisine): its period; otherwise not.
+- warm-up: every model state starts relaxed at the first sample, which the joint was not
+  unless the record starts at rest. A Masing-type hysteretic state is wiped once the
+  motion has reached both of its extremes, so judging starts where the displacement has
+  first reached both its 1st and 99th percentiles (``warmup="auto"``; a number of
+  seconds or 0 instead, when the record is known to start at rest).
+- units (the paired significance test and the over-time map work on them): whole
+  periods of a periodic excitation from the judging start; otherwise blocks of
+  max(4 / lowest excited frequency, 1/64 of the judged span), at least ``MIN_UNITS``.
+- displacement zero: the mean of the quiet lead-in when the record starts at rest (the
+  excitation starts ``REST_SAMPLES`` or more into the record and the displacement moves
+  by less than ``REST_FRACTION`` of its judged range before it), else the mean over the judged units (whole periods or blocks: where a joint that is
+  symmetric about its rest position sits on average under a force of zero mean).
+- derivatives: the band-limited spectral ones of :mod:`labjoint.models.inputs`, with
+  periodic continuation at the edges only for periodic excitation, band max(3 kHz, 8 x
+  the highest excited frequency), capped at 0.4 fs.
+
+Noise floor (stated): periodic excitation with at least ``MIN_WINDOW_CYCLES`` judged
+periods: the period-to-period scatter of the sine kind (:mod:`labjoint.compare.noise`,
+windows, trend, excess-scatter windows left out); with 2 to 4 periods: the plain
+scatter of each period about the mean period (K - 1 degrees of freedom per point).
+Non-periodic: the difference method (the robust variance of the d-th difference,
+from its median absolute deviation, divided by C(2d, d), the smallest over d = 1..6;
+consistent for Gaussian white noise on a signal smooth on the sample scale, whose
+stick-slip kinks are sparse spikes the median ignores; an upper bound where the signal
+itself holds power near Nyquist). Force-equivalent noise sigma_F^2 + k^2 sigma_u^2 as for sines,
+k the least-squares stiffness of F on (u, v, 1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from math import comb
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from labjoint.compare.kinds.record_maps import RecordKind
+from labjoint.compare.measurement import RunNoise
+from labjoint.compare.noise import (MIN_WINDOW_CYCLES, interpolation_gain, quietest_variance,
+                                    scatter_variance)
+from labjoint.errors import InputError
+from labjoint.models import RunData
+from labjoint.models.inputs import DEFAULT_BAND_HZ, ModelInputs, derivatives
+from labjoint.signal.cycles import cycles as resample_cycles
+from labjoint.signal.excitation import Excitation, detect_excitation
+from labjoint.storage import Run, read_any
+
+MIN_UNITS = 4
+BLOCK_PERIODS = 4.0
+MAX_BLOCKS = 64
+REST_FRACTION = 0.02
+REST_SAMPLES = 8
+EXTREME_PCT = 1.0
+MAX_DIFF_ORDER = 6
+METHOD = ("periodic excitation: period-to-period scatter of the judged periods; otherwise "
+          "the difference method (robust variance of the d-th difference / C(2d, d), smallest "
+          "over d = 1..6); force noise plus displacement noise times the least-squares stiffness")
+
+
+@dataclass(frozen=True, eq=False)
+class RecordMeasurement:
+    """A record under any excitation, prepared (module docstring). ``spans``: the units'
+    (start, stop) samples; ``bounds``: their fractional starts and the last stop (periodic
+    excitation), else None."""
+
+    kind: ClassVar[str] = "record"
+    noise_method: ClassVar[str] = METHOD
+    name: str
+    data: RunData
+    excitation: Excitation
+    spans: np.ndarray
+    bounds: np.ndarray | None
+    path: str | None = None
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def fs(self) -> float:
+        return float(self.data.inputs.fs)
+
+    @property
+    def judged(self) -> slice:
+        return slice(int(self.spans[0, 0]), int(self.spans[-1, 1]))
+
+    def units(self) -> np.ndarray:
+        return self.spans
+
+    def axes(self) -> dict[str, Any]:
+        u = self.data.inputs.u[self.judged]
+        f = self.data.force[self.judged]
+        return {"excitation": self.excitation.kind,
+                "displacement_rms_m": float(np.std(u)), "force_rms_n": float(np.std(f))}
+
+    def figures(self, model_force: np.ndarray) -> dict[str, float]:
+        """Energy dissipated over the judged samples (J: the sum of F v / fs) and the
+        least-squares stiffness of F on (u, v, 1) (N/m), measured and model."""
+        j = self.judged
+        u, v = self.data.inputs.u[j], self.data.inputs.v[j]
+        A = np.column_stack([u, v, np.ones_like(u)])
+        out = {}
+        for side, f in (("measured", self.data.force[j]), ("model", model_force[j])):
+            out[f"energy_loss_{side}_j"] = float(f @ v) / self.fs
+            out[f"stiffness_{side}_n_per_m"] = float(np.linalg.lstsq(A, f, rcond=None)[0][0])
+        return out
+
+    def noise(self) -> RunNoise:
+        """Noise by the stated method (module docstring)."""
+        j = self.judged
+        F, u = self.data.force, self.data.inputs.u
+        n_units = int(self.spans.shape[0])
+        if self.bounds is not None and n_units >= MIN_WINDOW_CYCLES:
+            var_f, n_used, n_win = scatter_variance(F, [self.bounds])
+            var_u = quietest_variance(u, [self.bounds])
+        elif self.bounds is not None:
+            var_f, var_u, n_used, n_win = (period_scatter(F, self.bounds),
+                                           period_scatter(u, self.bounds), n_units, 1)
+        else:
+            var_f, var_u, n_used, n_win = difference_variance(F[j]), difference_variance(u[j]), n_units, 0
+        A = np.column_stack([u[j], self.data.inputs.v[j], np.ones(j.stop - j.start)])
+        k = float(np.linalg.lstsq(A, F[j], rcond=None)[0][0])
+        var_eq = var_f + (k * k * var_u if np.isfinite(var_u) else 0.0)
+        rms = float(np.sqrt(np.mean(F[j] ** 2)))
+        eq = float(np.sqrt(var_eq)) if np.isfinite(var_eq) else float("nan")
+        return RunNoise(self.name, float(np.sqrt(var_f)), float(np.sqrt(var_u)), eq,
+                        eq / rms if rms > 0 else float("nan"), n_used, n_win)
+
+    def renamed(self, name: str) -> RecordMeasurement:
+        d = self.data
+        return replace(self, name=name, data=RunData(replace(d.inputs, name=name), d.force,
+                                                     d.steady))
+
+    def part(self, first: int, stop: int, label: str) -> RecordMeasurement:
+        """The same record judged on its units ``first:stop`` only, named ``name[label]``
+        (the model still runs over the whole history)."""
+        spans = self.spans[first:stop]
+        keep = np.zeros(len(self.data.force), bool)
+        keep[int(spans[0, 0]):int(spans[-1, 1])] = True
+        bounds = None if self.bounds is None else self.bounds[first:stop + 1]
+        name = f"{self.name}[{label}]"
+        d = self.data
+        return replace(self, name=name, spans=spans, bounds=bounds,
+                       data=RunData(replace(d.inputs, name=name), d.force, keep))
+
+
+def period_scatter(x: np.ndarray, bounds: np.ndarray) -> float:
+    """White-noise variance from the scatter of 2 or more periods about their mean
+    (each period resampled at the nearest integer number of samples per period)."""
+    m = max(8, int(round(float(np.mean(np.diff(bounds))))))
+    c = resample_cycles(np.asarray(x, dtype=float), bounds, m, check=False)
+    r = c - c.mean(axis=0)
+    return float(np.sum(r * r)) / ((c.shape[0] - 1) * m) / interpolation_gain(bounds, m)
+
+
+def difference_variance(x: np.ndarray) -> float:
+    """White-noise variance by the difference method: min over d of the robust variance
+    (1.4826 x the median absolute deviation, squared) of diff^d x, divided by C(2d, d).
+    The median ignores the sparse spikes a stick-slip kink puts into the differences."""
+    x = np.asarray(x, dtype=float)
+    best = float("inf")
+    for d in range(1, MAX_DIFF_ORDER + 1):
+        if x.size <= d + 8:
+            break
+        dx = np.diff(x, d)
+        mad = 1.4826 * float(np.median(np.abs(dx - np.median(dx))))
+        best = min(best, mad * mad / comb(2 * d, d))
+    return best if np.isfinite(best) else float("nan")
+
+
+def _warmup_start(u: np.ndarray, a0: int, a1: int, warmup: str | float, fs: float) -> int:
+    if warmup == "auto":
+        lo, hi = np.percentile(u[a0:a1], [EXTREME_PCT, 100.0 - EXTREME_PCT])
+        seg = u[a0:a1]
+        i_lo = int(np.argmax(seg <= lo))
+        i_hi = int(np.argmax(seg >= hi))
+        return a0 + max(i_lo, i_hi)
+    try:
+        w = float(warmup)
+    except (TypeError, ValueError):
+        raise InputError(f"must be 'auto' or a number of seconds >= 0, got {warmup!r}",
+                         field="warmup") from None
+    if not (np.isfinite(w) and w >= 0):
+        raise InputError(f"must be 'auto' or a number of seconds >= 0, got {warmup!r}",
+                         field="warmup")
+    return a0 + int(round(w * fs))
+
+
+def _band(exc: Excitation) -> tuple[float | None, float | None]:
+    """(lowest, highest) excited frequency (Hz), None where unknown."""
+    if exc.kind == "sine":
+        return exc.frequency_hz, exc.frequency_hz
+    if exc.lines_hz:
+        return min(exc.lines_hz), max(exc.lines_hz)
+    if exc.band_hz:
+        return exc.band_hz
+    return None, None
+
+
+def prepare_record(run: Run | str | Path, *, band_hz: float | None = None,
+                   warmup: str | float = "auto") -> RecordMeasurement:
+    """Prepare a record under any excitation (module docstring)."""
+    if isinstance(run, (str, Path)):
+        run = read_any(run)
+    if not isinstance(run, Run):
+        raise InputError(f"expected a run file path or a Run, got {type(run).__name__}", field="runs")
+    where = run.path or run.name
+    fs = float(run.sample_rate_hz)
+    F = np.asarray(run.force, dtype=float)
+    u_raw = np.asarray(run.displacement, dtype=float)
+    n = F.size
+    exc = detect_excitation(run.excitation, fs, dict(run.metadata))
+    if exc.kind == "none":
+        raise InputError(f"run '{run.name}': the force is silent, nothing excites the joint",
+                         file=where, field="force")
+    span = exc.active_s or (0.0, n / fs)
+    a0, a1 = max(0, int(span[0] * fs)), min(n, int(np.ceil(span[1] * fs)))
+    j0 = _warmup_start(u_raw, a0, a1, warmup, fs)
+    periodic = exc.kind in ("sine", "multisine")
+    per = (fs / exc.frequency_hz if exc.kind == "sine" else
+           exc.period_s * fs if exc.kind == "multisine" and exc.period_s else None)
+    if per is not None and (a1 - 3 - max(j0, 1)) >= 2 * per:
+        start = float(max(j0, 1))
+        k = int(np.floor((a1 - 3 - start) / per))
+        bounds = start + per * np.arange(k + 1)
+        edges = np.ceil(bounds).astype(np.int64)
+    else:
+        periodic, bounds = False, None
+        f_lo = _band(exc)[0] or 1.0
+        length = max(int(np.ceil(BLOCK_PERIODS * fs / f_lo)), (a1 - j0) // MAX_BLOCKS, 8)
+        k = (a1 - j0) // length
+        edges = j0 + length * np.arange(k + 1, dtype=np.int64)
+    if edges.size - 1 < (2 if periodic else MIN_UNITS):
+        need = "2 periods" if per is not None else f"{MIN_UNITS} blocks of {BLOCK_PERIODS:g} periods of its lowest frequency"
+        raise InputError(f"run '{run.name}': after the warm-up (from {j0 / fs:.4g} s) too little "
+                         f"of the record is left to judge; need {need}", file=where, field="steady")
+    spans = np.column_stack([edges[:-1], edges[1:]])
+    keep = np.zeros(n, bool)
+    keep[int(spans[0, 0]):int(spans[-1, 1])] = True
+    head = u_raw[:a0]
+    if a0 >= REST_SAMPLES and np.ptp(head) < REST_FRACTION * np.ptp(u_raw[keep]):
+        ref = float(np.mean(head))
+    else:
+        ref = float(np.mean(u_raw[keep]))
+    u = u_raw - ref
+    f_hi = _band(exc)[1]
+    band = band_hz if band_hz is not None else max(DEFAULT_BAND_HZ, 8.0 * (f_hi or 0.0))
+    v, a = derivatives(u, fs, band, fs / per if periodic and per else None, periodic=periodic)
+    ups = np.count_nonzero((u[keep][:-1] < 0) & (u[keep][1:] >= 0))
+    f_char = ups * fs / keep.sum() if ups else (f_hi or fs / keep.sum())
+    md = dict(run.metadata)
+    md.update(displacement_reference_m=ref, excitation=exc.to_dict(), judged_from_s=spans[0, 0] / fs)
+    inputs = ModelInputs(u, v, a, fs, 0, 0.0, float(f_char), run.name, md)
+    data = RunData(inputs, F, keep)
+    return RecordMeasurement(run.name, data, exc, spans, bounds, run.path, md)
+
+
+RECORD = RecordKind()
