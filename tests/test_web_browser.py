@@ -181,6 +181,38 @@ def test_adding_a_candidate_grows_the_ladder_with_lower_nrmse(web):
     assert not w.problems(), w.problems()
 
 
+def test_a_multisine_record_is_judged_along_its_history_on_the_models_page(web, tmp_path):
+    """An imported multisine (a 2 kg mass on a spring and damper, force in, displacement
+    out) diagnosed as a record: its maps by run, band and line, the force along the record
+    for the fit and validation parts, and the missing mass named."""
+    from labjoint.storage import import_csv
+    from labjoint.storage.catalog import Catalog
+    from test_excitation_refusal import _multisine_csv
+    s, browser = web
+    name = import_csv(_multisine_csv(tmp_path, periods=6), s.data_dir, name="multisine_sdof",
+                      catalog=Catalog(s.data_dir / "catalog.sqlite")).stem
+    w = open_page(browser, s.url, token=CONTROL)
+    page = w.page
+    page.goto(f"{s.url}/#/models")
+    page.wait_for_selector(f"#run-pick input[value={name}]")
+    for box in page.locator("#run-pick input").all():
+        box.set_checked(box.get_attribute("value") == name)
+    page.click("#limit summary")
+    page.check("#limit input[value=inertia]")
+    page.fill("#model-expr", "linear_stiffness+viscous")
+    page.click("#fit")
+    wait_attr(page, "svg[data-plot=ladder]", "data-values", lambda v: v != "", 120)
+    for plot in ("residual-runs", "residual-bands", "residual-lines"):
+        assert page.locator(f"svg[data-plot={plot}]").count() == 1, plot
+    assert page.locator("svg[data-plot=residual-grid]").count() == 0   # no sine grid
+    assert page.locator("svg[data-plot^=overlay-]").count() == 2        # fit and validation parts
+    offered = page.locator("#candidates li.significant").evaluate_all(
+        "els => els.map(e => e.dataset.effect)")
+    assert offered == ["inertia"]
+    screenshot(page, "models-record")
+    assert not w.problems(), w.problems()
+
+
 def test_models_page_shows_a_saved_ladder_without_recomputing(web):
     s, browser = web
     r = s.http.post("/models/ladder", json={"runs": s.sweep, "model": "linear_stiffness",

@@ -6,11 +6,14 @@ Units are SI and named in the field (``_hz``, ``_m``, ``_n``, ``_nm``); times ar
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+import dataclasses
+from typing import Annotated, Any, Literal, get_type_hints
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, create_model
 
 from labjoint.acquisition.plans import PLANS
+from labjoint.api.jobs import JobRecord
+from labjoint.storage.catalog import RunRecord
 
 #: A run name as stored (see labjoint.storage.layout.check_run_name).
 RUN_NAME = r"^[A-Za-z0-9][A-Za-z0-9_.\-]{0,199}$"
@@ -20,6 +23,26 @@ JOB_ID = r"^[A-Za-z0-9_\-]{1,64}$"
 MODEL_EXPR = r"^[a-z][a-z0-9_]*( *\+ *[a-z][a-z0-9_]*)*$"
 
 RunName = Annotated[str, Field(pattern=RUN_NAME, description="run name")]
+
+
+def from_domain(cls: type, name: str, *, exclude: tuple[str, ...] = (),
+                overrides: dict[str, Any] | None = None, doc: str = "") -> type[BaseModel]:
+    """A response model with the fields, types and defaults of the domain dataclass
+    ``cls`` (less ``exclude``; ``overrides``: narrower types), so the REST schema follows
+    the domain type instead of mirroring it by hand."""
+    hints = get_type_hints(cls)
+    fields: dict[str, Any] = {}
+    for f in dataclasses.fields(cls):
+        if f.name in exclude:
+            continue
+        typ = (overrides or {}).get(f.name, hints[f.name])
+        if f.default is not dataclasses.MISSING:
+            fields[f.name] = (typ, f.default)
+        elif f.default_factory is not dataclasses.MISSING:
+            fields[f.name] = (typ, Field(default_factory=f.default_factory))
+        else:
+            fields[f.name] = (typ, ...)
+    return create_model(name, __doc__=doc, **fields)
 
 
 class _In(BaseModel):
@@ -125,22 +148,8 @@ class PlanType(BaseModel):
 
 # ---- runs ---------------------------------------------------------------------------
 
-class RunSummary(BaseModel):
-    name: str
-    uid: str = ""
-    plan: str = ""
-    plan_step: Any = None
-    frequency_hz: float | None = None
-    excitation_vpp: float | None = None
-    torque_nm: float | None = None
-    normal_force_n: float | None = None
-    sample_rate_hz: float | None = None
-    n_samples: int | None = None
-    status: str = ""
-    start_time: str = ""
-    end_time: str = ""
-    source: str = ""
-    metadata: dict[str, Any] = Field(default_factory=dict)
+RunSummary = from_domain(RunRecord, "RunSummary", exclude=("path", "start_ts"),
+                         doc="A run as the catalog lists it (storage.catalog.RunRecord).")
 
 
 class RunList(BaseModel):
@@ -208,19 +217,9 @@ class ModelRequest(_In):
     options: dict[str, Any] = Field(default_factory=dict)
 
 
-class Job(BaseModel):
-    id: str
-    kind: str
-    status: Literal["queued", "running", "complete", "failed", "cancelled"]
-    request: dict[str, Any]
-    submitted_by: str = ""
-    submitted_at: str = ""
-    started_at: str | None = None
-    finished_at: str | None = None
-    progress: float = 0.0
-    message: str = ""
-    result: dict[str, Any] | None = None
-    error: dict[str, Any] | None = None
+Job = from_domain(JobRecord, "Job", overrides={
+    "status": Literal["queued", "running", "complete", "failed", "cancelled"]},
+    doc="An analysis or model job (api.jobs.JobRecord).")
 
 
 class JobList(BaseModel):

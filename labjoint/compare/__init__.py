@@ -10,8 +10,14 @@ prepared runs, and a model expression ``"a+b+c"``):
 - :func:`ladder` / :func:`ladder_runs`: successive models until adequate, saved in the run
   files; :func:`load_ladders` reads them back.
 
-Building blocks: :func:`prepare_runs`, :func:`noise_floor`, :func:`evaluate`,
-:func:`residual_maps`, :func:`physics_curves`, :func:`mean_loops`.
+Every entry point works on measurements of one kind (:mod:`labjoint.compare.measurement`,
+:mod:`labjoint.compare.kinds`): ``kind="sine"`` judges the steady cycles of runs under a
+steady sine, ``kind="record"`` judges a record under any excitation along its history,
+``kind="auto"`` (default) chooses sine when every run is a steady sine.
+
+Building blocks: :func:`prepare` (any kind), :func:`prepare_runs` (sines),
+:func:`noise_floor`, :func:`evaluate`, :func:`residual_maps`, :func:`physics_curves`,
+:func:`mean_loops`.
 """
 
 from labjoint.compare.api import (diagnose_report, diagnose_runs, fit_report, fit_runs,
@@ -20,7 +26,8 @@ from labjoint.compare.curves import PhysicsCurves, mean_loops, physics_curves
 from labjoint.compare.diagnosis import CandidateResult, DiagnoseSettings, Diagnosis, diagnose_prepared
 from labjoint.compare.ladders import Ladder, LadderStep, build_ladder
 from labjoint.compare.metrics import Evaluation, RunEval, evaluate
-from labjoint.compare.measurement import NoiseFloor, noise_floor
+from labjoint.compare.kinds import KINDS, kind_of, prepare
+from labjoint.compare.measurement import Measurement, NoiseFloor, noise_floor
 from labjoint.compare.residuals import ResidualMaps, residual_maps
 from labjoint.compare.prepared import PreparedRun
 from labjoint.compare.runs import prepare_run, prepare_runs
@@ -36,7 +43,7 @@ ladder = ladder_runs
 __all__ = [
     "fit", "diagnose", "ladder", "fit_runs", "diagnose_runs", "ladder_runs", "fit_report",
     "diagnose_report", "ladder_report", "load_ladders", "load_ladder", "save_ladder",
-    "prepare_run", "prepare_runs", "read_any", "PreparedRun", "noise_floor", "NoiseFloor",
+    "prepare", "KINDS", "kind_of", "Measurement", "prepare_run", "prepare_runs", "read_any", "PreparedRun", "noise_floor", "NoiseFloor",
     "evaluate", "Evaluation", "RunEval", "residual_maps", "ResidualMaps", "physics_curves",
     "PhysicsCurves", "mean_loops", "diagnose_prepared", "Diagnosis", "DiagnoseSettings",
     "CandidateResult", "SignificanceSettings", "build_ladder", "Ladder", "LadderStep",

@@ -157,6 +157,25 @@ def _slope_findings(c: PhysicsCurves) -> list[dict[str, str]]:
     return out
 
 
+def state_findings(q: np.ndarray, reversal_rms: float, midstroke_rms: float, floor: float,
+                   near: str = "near reversals", mid: str = "at mid-stroke") -> list[dict[str, str]]:
+    """Findings over the motion's state: the error concentrating near reversals or at
+    mid-stroke (rms ratio beyond 1.5), or in one quadrant of (u, v) (beyond 1.3x the
+    quietest), when above the noise floor."""
+    out = []
+    r = reversal_rms / midstroke_rms if midstroke_rms > 0 else float("inf")
+    if reversal_rms > floor and (r > 1.5 or r < 1 / 1.5):
+        out.append({"where": "reversals",
+                    "text": (f"the error concentrates {near if r > 1 else mid}: rms "
+                             f"{_pct(reversal_rms)} {near} against {_pct(midstroke_rms)} {mid}")})
+    if np.all(np.isfinite(q)) and q.max() > floor and q.max() > 1.3 * q.min():
+        i = int(np.argmax(q))
+        out.append({"where": "by quadrant",
+                    "text": (f"largest while {QUADRANTS[i]}: rms {_pct(q[i])} against "
+                             f"{_pct(q.min())} in the quietest quadrant")})
+    return out
+
+
 def _map_findings(m: ResidualMaps, floor: float) -> list[dict[str, str]]:
     out = []
     h = m.harmonic
@@ -174,18 +193,7 @@ def _map_findings(m: ResidualMaps, floor: float) -> list[dict[str, str]]:
                 extra = f"; harmonic {top} carries {_pct(ph[top])}"
             out.append({"where": "by harmonic",
                         "text": f"{_pct(h[k])} NRMSE is in {named[k]}{extra}"})
-    r = m.reversal_ratio
-    if m.reversal_rms > floor and (r > 1.5 or r < 1 / 1.5):
-        where = "near reversals" if r > 1 else "at mid-stroke"
-        out.append({"where": "reversals",
-                    "text": (f"the error concentrates {where}: rms {_pct(m.reversal_rms)} near "
-                             f"reversals against {_pct(m.midstroke_rms)} at mid-stroke")})
-    q = m.quadrant_rms
-    if np.all(np.isfinite(q)) and q.max() > floor and q.max() > 1.3 * q.min():
-        i = int(np.argmax(q))
-        out.append({"where": "by quadrant",
-                    "text": (f"largest while {QUADRANTS[i]}: rms {_pct(q[i])} against "
-                             f"{_pct(q.min())} in the quietest quadrant")})
+    out += state_findings(m.quadrant_rms, m.reversal_rms, m.midstroke_rms, floor)
     grid, noise = m.grid_nrmse, m.grid_noise
     if np.any(np.isfinite(grid)):
         i, j = np.unravel_index(np.nanargmax(grid), grid.shape)

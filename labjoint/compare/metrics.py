@@ -1,12 +1,12 @@
 """Measured against model: NRMSE (pooled and per run), energy-loss and stiffness errors.
 
-NRMSE (design.md): rms(F_measured - F_model) / rms(F_measured) over the steady samples
-of every run in the set, pooled (each run counts by its samples). Energy loss and
-stiffness are the hysteresis-loop quantities of seed 002 (Eq. 1: loop area W_d; loop
-slope k, least squares of F on U), computed per steady cycle by
-:func:`labjoint.identify.loop.loop_metrics` from the same displacement with the measured
-force and with the model force, so both sides see the same estimator; the errors are
-100 (model - measured) / measured, from the means over the steady cycles.
+NRMSE (design.md): rms(F_measured - F_model) / rms(F_measured) over the judged (steady)
+samples of every measurement in the set, pooled (each counts by its samples). Energy
+loss and stiffness come from the measurement's own ``figures`` (for sines the
+hysteresis-loop quantities of seed 002, Eq. 1, per steady cycle; for records the energy
+dissipated over the record and the least-squares stiffness), computed from the same
+displacement with the measured force and with the model force, so both sides see the
+same estimator; the errors are 100 (model - measured) / measured.
 """
 
 from __future__ import annotations

@@ -83,6 +83,16 @@ def harmonic_parts(x: np.ndarray, groups: Sequence[np.ndarray], max_h: int = MAX
             "rest": rest, "per_harmonic": per_h, "phase_h": phase}
 
 
+def state_dict(quadrant_nrmse: np.ndarray, quadrant_rms: np.ndarray, reversal_rms: float,
+               midstroke_rms: float) -> dict[str, Any]:
+    """The maps over the motion's state (quadrant of (u, v); reversals against
+    mid-stroke) as JSON sections, for every kind of measurement."""
+    ratio = reversal_rms / midstroke_rms if midstroke_rms > 0 else float("inf")
+    return {"by_quadrant": {"labels": list(QUADRANTS), "nrmse": quadrant_nrmse, "rms": quadrant_rms},
+            "reversal": {"near_reversal_rms": reversal_rms, "mid_stroke_rms": midstroke_rms,
+                         "ratio": ratio}}
+
+
 @dataclass
 class ResidualMaps:
     """The maps of the module docstring (arrays; :meth:`to_dict` for JSON)."""
@@ -116,10 +126,8 @@ class ResidualMaps:
                        "nrmse": self.grid_nrmse, "noise_floor": self.grid_noise,
                        "runs": self.grid_runs},
             "by_phase": {"edges": self.phase_edges, "rms": self.phase_rms, "mean": self.phase_mean},
-            "by_quadrant": {"labels": list(QUADRANTS), "nrmse": self.quadrant_nrmse,
-                            "rms": self.quadrant_rms},
-            "reversal": {"near_reversal_rms": self.reversal_rms,
-                         "mid_stroke_rms": self.midstroke_rms, "ratio": self.reversal_ratio},
+            **state_dict(self.quadrant_nrmse, self.quadrant_rms, self.reversal_rms,
+                         self.midstroke_rms),
             "by_harmonic": {**self.harmonic, "per_harmonic": self.per_harmonic},
             "over_time": {k: v for k, v in self.cycle_nrmse.items()},
         }

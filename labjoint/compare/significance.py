@@ -1,10 +1,11 @@
 """Is a candidate's improvement real, and can two candidates be told apart?
 
-Test (stated): a one-sided paired t-test over the steady cycles of the validation runs.
-For each cycle c the squared residual summed over the cycle is computed for the
-baseline (B_c) and the candidate (C_c); cycles are the independent units (samples within
-a cycle are not: the residual is correlated along the loop), and pairing removes the
-cycle-to-cycle variation both models share. H0: mean(B_c - C_c) <= 0; t = mean / (sd /
+Test (stated): a one-sided paired t-test over the independent units of the validation
+runs (the steady cycles of a sine; the periods or blocks of a record,
+:mod:`labjoint.compare.measurement`). For each unit c the squared residual summed over
+it is computed for the baseline (B_c) and the candidate (C_c); units are independent
+(samples within one are not: the residual is correlated along the loop), and pairing
+removes the unit-to-unit variation both models share. H0: mean(B_c - C_c) <= 0; t = mean / (sd /
 sqrt(n)), p from Student's t with n - 1 degrees of freedom.
 
 Practical threshold (stated): a deterministic improvement repeats in every cycle, so even

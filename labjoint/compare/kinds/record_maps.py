@@ -4,7 +4,7 @@ Maps (NRMSE units, as for sines: squares of a partition's cells add up to the po
 NRMSE^2):
 
 - by run: each record's NRMSE and noise floor, with its excitation and rms displacement;
-- by band: the residual's power in frequency bands (a third of an octave wide, from the
+- by band: the residual's power in frequency bands (an octave wide, from the
   records' lowest resolved frequency to Nyquist; Parseval over the judged span);
 - by line (periodic excitation): the residual's periodic part (mean over the judged
   periods, per DFT line of the period) on the excited lines, on the lines not excited
@@ -28,13 +28,14 @@ from typing import Any
 
 import numpy as np
 
+from labjoint.compare.describe import state_findings
 from labjoint.compare.evidence import fitted_params
-from labjoint.compare.residuals import QUADRANTS
+from labjoint.compare.residuals import state_dict
 from labjoint.compare.runs import split_every_nth
 from labjoint.errors import InputError
 from labjoint.signal.cycles import cycles as resample_cycles
 
-BANDS_PER_OCTAVE = 3
+BANDS_PER_OCTAVE = 1
 SLOW = 0.1
 FAST = 0.5
 VALIDATION_FRACTION = 1.0 / 3.0
@@ -98,10 +99,6 @@ class RecordMaps:
     unit_nrmse: dict[str, np.ndarray] = field(default_factory=dict)
     nrmse: float = float("nan")
 
-    @property
-    def reversal_ratio(self) -> float:
-        return self.reversal_rms / self.midstroke_rms if self.midstroke_rms > 0 else float("inf")
-
     def to_dict(self) -> dict[str, Any]:
         return {
             "by_run": {"runs": self.runs, "excitation": self.excitation,
@@ -109,10 +106,8 @@ class RecordMaps:
                        "noise_floor": self.run_noise},
             "by_band": {"edges_hz": self.band_edges_hz, "nrmse": self.band_nrmse},
             "by_line": self.lines,
-            "by_quadrant": {"labels": list(QUADRANTS), "nrmse": self.quadrant_nrmse,
-                            "rms": self.quadrant_rms},
-            "reversal": {"near_reversal_rms": self.reversal_rms,
-                         "mid_stroke_rms": self.midstroke_rms, "ratio": self.reversal_ratio},
+            **state_dict(self.quadrant_nrmse, self.quadrant_rms, self.reversal_rms,
+                         self.midstroke_rms),
             "over_time": dict(self.unit_nrmse),
         }
 
@@ -262,18 +257,8 @@ def record_failures(ev: Any, maps: RecordMaps, curves: RecordCurves, floor: floa
         for k in sorted(named, key=lambda k: -L[k]):
             if L[k] > floor and L[k] ** 2 > 0.2 * total:
                 out.append({"where": "by line", "text": f"{_pct(L[k])} NRMSE is on {named[k]}"})
-    r = maps.reversal_ratio
-    if maps.reversal_rms > floor and (r > 1.5 or r < 1 / 1.5):
-        where = "near reversals (low speed)" if r > 1 else "at mid-stroke (high speed)"
-        out.append({"where": "reversals",
-                    "text": (f"the error concentrates {where}: rms {_pct(maps.reversal_rms)} at "
-                             f"low speed against {_pct(maps.midstroke_rms)} at high speed")})
-    q = maps.quadrant_rms
-    if np.all(np.isfinite(q)) and q.max() > floor and q.max() > 1.3 * q.min():
-        i = int(np.argmax(q))
-        out.append({"where": "by quadrant",
-                    "text": (f"largest while {QUADRANTS[i]}: rms {_pct(q[i])} against "
-                             f"{_pct(q.min())} in the quietest quadrant")})
+    out += state_findings(maps.quadrant_rms, maps.reversal_rms, maps.midstroke_rms, floor,
+                          "near reversals (low speed)", "at mid-stroke (high speed)")
     if len(maps.runs) > 1:
         i = int(np.nanargmax(maps.run_nrmse))
         out.append({"where": "by run",

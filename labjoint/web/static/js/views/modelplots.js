@@ -51,13 +51,29 @@ export function perRun(fit) {
   return table(['Run', 'NRMSE', 'Energy-loss error', 'Stiffness error'], rows, { class: 'per-run' });
 }
 
-// Measured and model loop of each run (mean steady cycle), when the result carries them.
+// Measured and model force along a record (any excitation): every k-th judged sample.
+function traces(byRun, names) {
+  return h('div', { class: 'grid2' }, names.map((name, i) => {
+    const lp = byRun[name];
+    return h('figure', { class: 'small' }, plotXY({
+      id: `overlay-${i}`, title: name, height: 300, xlabel: 'time (s)', ylabel: 'joint force (N)',
+      legendAt: 'tl', series: [
+        { name: 'measured', x: lp.time_s, y: lp.force_measured_n, color: color(0), width: 2 },
+        { name: 'model', x: lp.time_s, y: lp.force_model_n, color: color(1), dash: '6 3', width: 1.5 },
+      ],
+    }));
+  }));
+}
+
+// Measured and model loop of each run (mean steady cycle), when the result carries them;
+// for records (kind "record"), the force along the record.
 export function loops(fit) {
   const byRun = fit.loops || {};
   const names = (fit.runs || []).map((r) => r.run).filter((n) => byRun[n]);
   if (!names.length) {
     return h('p', { class: 'note' }, 'The result carries no loop arrays (loops) to overlay.');
   }
+  if (fit.kind === 'record') return traces(byRun, names);
   return h('div', { class: 'grid3' }, names.map((name, i) => {
     const lp = byRun[name];
     const close = (a) => (a && a.length ? [...a, a[0]] : []);   // one whole cycle: close it
@@ -92,9 +108,36 @@ function gridMap(g) {
     format: (v) => fmt(v, 2) });
 }
 
-export function residualMaps(maps, failures) {
+// The maps of records (any excitation): NRMSE per record, per frequency band and per
+// class of DFT line (periodic excitation).
+function recordMaps(maps) {
   const parts = [];
-  if (maps?.by_run) parts.push(h('figure', {}, h('h3', {}, 'By run: amplitude × frequency'), gridMap(maps.by_run)));
+  const r = maps.by_run || {};
+  parts.push(h('figure', {}, h('h3', {}, 'By run'), barChart({
+    id: 'residual-runs', height: 260, labels: (r.runs || []).map((n, i) => `${n}\n${(r.excitation || [])[i] || ''}`),
+    values: r.nrmse, ylabel: 'NRMSE', format: (v) => fmt(v, 2),
+    hlines: (r.noise_floor || []).length ? [{ y: Math.max(...r.noise_floor.filter((v) => v != null)), label: 'noise floor' }] : [],
+  })));
+  const b = maps.by_band || {};
+  const e = b.edges_hz || [];
+  parts.push(h('figure', {}, h('h3', {}, 'By frequency band (octaves, by centre)'), barChart({
+    id: 'residual-bands', height: 260, labels: e.slice(0, -1).map((a, i) => `${fmt(Math.sqrt(a * e[i + 1]), 2)} Hz`),
+    values: b.nrmse, ylabel: 'NRMSE share', format: (v) => fmt(v, 1),
+  })));
+  if (maps.by_line) {
+    const keys = ['excited', 'not_excited', 'constant', 'aperiodic'];
+    parts.push(h('figure', {}, h('h3', {}, 'By DFT line of the period'), barChart({
+      id: 'residual-lines', height: 260, labels: ['excited', 'not excited', 'constant', 'aperiodic'],
+      values: keys.map((k) => maps.by_line[k]), ylabel: 'NRMSE share', format: (v) => fmt(v, 2),
+    }), h('p', { class: 'caption' }, 'Error on lines the excitation does not excite is '
+      + 'nonlinear distortion the model does not reproduce.')));
+  }
+  return parts;
+}
+
+export function residualMaps(maps, failures, kind) {
+  const parts = kind === 'record' && maps ? recordMaps(maps) : [];
+  if (kind !== 'record' && maps?.by_run) parts.push(h('figure', {}, h('h3', {}, 'By run: amplitude × frequency'), gridMap(maps.by_run)));
   if (maps?.by_phase) {
     const e = maps.by_phase.edges || [];
     const mid = e.slice(0, -1).map((a, i) => 180 * (a + e[i + 1]));

@@ -105,7 +105,7 @@ export async function show(el) {
     out.params.replaceChildren(fit ? draw.parameters(fit) : '');
     out.perRun.replaceChildren(fit ? draw.perRun(fit) : '');
     out.loops.replaceChildren(fit ? draw.loops(fit) : '');
-    out.maps.replaceChildren(diag ? draw.residualMaps(draw.findMaps(diag), diag.failures) : '');
+    out.maps.replaceChildren(diag ? draw.residualMaps(draw.findMaps(diag), diag.failures, diag.kind) : '');
     out.physics.replaceChildren(fit ? draw.physics(fit) : '');
     out.cands.replaceChildren(diag ? draw.candidates(diag, addEffect, state.busy) : state.ladder.length
       ? h('p', { class: 'note' }, 'Fit and diagnose the last model to see its candidates.') : '');
