@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from labjoint.documents import Block, RunStart, RunStop
-from labjoint.acquisition.engine import PlanResult
+from labjoint.acquisition.messages import PlanResult
 from labjoint.acquisition.messages import Configure, Record
 from labjoint.acquisition.plans import dwell
 from labjoint.config import load_config

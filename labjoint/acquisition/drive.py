@@ -11,10 +11,12 @@ from __future__ import annotations
 import logging
 import math
 import threading
+from typing import Callable
 
 from labjoint.acquisition.safety import check_settings
+from labjoint.config import LimitsConfig
 from labjoint.errors import HardwareError, InputError
-from labjoint.hardware.interfaces import GeneratorSettings
+from labjoint.hardware.interfaces import GeneratorSettings, SignalGenerator
 
 log = logging.getLogger(__name__)
 
@@ -30,69 +32,108 @@ class Abort(Exception):
         self.reason = reason
 
 
-class DriveMixin:
-    """Generator control for :class:`~labjoint.acquisition.engine.RunEngine` (which
-    holds the state: ``generator``, ``limits``, ``_gen_lock``, ``_abort``, ``_output``,
-    ``_vpp``, ``_target``, ``_readback``...)."""
+class AbortSignal:
+    """The emergency-stop flag the engine, its drive and its sampler share."""
 
-    def _sync(self) -> None:
+    def __init__(self) -> None:
+        self._event = threading.Event()
+        self.reason = ""
+
+    def set(self, reason: str = "") -> None:
+        self.reason = reason or "emergency stop"
+        self._event.set()
+
+    def clear(self) -> None:
+        self._event.clear()
+        self.reason = ""
+
+    def is_set(self) -> bool:
+        return self._event.is_set()
+
+    def check(self) -> None:
+        """Raise :class:`Abort` if the flag is set."""
+        if self._event.is_set():
+            raise Abort(self.reason)
+
+
+class Drive:
+    """The generator side of a run engine (module docstring): what it was told (``target``),
+    what it reads back (``readback``), whether the output is on and at what amplitude.
+
+    ``acquire(n)`` reads ``n`` samples while a ramp step runs (the sampler's), and
+    ``changed()`` is told of every change the generator makes (a steady state found
+    before it no longer holds).
+    """
+
+    def __init__(self, generator: SignalGenerator, limits: LimitsConfig, abort: AbortSignal, *,
+                 acquire: Callable[[int], None], changed: Callable[[], None],
+                 sample_rate_hz: Callable[[], float], clock: Callable[[], float],
+                 sleep: Callable[[float], None], ramp_step_s: float = 0.05,
+                 floor_vpp: float = FLOOR_VPP) -> None:
+        self.generator, self.limits, self.abort = generator, limits, abort
+        self.acquire, self.changed, self.sample_rate_hz = acquire, changed, sample_rate_hz
+        self.clock, self.sleep = clock, sleep
+        self.ramp_step_s, self.floor_vpp = ramp_step_s, floor_vpp
+        self.lock = threading.RLock()
+        self.output = False
+        self.vpp = floor_vpp
+        self.target: GeneratorSettings | None = None
+        self.readback: GeneratorSettings | None = None
+        self.fault = False
+
+    def sync(self) -> None:
         """Adopt the generator's actual state (a plan may start with the output on)."""
-        with self._gen_lock:
+        self.fault = False
+        with self.lock:
             s = self.generator.read_settings()
-        self._readback, self._output, self._vpp = s, bool(s.output), float(s.amplitude_vpp)
+        self.readback, self.output, self.vpp = s, bool(s.output), float(s.amplitude_vpp)
         if s.output:
-            self._target = GeneratorSettings(s.frequency_hz, s.amplitude_vpp, s.offset_v)
+            self.target = GeneratorSettings(s.frequency_hz, s.amplitude_vpp, s.offset_v)
 
-    def emergency_stop(self, reason: str = "emergency stop") -> None:
-        """Output off now (no ramp) and end the running plan with status 'aborted'.
-
-        Safe from any thread or a signal handler; from the engine's own thread (a signal
-        handler) it only raises the flag, and the engine switches off at its next step.
-        """
-        self._abort_reason = reason or "emergency stop"
-        self._abort.set()
-        if self.torque_gate is not None:
-            self.torque_gate.wake()
-        if threading.get_ident() == self._thread:
-            return
-        with self._gen_lock:
+    def off_now(self, why: str) -> None:
+        """Output off at once, no ramp (an emergency stop from another thread)."""
+        with self.lock:
             try:
                 self.generator.set_output(False)
-                self._output = False
+                self.output = False
             except Exception as exc:
-                log.error("emergency stop: switching the output off failed: %s", exc)
+                log.error("%s: switching the output off failed: %s", why, exc)
 
-    def _need_target(self, what: str) -> GeneratorSettings:
-        if self._target is None:
+    def need_target(self, what: str) -> GeneratorSettings:
+        if self.target is None:
             raise InputError(f"{what} before any Configure: no frequency set", field="frequency_hz")
-        return self._target
+        return self.target
+
+    def identify(self) -> str:
+        with self.lock:
+            return self.generator.identify()
 
     def _apply(self, f: float, vpp: float, offset: float) -> None:
-        settings = GeneratorSettings(f, vpp, offset, self._output)
-        with self._gen_lock:
-            self._check_abort()
+        settings = GeneratorSettings(f, vpp, offset, self.output)
+        with self.lock:
+            self.abort.check()
             check_settings(settings, self.limits)
             try:
-                self._readback = self.generator.apply(f, vpp, offset)
+                self.readback = self.generator.apply(f, vpp, offset)
             except BaseException:
-                self._gen_fault = True
+                self.fault = True
                 raise
-        self._vpp = vpp
-        self._steady = None
+        self.vpp = vpp
+        self.changed()
 
     def _switch(self, on: bool) -> None:
-        with self._gen_lock:
+        with self.lock:
             if on:
-                self._check_abort()
+                self.abort.check()
             try:
                 self.generator.set_output(on)
             except BaseException:
-                self._gen_fault = True
+                self.fault = True
                 raise
-            self._output = on
-        self._steady = None
+            self.output = on
+        self.changed()
 
-    def _ramp_to(self, target: float, acquire: bool = True) -> None:
+    def ramp_to(self, target: float, acquire: bool = True) -> None:
         """Move the amplitude to ``target`` never faster than ``limits.ramp_vpp_per_s``:
         each step is at most the rate times the time since the previous change returned.
 
@@ -100,18 +141,17 @@ class DriveMixin:
         (limits checked; a real DAQ blocks that long, the simulator advances that much
         physics) and sleeps whatever of the step the read did not take.
         """
-        t = self._need_target("ramp")
-        v, t_prev, stalls = self._vpp, self.clock(), 0
-        n_step = max(1, int(round(self.ramp_step_s * self.daq.sample_rate_hz)))
+        t = self.need_target("ramp")
+        v, t_prev, stalls = self.vpp, self.clock(), 0
+        n_step = max(1, int(round(self.ramp_step_s * self.sample_rate_hz())))
         while v != target:
             t_step = self.clock()
-            if acquire and self._output:
-                for _ in self._blocks(n_step):
-                    pass
+            if acquire and self.output:
+                self.acquire(n_step)
             rest = self.ramp_step_s - (self.clock() - t_step)
             if rest > 0:
                 self.sleep(rest)
-            self._check_abort()
+            self.abort.check()
             now = self.clock()
             dv = self.limits.ramp_vpp_per_s * min(now - t_prev, self.ramp_step_s)
             if not dv > 0:
@@ -123,53 +163,48 @@ class DriveMixin:
             self._apply(t.frequency_hz, v, t.offset_v)
             t_prev = self.clock()
 
-    def _configure(self, f: float, vpp: float, offset: float) -> GeneratorSettings | None:
+    def configure(self, f: float, vpp: float, offset: float) -> GeneratorSettings | None:
+        """Set frequency, amplitude and offset: parked at the floor while the output is
+        off, else the frequency at once and the amplitude by a ramp."""
         target = GeneratorSettings(f, vpp, offset)
         check_settings(target, self.limits)
-        old, self._target = self._target, target
-        if not self._output:
+        old, self.target = self.target, target
+        if not self.output:
             self._apply(f, self.floor_vpp, offset)
-            return self._readback
+            return self.readback
         if offset != old.offset_v:
-            self._target = old
+            self.target = old
             raise InputError("the offset can only change while the output is off", field="offset_v")
         if f != old.frequency_hz:
-            self._apply(f, self._vpp, offset)
-        self._ramp_to(vpp)
-        return self._readback
+            self._apply(f, self.vpp, offset)
+        self.ramp_to(vpp)
+        return self.readback
 
-    def _output_on(self) -> GeneratorSettings | None:
-        t = self._need_target("Output(True)")
-        if not self._output:
+    def ramp(self, vpp: float) -> GeneratorSettings | None:
+        """Ramp the amplitude to ``vpp`` at the configured frequency."""
+        t = self.need_target("Ramp")
+        return self.configure(t.frequency_hz, vpp, t.offset_v)
+
+    def on(self) -> GeneratorSettings | None:
+        """Output on from the floor, then ramped up to the target amplitude."""
+        t = self.need_target("Output(True)")
+        if not self.output:
             self._apply(t.frequency_hz, self.floor_vpp, t.offset_v)
             self._switch(True)
-        self._ramp_to(t.amplitude_vpp)
-        return self._readback
+        self.ramp_to(t.amplitude_vpp)
+        return self.readback
 
-    def _output_off(self) -> None:
-        if self._output and self._target is not None:
-            self._ramp_to(self.floor_vpp)
+    def off(self) -> None:
+        """Ramp down to the floor, then output off."""
+        if self.output and self.target is not None:
+            self.ramp_to(self.floor_vpp)
         self._switch(False)
-        self._stop_daq()
 
-    def _check_abort(self) -> None:
-        if self._abort.is_set():
-            raise Abort(self._abort_reason)
-
-    def _shutdown(self, ramp: bool) -> None:
-        """DAQ stopped, amplitude ramped down if asked (and possible), output off."""
-        try:
-            self._stop_daq()
-        except Exception as exc:
-            log.error("stopping the DAQ failed: %s", exc)
-        if ramp and self._output and self._target is not None and not self._abort.is_set():
+    def shutdown(self, ramp: bool) -> None:
+        """Amplitude ramped down if asked (and possible, without acquiring), output off."""
+        if ramp and self.output and self.target is not None and not self.abort.is_set():
             try:
-                self._ramp_to(self.floor_vpp, acquire=False)
+                self.ramp_to(self.floor_vpp, acquire=False)
             except Exception as exc:
                 log.error("ramping down failed, switching off at once: %s", exc)
-        with self._gen_lock:
-            try:
-                self.generator.set_output(False)
-                self._output = False
-            except Exception as exc:
-                log.error("switching the output off failed: %s", exc)
+        self.off_now("shutdown")

@@ -35,22 +35,23 @@ import signal
 import threading
 import time
 import uuid
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict
 from datetime import datetime, timezone
 from typing import Any, Callable, Iterator, Mapping, Sequence
 
-import numpy as np
-
 from labjoint import __version__
-from labjoint.documents import Marker, RunStart, RunStop
 from labjoint.acquisition.calibrations import channel_calibrations
-from labjoint.acquisition.drive import FLOOR_VPP, Abort, DriveMixin
+from labjoint.acquisition.drive import FLOOR_VPP, Abort, AbortSignal, Drive
 from labjoint.acquisition.gate import GateCancelled, TorqueGate
-from labjoint.acquisition.messages import (Checkpoint, Configure, Measure, Output, Pause, Ramp,
-                                           Record, RecordResult, SetTorque, SteadyResult, WaitSteady)
-from labjoint.acquisition.sampling import SamplingMixin
+from labjoint.acquisition.messages import (Checkpoint, Configure, Measure, Measurement, Message,
+                                           Output, Pause, PlanResult, Ramp, Record, RecordResult,
+                                           SetTorque, SteadyResult, WaitSteady)
+from labjoint.acquisition.recorder import Recorder, utc_now
+from labjoint.acquisition.roles import engine_roles
+from labjoint.acquisition.sampling import Sampler
 from labjoint.config import LimitsConfig, RigConfig
-from labjoint.errors import ConfigError, HardwareError, InputError, LimitExceeded
+from labjoint.errors import HardwareError, InputError, LimitExceeded
+from labjoint.documents import Marker
 from labjoint.hardware.interfaces import DAQ, GeneratorSettings, SignalGenerator
 
 __all__ = ["FLOOR_VPP", "PlanResult", "RunEngine", "channel_calibrations", "stop_on_signals",
@@ -60,33 +61,30 @@ log = logging.getLogger(__name__)
 
 DEFAULT_TORQUE_RATIO = 478.0  # N per N*m, seed 002
 
-
-def utc_now() -> str:
-    """Current UTC time, ISO 8601."""
-    return datetime.now(timezone.utc).isoformat()
+#: message type -> name of the RunEngine method that executes it (:func:`command`)
+COMMANDS: dict[type, str] = {}
 
 
-@dataclass
-class PlanResult:
-    """How a plan ended, and every run it recorded."""
+def command(message: type) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """Register the decorated engine method as the executor of ``message``."""
 
-    status: str
-    reason: str = ""
-    runs: list[RecordResult] = field(default_factory=list)
+    def deco(fn: Callable[..., Any]) -> Callable[..., Any]:
+        if message in COMMANDS:
+            raise ValueError(f"{message.__name__} already has an executor: {COMMANDS[message]}")
+        COMMANDS[message] = fn.__name__
+        return fn
 
-
-@dataclass
-class _OpenRun:
-    uid: str
-    name: str
-    start_abs: int
-    n: int = 0
+    return deco
 
 
-class RunEngine(DriveMixin, SamplingMixin):
+class RunEngine:
     """Runs plans on ``generator`` and ``daq`` (configured beforehand), emitting documents
-    to ``callbacks``. ``rig`` is the simulated rig's handle (``set_torque``), None on a
-    real rig, where ``torque_gate`` lets the operator confirm torque changes and pauses.
+    to ``callbacks``. It is composed of a :class:`~labjoint.acquisition.drive.Drive`
+    (``drive``: the generator side) and a :class:`~labjoint.acquisition.sampling.Sampler`
+    (``sampler``: the DAQ side) sharing one abort flag; each message type is executed by
+    the method registered for it with :func:`command` (``COMMANDS``). ``rig`` is the
+    simulated rig's handle (``set_torque``), None on a real rig, where ``torque_gate``
+    lets the operator confirm torque changes and pauses.
     ``config`` supplies channel roles, the torque-to-normal-force ratio, the backend name
     and the block size; without it roles are inferred from the channels' quantities.
     ``clock``/``sleep`` pace the ramps (tests pass fakes). ``calibration_sources`` maps a
@@ -103,51 +101,37 @@ class RunEngine(DriveMixin, SamplingMixin):
                  ramp_step_s: float = 0.05, floor_vpp: float = FLOOR_VPP,
                  calibration_sources: Mapping[str, Sequence[Mapping[str, Any]]] | None = None
                  ) -> None:
-        self.generator, self.daq, self.limits = generator, daq, limits
+        self.generator, self.daq = generator, daq
         self.calibration_sources = dict(calibration_sources or {})
-        self.callbacks = list(callbacks)
-        self.clock, self.sleep = clock, sleep
+        self.recorder = Recorder(callbacks)
         self.torque_gate, self.rig, self.config = torque_gate, rig, config
         self.block_samples = block_samples
-        self.ramp_step_s, self.floor_vpp = ramp_step_s, floor_vpp
-        self._gen_lock = threading.RLock()
-        self._abort = threading.Event()
-        self._abort_reason = ""
+        self._abort = AbortSignal()
         self._thread: int | None = None
-        self._output = False
-        self._vpp = floor_vpp
-        self._target: GeneratorSettings | None = None
-        self._readback: GeneratorSettings | None = None
+        self.drive = Drive(generator, limits, self._abort,
+                           acquire=lambda n: self.sampler.consume(n, self._frequency()),
+                           changed=self._forget_steady, sample_rate_hz=lambda: daq.sample_rate_hz,
+                           clock=clock, sleep=sleep, ramp_step_s=ramp_step_s, floor_vpp=floor_vpp)
+        self.sampler = Sampler(daq, limits, self._abort, block=self._block,
+                               sink=self.recorder.block, marker=self.recorder.marker)
         self._torque: float | None = getattr(rig, "torque_nm", None)
         self._torque_requested: float | None = None
-        self._daq_running = False
-        self._steady: SteadyResult | None = None
-        self._run: _OpenRun | None = None
-        self._gen_fault = False
         self.state = "idle"
         self.progress: dict[str, Any] = {}
+
+    @property
+    def limits(self) -> LimitsConfig:
+        """The safety limits (one object for the drive and the sampler; replaceable)."""
+        return self.drive.limits
+
+    @limits.setter
+    def limits(self, value: LimitsConfig) -> None:
+        self.drive.limits = self.sampler.limits = value
 
     # ---- channel roles --------------------------------------------------------------
     def roles(self) -> dict[str, Any]:
         """Displacement, joint-force and reference-force channel names and the backend."""
-        names = [c.name for c in self.daq.channels]
-        if self.config is not None:
-            r = self.config.rig
-            roles = {"displacement_channels": list(r.displacement_channels),
-                     "joint_force_channel": r.joint_force_channel,
-                     "reference_force_channel": r.reference_force_channel,
-                     "rig_backend": r.backend}
-            for key in ("displacement_channels", "joint_force_channel", "reference_force_channel"):
-                for n in np.atleast_1d(roles[key]):
-                    if n not in names:
-                        raise ConfigError(f"channel {n!r} is not among the DAQ channels {names}",
-                                          file=self.config.source or None, field=f"rig.{key}")
-            return roles
-        chans = self.daq.channels
-        return {"displacement_channels": [c.name for c in chans if c.quantity == "displacement"],
-                "joint_force_channel": next((c.name for c in chans if c.sensor == "nanocomposite"), None),
-                "reference_force_channel": next((c.name for c in chans if c.sensor == "force"), None),
-                "rig_backend": "sim" if self.rig is not None else "real"}
+        return engine_roles(list(self.daq.channels), self.config, self.rig is not None)
 
     def _block(self) -> int:
         if self.block_samples:
@@ -165,20 +149,19 @@ class RunEngine(DriveMixin, SamplingMixin):
         start time plus a random tag, so repeated plans never collide; '' for none.
         """
         roles = self.roles()  # ConfigError if the config's channels are not the DAQ's
-        with self._gen_lock:
+        with self.drive.lock:
             if self._thread is not None:
                 raise RuntimeError("this engine is already running a plan")
             self._thread = threading.get_ident()
         self._roles = roles
+        self.sampler.relative = list(roles["displacement_channels"])
         self._abort.clear()
-        self._abort_reason = ""
-        self._gen_fault = False
         self._plan_name = getattr(plan, "__name__", "plan")
         if not hasattr(plan, "send"):  # a plain list of messages
             plan = (msg for msg in plan)
         self._prefix = (f"{datetime.now(timezone.utc):%Y%m%dT%H%M%SZ}-{uuid.uuid4().hex[:4]}"
                         if name_prefix is None else name_prefix)
-        self._records: list[RecordResult] = []
+        self.recorder.reset()
         self._checkpoint: dict[str, Any] | None = None
         self._idn: str | None = None
         self.state, self.progress = "running", {"plan": self._plan_name}
@@ -186,10 +169,10 @@ class RunEngine(DriveMixin, SamplingMixin):
         if hasattr(self.rig, "torque_nm"):
             self._torque = float(self.rig.torque_nm)
         try:
-            self._sync()
+            self.drive.sync()
             answer = None
             while True:
-                self._check_abort()
+                self._abort.check()
                 try:
                     msg = plan.send(answer)
                 except StopIteration:
@@ -198,9 +181,13 @@ class RunEngine(DriveMixin, SamplingMixin):
         except BaseException as exc:  # classified, cleaned up, re-raised if not ours
             status, reason, ramp, pending = self._classify(exc)
         try:
-            self._shutdown(ramp)
-            if self._run is not None:
-                self._close_run(status, reason)
+            try:
+                self.sampler.stop()
+            except Exception as exc:
+                log.error("stopping the DAQ failed: %s", exc)
+            self.drive.shutdown(ramp)
+            if self.recorder.open_run is not None:
+                self.recorder.close(status, reason)
         finally:
             with contextlib.suppress(Exception):
                 plan.close()
@@ -209,37 +196,84 @@ class RunEngine(DriveMixin, SamplingMixin):
             log.warning("plan %s ended %s: %s", self._plan_name, status, reason)
         if pending is not None:
             raise pending
-        return PlanResult(status, reason, list(self._records))
+        return PlanResult(status, reason, list(self.recorder.runs))
 
-    # ---- message dispatch -----------------------------------------------------------
-    def _execute(self, msg: Any) -> Any:
-        if isinstance(msg, Configure):
-            return self._configure(msg.frequency_hz, msg.amplitude_vpp, msg.offset_v)
-        if isinstance(msg, Ramp):
-            t = self._need_target("Ramp")
-            return self._configure(t.frequency_hz, msg.to_vpp, t.offset_v)
-        if isinstance(msg, Output):
-            return self._output_on() if msg.on else self._output_off()
-        if isinstance(msg, SetTorque):
-            return self._set_torque(msg.torque_nm)
-        if isinstance(msg, Pause):
-            return self._operator("pause", reason=msg.reason)
-        if isinstance(msg, WaitSteady):
-            return self._wait_steady(msg)
-        if isinstance(msg, Measure):
-            return self._measure(msg)
-        if isinstance(msg, Record):
-            return self._record(msg)
-        if isinstance(msg, Checkpoint):
-            self._checkpoint = {"label": msg.label, **msg.data}
-            self.progress = {"plan": self._plan_name, "checkpoint": msg.label}
-            return None
-        raise InputError(f"not a plan message: {msg!r}", field="message")
+    # ---- emergency stop ---------------------------------------------------------------
+    def emergency_stop(self, reason: str = "emergency stop") -> None:
+        """Output off now (no ramp) and end the running plan with status 'aborted'.
+
+        Safe from any thread or a signal handler; from the engine's own thread (a signal
+        handler) it only raises the flag, and the engine switches off at its next step.
+        """
+        self._abort.set(reason)
+        if self.torque_gate is not None:
+            self.torque_gate.wake()
+        if threading.get_ident() != self._thread:
+            self.drive.off_now("emergency stop")
+
+    # ---- message dispatch (the command registry) ----------------------------------------
+    def _execute(self, msg: Message) -> Any:
+        name = COMMANDS.get(type(msg))
+        if name is None:
+            raise InputError(f"not a plan message: {msg!r}", field="message")
+        return getattr(self, name)(msg)
+
+    @command(Configure)
+    def _do_configure(self, msg: Configure) -> GeneratorSettings | None:
+        return self.drive.configure(msg.frequency_hz, msg.amplitude_vpp, msg.offset_v)
+
+    @command(Ramp)
+    def _do_ramp(self, msg: Ramp) -> GeneratorSettings | None:
+        return self.drive.ramp(msg.to_vpp)
+
+    @command(Output)
+    def _do_output(self, msg: Output) -> GeneratorSettings | None:
+        return self._output_on() if msg.on else self._output_off()
+
+    @command(SetTorque)
+    def _do_set_torque(self, msg: SetTorque) -> float:
+        return self._set_torque(msg.torque_nm)
+
+    @command(Pause)
+    def _do_pause(self, msg: Pause) -> dict[str, Any]:
+        return self._operator("pause", reason=msg.reason)
+
+    @command(WaitSteady)
+    def _do_wait_steady(self, msg: WaitSteady) -> SteadyResult:
+        return self.sampler.wait_steady(msg, self._frequency())
+
+    @command(Measure)
+    def _do_measure(self, msg: Measure) -> Measurement:
+        return self.sampler.measure(msg, self._frequency(), self._roles["reference_force_channel"])
+
+    @command(Record)
+    def _do_record(self, msg: Record) -> RecordResult:
+        return self._record(msg)
+
+    @command(Checkpoint)
+    def _do_checkpoint(self, msg: Checkpoint) -> None:
+        self._checkpoint = {"label": msg.label, **msg.data}
+        self.progress = {"plan": self._plan_name, "checkpoint": msg.label}
+
+    # ---- the drive and the sampler together ------------------------------------------
+    def _frequency(self) -> float:
+        return self.drive.need_target("acquisition").frequency_hz
+
+    def _forget_steady(self) -> None:
+        """A generator change: a steady state found before it no longer holds."""
+        self.sampler.steady = None
+
+    def _output_on(self) -> GeneratorSettings | None:
+        return self.drive.on()
+
+    def _output_off(self) -> None:
+        self.drive.off()
+        self.sampler.stop()
 
     # ---- torque and operator --------------------------------------------------------
     def _set_torque(self, torque_nm: float) -> float:
         if self.rig is not None and hasattr(self.rig, "set_torque"):
-            was_on = self._output
+            was_on = self.drive.output
             self._output_off()
             self.rig.set_torque(torque_nm)
             self._torque = self._torque_requested = float(torque_nm)
@@ -258,7 +292,7 @@ class RunEngine(DriveMixin, SamplingMixin):
                 log.info("pause skipped (simulated rig, no operator gate): %s", info.get("reason"))
                 return {}
             raise HardwareError(f"{kind}: a real rig needs an operator gate (torque_gate) to wait on")
-        was_on = self._output
+        was_on = self.drive.output
         self._output_off()
         self.state = "waiting"
         self.progress = {"plan": self._plan_name, "waiting": {"kind": kind, **info}}
@@ -266,7 +300,7 @@ class RunEngine(DriveMixin, SamplingMixin):
             answer = self.torque_gate.ask(kind, self._abort, **info)
         finally:
             self.state = "running"
-        self._check_abort()
+        self._abort.check()
         if was_on:
             self._output_on()
         return answer
@@ -275,54 +309,31 @@ class RunEngine(DriveMixin, SamplingMixin):
     def _record(self, msg: Record) -> RecordResult:
         f, fs = self._frequency(), self.daq.sample_rate_hz
         n_total = int(math.ceil(msg.n_cycles * fs / f if msg.n_cycles is not None else msg.duration_s * fs))
-        steady = self._steady if self._daq_running else None
-        self._start_daq()
+        steady = self.sampler.steady if self.sampler.running else None
+        self.sampler.start()
         name = f"{self._prefix}_{msg.name}" if self._prefix else msg.name
         uid = uuid.uuid4().hex
         md = self._metadata(msg, steady)
-        self._run = _OpenRun(uid, name, self.daq.samples_read)
+        self.recorder.open(uid, name, self.daq.channels, fs, md, self.daq.samples_read)
         self.progress = {"plan": self._plan_name, "run": name}
-        self._emit("start", RunStart(uid, name, list(self.daq.channels), fs, md))
         if steady is not None:
-            self._emit("marker", Marker(uid, "steady", 0, steady.to_dict()))
-        for _ in self._blocks(n_total):
-            pass
-        return self._close_run("complete", "")
-
-    def _marker(self, name: str, sample_abs: int, data: dict[str, Any]) -> None:
-        if self._run is not None:
-            self._emit("marker", Marker(self._run.uid, name, max(0, sample_abs - self._run.start_abs), data))
-
-    def _close_run(self, status: str, reason: str) -> RecordResult:
-        run, self._run = self._run, None
-        end = utc_now()
-        doc = RunStop(run.uid, status, reason, end, run.n, {"end_time": end})
-        result = RecordResult(run.uid, run.name, status, run.n)
-        self._records.append(result)
-        if status == "complete":
-            self._emit("stop", doc)
-        else:  # closing after a fault: every callback gets the stop, whatever the others do
-            for cb in self.callbacks:
-                try:
-                    cb("stop", doc)
-                except Exception as exc:
-                    log.error("callback %r failed on the stop document: %s", cb, exc)
-        return result
+            self.recorder.emit("marker", Marker(uid, "steady", 0, steady.to_dict()))
+        self.sampler.consume(n_total, f)
+        return self.recorder.close("complete", "")
 
     def _metadata(self, msg: Record, steady: SteadyResult | None) -> dict[str, Any]:
-        rb, t = self._readback, self._target
+        rb, t, on = self.drive.readback, self.drive.target, self.drive.output
         if self._idn is None:
-            with self._gen_lock:
-                self._idn = self.generator.identify()
+            self._idn = self.drive.identify()
         md: dict[str, Any] = dict(msg.metadata)
         md.setdefault("plan", self._plan_name)
-        md.setdefault("plan_step", len(self._records))
+        md.setdefault("plan_step", len(self.recorder.runs))
         md.update({
             "frequency_hz": float(rb.frequency_hz if rb else t.frequency_hz),
-            "excitation_vpp": float(rb.amplitude_vpp) if (rb and self._output) else 0.0,
+            "excitation_vpp": float(rb.amplitude_vpp) if (rb and on) else 0.0,
             "offset_v": float(rb.offset_v if rb else t.offset_v),
             "sample_rate_hz": float(self.daq.sample_rate_hz),
-            "generator": {**(asdict(rb) if rb else {}), "output": self._output,
+            "generator": {**(asdict(rb) if rb else {}), "output": on,
                           "requested_vpp": float(t.amplitude_vpp), "idn": self._idn},
             "start_time": utc_now(),
             "software_version": __version__,
@@ -354,10 +365,6 @@ class RunEngine(DriveMixin, SamplingMixin):
             info.update(module=self.config.daq.module, device=self.config.daq.device)
         return info
 
-    def _emit(self, name: str, doc: Any) -> None:
-        for cb in self.callbacks:
-            cb(name, doc)
-
     # ---- endings --------------------------------------------------------------------
     def _classify(self, exc: BaseException) -> tuple[str, str, bool, BaseException | None]:
         """(status, reason, ramp down?, exception to re-raise)."""
@@ -368,10 +375,10 @@ class RunEngine(DriveMixin, SamplingMixin):
         if isinstance(exc, LimitExceeded):
             return "limit", str(exc), True, None
         if isinstance(exc, HardwareError):
-            return "failed", f"{type(exc).__name__}: {exc}", not self._gen_fault, None
+            return "failed", f"{type(exc).__name__}: {exc}", not self.drive.fault, None
         if isinstance(exc, KeyboardInterrupt):
             return "aborted", "interrupted (KeyboardInterrupt)", False, exc
-        return "failed", f"{type(exc).__name__}: {exc}", not self._gen_fault, exc
+        return "failed", f"{type(exc).__name__}: {exc}", not self.drive.fault, exc
 
 @contextlib.contextmanager
 def stop_on_signals(engine: RunEngine, signals: Sequence[int] = (signal.SIGTERM,)) -> Iterator[None]:

@@ -219,3 +219,12 @@ class RecordResult:
     name: str
     status: str
     n_samples: int
+
+
+@dataclass
+class PlanResult:
+    """How a plan ended, and every run it recorded."""
+
+    status: str
+    reason: str = ""
+    runs: list[RecordResult] = field(default_factory=list)

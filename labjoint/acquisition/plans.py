@@ -24,6 +24,7 @@ from typing import Annotated, Any, Callable, Generator, Literal, Mapping
 import numpy as np
 from pydantic import Field, ValidationError, validate_call
 
+from labjoint.acquisition import plan_stubs as stubs
 from labjoint.acquisition.messages import (Configure, Measure, Measurement, Message, Output,
                                            Ramp, Record, SetTorque, WaitSteady)
 from labjoint.errors import InputError
@@ -97,14 +98,12 @@ def dwell(frequency_hz: Hz, amplitude_vpp: Vpp, *, n_cycles: Cycles = 100,
           torque_nm: Nm | None = None, offset_v: Volt = 0.0, steady_max_cycles: Cycles = 400,
           steady_tol: Fraction = 0.02, steady_window: Window = 10) -> Plan:
     """One steady run: sine on, wait for steady state, record ``n_cycles``, output off."""
-    if torque_nm is not None:
-        yield SetTorque(torque_nm)
-    yield Configure(frequency_hz, amplitude_vpp, offset_v)
-    yield Output(True)
-    yield _wait(steady_max_cycles, steady_tol, steady_window)
-    yield Record(f"dwell_{_tag(frequency_hz)}Hz_{_tag(amplitude_vpp)}Vpp", n_cycles=n_cycles,
-                 metadata={"plan": "dwell", "plan_step": 0})
-    yield Output(False)
+    yield from stubs.torque(torque_nm)
+    yield from stubs.sine_on(frequency_hz, amplitude_vpp, offset_v)
+    yield from stubs.settle_and_record(f"dwell_{_tag(frequency_hz)}Hz_{_tag(amplitude_vpp)}Vpp",
+                                       n_cycles, {"plan": "dwell", "plan_step": 0},
+                                       steady_max_cycles, steady_tol, steady_window)
+    yield from stubs.output_off()
 
 
 @_plan()
@@ -114,16 +113,15 @@ def amplitude_sweep(amplitudes_vpp: Annotated[list[Vpp], Field(min_length=1)] = 
                     steady_window: Window = 10) -> Plan:
     """Seed 002 Table 3: one run per excitation level at fixed frequency and torque; the
     output stays on and the amplitude is ramped between levels."""
-    yield SetTorque(torque_nm)
-    yield Configure(frequency_hz, amplitudes_vpp[0])
-    yield Output(True)
+    yield from stubs.torque(torque_nm)
+    yield from stubs.sine_on(frequency_hz, amplitudes_vpp[0])
     for i, vpp in enumerate(amplitudes_vpp):
         if i:
             yield Ramp(vpp)
-        yield _wait(steady_max_cycles, steady_tol, steady_window)
-        yield Record(f"amplitude_sweep_{i:02d}_{_tag(vpp)}Vpp", n_cycles=n_cycles,
-                     metadata={"plan": "amplitude_sweep", "plan_step": i})
-    yield Output(False)
+        yield from stubs.settle_and_record(f"amplitude_sweep_{i:02d}_{_tag(vpp)}Vpp", n_cycles,
+                                           {"plan": "amplitude_sweep", "plan_step": i},
+                                           steady_max_cycles, steady_tol, steady_window)
+    yield from stubs.output_off()
 
 
 @_plan()
@@ -134,13 +132,12 @@ def torque_series(torques_nm: Annotated[list[Nm], Field(min_length=1)] = TABLE4_
     """Seed 002 Table 4: one run per bolt torque; output off while the torque changes
     (on a real rig the engine waits there for the operator)."""
     for i, torque in enumerate(torques_nm):
-        yield SetTorque(torque)
-        yield Configure(frequency_hz, amplitude_vpp)
-        yield Output(True)
-        yield _wait(steady_max_cycles, steady_tol, steady_window)
-        yield Record(f"torque_series_{i:02d}_{_tag(torque)}Nm", n_cycles=n_cycles,
-                     metadata={"plan": "torque_series", "plan_step": i})
-        yield Output(False)
+        yield from stubs.torque(torque)
+        yield from stubs.sine_on(frequency_hz, amplitude_vpp)
+        yield from stubs.settle_and_record(f"torque_series_{i:02d}_{_tag(torque)}Nm", n_cycles,
+                                           {"plan": "torque_series", "plan_step": i},
+                                           steady_max_cycles, steady_tol, steady_window)
+        yield from stubs.output_off()
 
 
 @_plan()
@@ -149,13 +146,12 @@ def friction_test(frequency_hz: Hz = 100.0, torque_nm: Nm = 2.0, amplitude_vpp: 
                   steady_tol: Fraction = 0.02, steady_window: Window = 10) -> Plan:
     """Seed 002 Eq. 10 test: low frequency, low torque, amplitude high enough for
     macro-slip, so the interface slides and mu = f_sld / f_n can be read."""
-    yield SetTorque(torque_nm)
-    yield Configure(frequency_hz, amplitude_vpp)
-    yield Output(True)
-    yield _wait(steady_max_cycles, steady_tol, steady_window)
-    yield Record(f"friction_test_{_tag(frequency_hz)}Hz_{_tag(torque_nm)}Nm", n_cycles=n_cycles,
-                 metadata={"plan": "friction_test", "plan_step": 0})
-    yield Output(False)
+    yield from stubs.torque(torque_nm)
+    yield from stubs.sine_on(frequency_hz, amplitude_vpp)
+    yield from stubs.settle_and_record(f"friction_test_{_tag(frequency_hz)}Hz_{_tag(torque_nm)}Nm",
+                                       n_cycles, {"plan": "friction_test", "plan_step": 0},
+                                       steady_max_cycles, steady_tol, steady_window)
+    yield from stubs.output_off()
 
 
 @_plan()

@@ -5,79 +5,91 @@ from __future__ import annotations
 
 import logging
 import math
-from typing import Iterator, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 
-from labjoint.documents import Block
+from labjoint.acquisition.drive import AbortSignal
 from labjoint.acquisition.messages import Measure, Measurement, SteadyResult, WaitSteady
 from labjoint.acquisition.online import CycleAmplitudes, fundamental
 from labjoint.acquisition.safety import check_block
+from labjoint.config import LimitsConfig
 from labjoint.errors import HardwareError, InputError, LimitExceeded
+from labjoint.hardware.interfaces import DAQ
 
 log = logging.getLogger(__name__)
 
 
-class SamplingMixin:
-    """Acquisition for :class:`~labjoint.acquisition.engine.RunEngine` (which holds
-    ``daq``, ``limits``, ``_run``, ``_roles``, ``_steady``... and emits documents)."""
+class Sampler:
+    """The DAQ side of a run engine: reads blocks (handing each to ``sink``, which puts it
+    into the open run), checks them against the limits (``marker`` records where a limit
+    tripped or a fault struck), and finds steady state and fundamentals. ``block()`` is
+    the block size; ``relative`` the displacement channels (relative limits)."""
 
-    def _start_daq(self) -> None:
-        if not self._daq_running:
+    def __init__(self, daq: DAQ, limits: LimitsConfig, abort: AbortSignal, *,
+                 block: Callable[[], int], sink: Callable[[int, np.ndarray], None],
+                 marker: Callable[[str, int, dict[str, Any]], None]) -> None:
+        self.daq, self.limits, self.abort = daq, limits, abort
+        self.block, self.sink, self.marker = block, sink, marker
+        self.running = False
+        self.steady: SteadyResult | None = None
+        self.relative: list[str] = []
+
+    def start(self) -> None:
+        if not self.running:
             self.daq.start()
-            self._daq_running = True
+            self.running = True
 
-    def _stop_daq(self) -> None:
-        if self._daq_running:
-            self._daq_running = False
-            self._steady = None
+    def stop(self) -> None:
+        if self.running:
+            self.running = False
+            self.steady = None
             self.daq.stop()
 
-    def _frequency(self) -> float:
-        return self._need_target("acquisition").frequency_hz
-
-    def _blocks(self, n_total: int | None) -> Iterator[tuple[int, np.ndarray]]:
-        """Read blocks (emitting them into the open run), check limits, then yield them;
-        with ``n_total`` None, read until the consumer stops."""
-        self._start_daq()
-        f, size, done = self._frequency(), self._block(), 0
-        relative = self._roles["displacement_channels"]
+    def blocks(self, n_total: int | None, f: float) -> Iterator[tuple[int, np.ndarray]]:
+        """Read blocks (handing them to the sink), check limits, then yield them; with
+        ``n_total`` None, read until the consumer stops. ``f``: the drive frequency."""
+        self.start()
+        size, done = self.block(), 0
         while n_total is None or done < n_total:
             n = size if n_total is None else min(size, n_total - done)
             first = self.daq.samples_read
             try:
                 volts = self.daq.read(n)
             except HardwareError as exc:
-                self._marker("fault", first, {"error": f"{type(exc).__name__}: {exc}"})
+                self.marker("fault", first, {"error": f"{type(exc).__name__}: {exc}"})
                 raise
-            run = self._run
-            if run is not None:
-                self._emit("block", Block(run.uid, first - run.start_abs, volts))
-                run.n += volts.shape[1]
+            self.sink(first, volts)
             try:
-                check_block(volts, self.daq.channels, self.limits, f, relative)
+                check_block(volts, self.daq.channels, self.limits, f, self.relative)
             except LimitExceeded as trip:
-                self._marker("limit", first + (getattr(trip, "index", 0) or 0),
-                             trip.to_dict() if hasattr(trip, "to_dict") else {"reason": str(trip)})
+                self.marker("limit", first + (getattr(trip, "index", 0) or 0),
+                            trip.to_dict() if hasattr(trip, "to_dict") else {"reason": str(trip)})
                 raise
-            self._check_abort()
+            self.abort.check()
             done += volts.shape[1]
             yield first, volts
+
+    def consume(self, n: int, f: float) -> None:
+        """Read ``n`` samples (checked, handed to the sink) and drop them."""
+        for _ in self.blocks(n, f):
+            pass
 
     def _rows(self, names: Sequence[str]) -> list[int]:
         index = {c.name: i for i, c in enumerate(self.daq.channels)}
         return [index[n] for n in names]
 
-    def _wait_steady(self, msg: WaitSteady) -> SteadyResult:
-        names = list(self._roles["displacement_channels"])
+    def wait_steady(self, msg: WaitSteady, f: float) -> SteadyResult:
+        """Read until the displacement amplitudes stop drifting (or ``max_cycles``)."""
+        names = list(self.relative)
         if not names:
             raise InputError("WaitSteady needs displacement channels", field="displacement_channels")
-        f, fs = self._frequency(), self.daq.sample_rate_hz
+        fs = self.daq.sample_rate_hz
         rows = self._rows(names)
         scale = [self.daq.channels[i].units_per_volt(f) for i in rows]
         tracker = CycleAmplitudes(f, fs, np.array(scale))
         reached = False
-        blocks = self._blocks(None)
+        blocks = self.blocks(None, f)
         try:
             for first, volts in blocks:
                 tracker.feed(volts[rows], first)
@@ -94,13 +106,14 @@ class SamplingMixin:
         if not reached:
             log.warning("steady state not reached in %d cycles (drift %.3g > %.3g)",
                         result.cycles, result.drift, msg.tol)
-        self._steady = result
+        self.steady = result
         return result
 
-    def _measure(self, msg: Measure) -> Measurement:
-        f, fs = self._frequency(), self.daq.sample_rate_hz
+    def measure(self, msg: Measure, f: float, reference: str | None) -> Measurement:
+        """Amplitude, phase and peak (of the input range) of every channel's fundamental."""
+        fs = self.daq.sample_rate_hz
         parts, first0 = [], None
-        for first, volts in self._blocks(int(math.ceil(msg.n_cycles * fs / f))):
+        for first, volts in self.blocks(int(math.ceil(msg.n_cycles * fs / f)), f):
             first0 = first if first0 is None else first0
             parts.append(volts)
         volts = np.concatenate(parts, axis=1)
@@ -112,5 +125,4 @@ class SamplingMixin:
             amp[spec.name] = float(abs(x) * abs(s))
             phase[spec.name] = float(np.angle(x * np.sign(s)))
             peak[spec.name] = float(p / spec.range_v)
-        return Measurement(f, amp, phase, self._roles["reference_force_channel"], self.limits.max_vpp,
-                           peak)
+        return Measurement(f, amp, phase, reference, self.limits.max_vpp, peak)

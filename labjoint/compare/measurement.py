@@ -46,7 +46,6 @@ from typing import Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
-from labjoint.errors import InputError
 from labjoint.models import Model, Parameters, RunData
 
 #: the figures every kind reports per measurement, measured and model

@@ -19,7 +19,7 @@ from dataclasses import asdict
 from typing import Any, Callable, Generator, Mapping
 
 from labjoint.documents import Block, RunStart, RunStop
-from labjoint.acquisition.engine import PlanResult
+from labjoint.acquisition.messages import PlanResult
 from labjoint.acquisition.messages import (Configure, Measure, Measurement, Record,
                                            SteadyResult, WaitSteady)
 from labjoint.acquisition.plans import dry_run, load_plan
