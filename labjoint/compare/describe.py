@@ -24,7 +24,7 @@ SLOPE_TOL = 0.2
 MIN_LOSS_FACTOR = 0.002
 
 
-def _pct(x: float) -> str:
+def pct_text(x: float) -> str:
     return f"{100 * x:.2g} %" if abs(x) < 0.1 else f"{100 * x:.3g} %"
 
 
@@ -167,12 +167,12 @@ def state_findings(q: np.ndarray, reversal_rms: float, midstroke_rms: float, flo
     if reversal_rms > floor and (r > 1.5 or r < 1 / 1.5):
         out.append({"where": "reversals",
                     "text": (f"the error concentrates {near if r > 1 else mid}: rms "
-                             f"{_pct(reversal_rms)} {near} against {_pct(midstroke_rms)} {mid}")})
+                             f"{pct_text(reversal_rms)} {near} against {pct_text(midstroke_rms)} {mid}")})
     if np.all(np.isfinite(q)) and q.max() > floor and q.max() > 1.3 * q.min():
         i = int(np.argmax(q))
         out.append({"where": "by quadrant",
-                    "text": (f"largest while {QUADRANTS[i]}: rms {_pct(q[i])} against "
-                             f"{_pct(q.min())} in the quietest quadrant")})
+                    "text": (f"largest while {QUADRANTS[i]}: rms {pct_text(q[i])} against "
+                             f"{pct_text(q.min())} in the quietest quadrant")})
     return out
 
 
@@ -190,9 +190,9 @@ def _map_findings(m: ResidualMaps, floor: float) -> list[dict[str, str]]:
             if k == "odd":
                 ph = m.per_harmonic
                 top = int(np.argmax(ph[1:])) + 1
-                extra = f"; harmonic {top} carries {_pct(ph[top])}"
+                extra = f"; harmonic {top} carries {pct_text(ph[top])}"
             out.append({"where": "by harmonic",
-                        "text": f"{_pct(h[k])} NRMSE is in {named[k]}{extra}"})
+                        "text": f"{pct_text(h[k])} NRMSE is in {named[k]}{extra}"})
     out += state_findings(m.quadrant_rms, m.reversal_rms, m.midstroke_rms, floor)
     grid, noise = m.grid_nrmse, m.grid_noise
     if np.any(np.isfinite(grid)):
@@ -201,22 +201,28 @@ def _map_findings(m: ResidualMaps, floor: float) -> list[dict[str, str]]:
         if grid[i, j] > 1.5 * floor:
             out.append({"where": "by run",
                         "text": (f"worst run: {m.grid_runs[i][j]} at {m.frequencies_hz[i]:g} Hz, "
-                                 f"{_um(m.grid_amplitude_m[i, j])} (NRMSE {_pct(grid[i, j])}"
+                                 f"{_um(m.grid_amplitude_m[i, j])} (NRMSE {pct_text(grid[i, j])}"
                                  + (f", {ratio:.2g}x its noise floor)" if np.isfinite(ratio) else ")"))})
     return out
+
+
+def overall_finding(nr: float, floor: float, factor: float) -> tuple[list[dict[str, str]], bool]:
+    """([the overall finding], whether it is the only one: the NRMSE within ``factor`` x
+    the noise floor, where nothing else is worth saying)."""
+    if np.isfinite(floor) and nr <= factor * floor:
+        return [{"where": "overall",
+                 "text": (f"NRMSE {pct_text(nr)} is within {factor:g}x the noise floor "
+                          f"({pct_text(floor)}): no error beyond measurement noise")}], True
+    return [{"where": "overall",
+             "text": f"NRMSE {pct_text(nr)} against a noise floor of {pct_text(floor)} ({nr / floor:.3g}x)"}], False
 
 
 def failures(ev: Evaluation, maps: ResidualMaps, curves: PhysicsCurves, noise_floor: float,
              factor: float = 1.5) -> list[dict[str, Any]]:
     """The sentences of the module docstring, most telling first."""
-    nr = ev.nrmse()
-    if np.isfinite(noise_floor) and nr <= factor * noise_floor:
-        return [{"where": "overall",
-                 "text": (f"NRMSE {_pct(nr)} is within {factor:g}x the noise floor "
-                          f"({_pct(noise_floor)}): no error beyond measurement noise")}]
-    out = [{"where": "overall",
-            "text": (f"NRMSE {_pct(nr)} against a noise floor of {_pct(noise_floor)} "
-                     f"({nr / noise_floor:.3g}x)")}]
+    out, done = overall_finding(ev.nrmse(), noise_floor, factor)
+    if done:
+        return out
     for attr, noun, where in (("energy_loss_error_pct", "dissipation", "dissipation"),
                               ("stiffness_error_pct", "stiffness", "stiffness")):
         f = _loop_finding(ev, curves, attr, noun, where)

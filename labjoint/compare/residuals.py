@@ -39,6 +39,16 @@ QUADRANTS = ("u>0, v>0 (loading to +)", "u>0, v<0 (unloading from +)",
              "u<0, v<0 (loading to -)", "u<0, v>0 (unloading from -)")
 
 
+def parseval_weights(m: int) -> np.ndarray:
+    """Weights of the rfft lines of m points in Parseval's sum: 1 for the constant (and
+    the Nyquist line of even m), 2 for the others (each stands for itself and its mirror)."""
+    w = np.full(m // 2 + 1, 2.0)
+    w[0] = 1.0
+    if m % 2 == 0:
+        w[-1] = 1.0
+    return w
+
+
 def harmonic_parts(x: np.ndarray, groups: Sequence[np.ndarray], max_h: int = MAX_HARMONIC
                    ) -> dict[str, Any]:
     """Sums of squares of ``x`` over the given cycles (``groups``: fractional bounds of
@@ -58,10 +68,7 @@ def harmonic_parts(x: np.ndarray, groups: Sequence[np.ndarray], max_h: int = MAX
     c = np.concatenate([cycles(x, g, m, check=False) for g in parts], axis=0)
     k_n = c.shape[0]
     C = np.fft.rfft(c, axis=1) / m
-    w = np.full(C.shape[1], 2.0)
-    w[0] = 1.0
-    if m % 2 == 0:
-        w[-1] = 1.0
+    w = parseval_weights(m)
     mean = C.mean(axis=0)
     k = np.arange(k_n) - 0.5 * (k_n - 1)
     kk = float(k @ k)

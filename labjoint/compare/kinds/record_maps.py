@@ -28,9 +28,9 @@ from typing import Any
 
 import numpy as np
 
-from labjoint.compare.describe import state_findings
+from labjoint.compare.describe import overall_finding, pct_text, state_findings
 from labjoint.compare.evidence import fitted_params
-from labjoint.compare.residuals import state_dict
+from labjoint.compare.residuals import parseval_weights, state_dict
 from labjoint.compare.runs import split_every_nth
 from labjoint.errors import InputError
 from labjoint.signal.cycles import cycles as resample_cycles
@@ -40,10 +40,6 @@ SLOW = 0.1
 FAST = 0.5
 VALIDATION_FRACTION = 1.0 / 3.0
 LOOP_TOL_PCT = 2.0
-
-
-def _pct(x: float) -> str:
-    return f"{100 * x:.2g} %" if abs(x) < 0.1 else f"{100 * x:.3g} %"
 
 
 def _span(r: Any) -> slice:
@@ -58,10 +54,7 @@ def line_parts(e: np.ndarray, bounds: np.ndarray, excited: Sequence[int]) -> dic
     m = max(16, int(round(per)))
     c = resample_cycles(e, bounds, m, check=False)
     C = np.fft.rfft(c, axis=1) / m
-    w = np.full(C.shape[1], 2.0)
-    w[0] = 1.0
-    if m % 2 == 0:
-        w[-1] = 1.0
+    w = parseval_weights(m)
     mean = C.mean(axis=0)
     periodic = c.shape[0] * per * w * np.abs(mean) ** 2
     total = float(np.sum(c * c)) * per / m
@@ -131,11 +124,7 @@ def record_maps(evals: Sequence[Any], noise: dict[str, float]) -> RecordMaps:
         ssf += float(f @ f)
         n_all += f.size
         E = np.fft.rfft(e)
-        w = np.full(E.size, 2.0)
-        w[0] = 1.0
-        if e.size % 2 == 0:
-            w[-1] = 1.0
-        p = w * np.abs(E) ** 2 / e.size
+        p = parseval_weights(e.size) * np.abs(E) ** 2 / e.size
         fr = np.fft.rfftfreq(e.size, 1.0 / r.run.fs)
         band += np.bincount(np.clip(np.searchsorted(edges, fr, side="right") - 1, 0, n_b - 1),
                             p, n_b)
@@ -224,13 +213,9 @@ def record_traces(evals: Sequence[Any], n_points: int = TRACE_POINTS) -> dict[st
 def record_failures(ev: Any, maps: RecordMaps, curves: RecordCurves, floor: float,
                     factor: float) -> list[dict[str, Any]]:
     """Where the model fails on the records, in sentences with numbers."""
-    nr = ev.nrmse()
-    if np.isfinite(floor) and nr <= factor * floor:
-        return [{"where": "overall",
-                 "text": (f"NRMSE {_pct(nr)} is within {factor:g}x the noise floor "
-                          f"({_pct(floor)}): no error beyond measurement noise")}]
-    out = [{"where": "overall",
-            "text": f"NRMSE {_pct(nr)} against a noise floor of {_pct(floor)} ({nr / floor:.3g}x)"}]
+    out, done = overall_finding(ev.nrmse(), floor, factor)
+    if done:
+        return out
     for attr, noun in (("energy_loss_error_pct", "dissipation"), ("stiffness_error_pct", "stiffness")):
         err = np.array([getattr(r, attr) for r in ev.runs], dtype=float)
         err = err[np.isfinite(err)]
@@ -246,7 +231,7 @@ def record_failures(ev: Any, maps: RecordMaps, curves: RecordCurves, floor: floa
             out.append({"where": "by band",
                         "text": (f"{100 * share:.0f} % of the squared error lies in "
                                  f"{maps.band_edges_hz[i]:.3g}-{maps.band_edges_hz[i + 1]:.3g} Hz "
-                                 f"({_pct(b[i])} NRMSE)")})
+                                 f"({pct_text(b[i])} NRMSE)")})
     if maps.lines is not None:
         L = maps.lines
         total = sum(x * x for x in L.values())
@@ -256,7 +241,7 @@ def record_failures(ev: Any, maps: RecordMaps, curves: RecordCurves, floor: floa
                  "constant": "a constant force", "aperiodic": "an aperiodic part (drift, transient)"}
         for k in sorted(named, key=lambda k: -L[k]):
             if L[k] > floor and L[k] ** 2 > 0.2 * total:
-                out.append({"where": "by line", "text": f"{_pct(L[k])} NRMSE is on {named[k]}"})
+                out.append({"where": "by line", "text": f"{pct_text(L[k])} NRMSE is on {named[k]}"})
     out += state_findings(maps.quadrant_rms, maps.reversal_rms, maps.midstroke_rms, floor,
                           "near reversals (low speed)", "at mid-stroke (high speed)")
     if len(maps.runs) > 1:
@@ -264,7 +249,7 @@ def record_failures(ev: Any, maps: RecordMaps, curves: RecordCurves, floor: floa
         out.append({"where": "by run",
                     "text": (f"worst run: {maps.runs[i]} ({maps.excitation[i]}, rms "
                              f"{maps.displacement_rms_m[i] * 1e6:.3g} µm): NRMSE "
-                             f"{_pct(maps.run_nrmse[i])}")})
+                             f"{pct_text(maps.run_nrmse[i])}")})
     return out
 
 
@@ -302,14 +287,14 @@ def removed_part(base_maps: RecordMaps, cand_maps: RecordMaps) -> str:
         k = max(drops, key=lambda x: drops[x])
         if drops[k] > 0:
             return (f"reduces the residual on the {k.replace('_', '-')} lines "
-                    f"{_pct(base_maps.lines[k])} -> {_pct(cand_maps.lines[k])}")
+                    f"{pct_text(base_maps.lines[k])} -> {pct_text(cand_maps.lines[k])}")
     d = base_maps.band_nrmse ** 2 - cand_maps.band_nrmse ** 2
     if not d.size or d.max() <= 0:
         return "removes no part of the residual"
     i = int(np.argmax(d))
     e = base_maps.band_edges_hz
     return (f"reduces the residual most in {e[i]:.3g}-{e[i + 1]:.3g} Hz "
-            f"{_pct(base_maps.band_nrmse[i])} -> {_pct(cand_maps.band_nrmse[i])}")
+            f"{pct_text(base_maps.band_nrmse[i])} -> {pct_text(cand_maps.band_nrmse[i])}")
 
 
 @dataclass(frozen=True)
@@ -351,7 +336,7 @@ class RecordKind:
 
     def evidence(self, effect: str, base: Any, cand: Any, base_maps: RecordMaps,
                  cand_maps: RecordMaps, fit: Any, validation: str) -> str:
-        runs = ", ".join(f"{rb.name} {_pct(rb.nrmse)} -> {_pct(rc.nrmse)}"
+        runs = ", ".join(f"{rb.name} {pct_text(rb.nrmse)} -> {pct_text(rc.nrmse)}"
                          for rb, rc in zip(base.runs, cand.runs))
         parts = (added_force_character(base, cand), f"NRMSE by run: {runs}",
                  removed_part(base_maps, cand_maps), validation, fitted_params(fit, effect))
