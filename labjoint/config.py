@@ -79,6 +79,7 @@ class LimitsConfig(_Strict):
     max_displacement_m: float = Field(200e-6, gt=0)
     max_force_n: float = Field(1000.0, gt=0)
     ramp_vpp_per_s: float = Field(40.0, gt=0)
+    max_record_s: float = Field(600.0, gt=0)
 
 
 #: Contact-zone outer radius over bolt radius, a = 3.5 r_b (seed 002 Eq. 2 / Sec. II.B).

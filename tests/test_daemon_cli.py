@@ -64,3 +64,12 @@ def test_output_off_on_the_simulated_rig_has_nothing_to_switch(capsys):
 def test_module_entry_reports_a_bad_config_with_exit_code_2(tmp_path, capsys):
     assert main(["--config", str(tmp_path / "missing.toml")]) == 2
     assert "missing.toml" in capsys.readouterr().err
+
+
+def test_submit_refuses_a_plan_beyond_the_configured_rig_before_queueing_it(tmp_path):
+    path = tmp_path / "loud.toml"
+    path.write_text('plan = "dwell"\nfrequency_hz = 400.0\namplitude_vpp = 500.0\n')
+    db = tmp_path / "q.sqlite"
+    with pytest.raises(InputError, match="500 Vpp exceeds max_vpp = 20 Vpp"):
+        submit_plan(path, db)
+    assert JobQueue(db).list() == []

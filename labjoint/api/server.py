@@ -8,6 +8,7 @@ unless the config says otherwise) and the API submits plans to its queue. With
 
 from __future__ import annotations
 
+import functools
 import ipaddress
 import logging
 import os
@@ -21,6 +22,7 @@ from typing import Any
 
 import uvicorn
 
+from labjoint.acquisition.admission import check_plan
 from labjoint.api.app import create_app
 from labjoint.api.settings import ENV_CONTROL, ApiSettings, load_settings
 from labjoint.config import DEFAULT_CONFIG, RigConfig, parse_config
@@ -105,7 +107,7 @@ def build(config_path: str | Path | None = None, host: str | None = None,
     if not settings.control_tokens:
         generated = secrets.token_urlsafe(24)
         settings = settings.model_copy(update={"control_tokens": (generated,)})
-    queue = JobQueue(ddir / QUEUE_FILE)
+    queue = JobQueue(ddir / QUEUE_FILE, admit=functools.partial(check_plan, config=config))
     dmn = thread = None
     if daemon:
         dmn = Daemon(config, ddir, queue_db=ddir / QUEUE_FILE)

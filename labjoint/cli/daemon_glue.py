@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from labjoint.acquisition import plans
+from labjoint.acquisition.admission import check_plan
 from labjoint.acquisition.plans import load_plan
 from labjoint.config import RigConfig, load_config
 from labjoint.daemon.daemon import Daemon
@@ -28,10 +29,11 @@ def _config(config_path: str | Path | None) -> RigConfig:
 
 def open_queue(queue_db: str | Path | None = None, *, config_path: str | Path | None = None,
                data_dir: str | Path | None = None) -> JobQueue:
-    """The job queue at ``queue_db``, or the one the config's daemon uses."""
+    """The job queue at ``queue_db``, or the one the config's daemon uses; plans are
+    checked against the config's rig before they are queued."""
     if queue_db is None:
         _, queue_db, _ = default_paths(_config(config_path), data_dir)
-    return JobQueue(queue_db)
+    return JobQueue(queue_db, admit=lambda plan: check_plan(plan, _config(config_path)))
 
 
 def run_daemon(config_path: str | Path | None = None, data_dir: str | Path | None = None, *,

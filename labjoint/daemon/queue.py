@@ -35,7 +35,7 @@ from contextlib import closing, contextmanager
 from dataclasses import asdict, dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Iterator, Mapping
+from typing import Any, Callable, Iterator, Mapping
 
 from labjoint.acquisition.plans import load_plan
 from labjoint.errors import InputError, LabjointError
@@ -153,10 +153,14 @@ def validate_plan(plan: Mapping[str, Any]) -> dict[str, Any]:
 
 
 class JobQueue:
-    """Jobs in the SQLite database at ``db_path`` (created if missing)."""
+    """Jobs in the SQLite database at ``db_path`` (created if missing). ``admit``: a check
+    every submitted plan must pass before it is queued (e.g. the rig's limits,
+    :func:`labjoint.acquisition.admission.check_plan`); it raises InputError to refuse."""
 
-    def __init__(self, db_path: str | Path) -> None:
+    def __init__(self, db_path: str | Path,
+                 admit: Callable[[dict[str, Any]], None] | None = None) -> None:
         self.db_path = Path(db_path)
+        self.admit = admit
         self._local = threading.local()
         try:
             self.db_path.parent.mkdir(parents=True, exist_ok=True)
@@ -218,6 +222,8 @@ class JobQueue:
     def submit(self, plan: Mapping[str, Any], *, submitted_by: str = "") -> str:
         """Validate ``plan`` (``{'plan': name, **parameters}``) and queue it; its job id."""
         data = validate_plan(plan)
+        if self.admit is not None:
+            self.admit(dict(data))
         job_id = uuid.uuid4().hex
         with self._write() as con:
             con.execute("INSERT INTO jobs (id, status, plan, submitted_by, submitted_at) "

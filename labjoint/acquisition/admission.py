@@ -1,0 +1,94 @@
+"""Admission: a plan is checked against the rig before it is queued, not when it runs.
+
+:func:`check_plan` builds the plan (its own parameter limits, :mod:`.plans`), then runs it
+dry against an ideal rig (every wait reaches steady state, every measurement finds the
+force the plan asks for) and checks each message as the engine would: generator settings
+within the safety limits (:func:`~labjoint.acquisition.safety.check_settings`: amplitude,
+frequency range), every drive frequency below the DAQ's Nyquist frequency, every record
+at most ``limits.max_record_s`` long, and the plan at most ``MAX_MESSAGES`` messages. A
+plan that fails is refused with an :class:`~labjoint.errors.InputError` naming the step
+and the limit; the engine still checks everything again while it runs (the one safety
+hook stays the authority).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+from labjoint.acquisition.messages import (Configure, Measure, Measurement, Message, Ramp,
+                                           Record, SteadyResult, WaitSteady)
+from labjoint.acquisition.plans import load_plan
+from labjoint.acquisition.safety import LimitTrip, check_settings
+from labjoint.config import RigConfig
+from labjoint.errors import InputError
+from labjoint.hardware.interfaces import GeneratorSettings
+
+MAX_MESSAGES = 100_000
+_REF = "reference"
+
+
+def _ideal(params: Mapping[str, Any], max_vpp: float) -> Any:
+    """Answers of a rig that is always steady and delivers the force asked for."""
+    force = float(params.get("force_amplitude_n", 1.0) or 1.0)
+    state = {"f": 1.0}
+
+    def respond(msg: Message) -> Any:
+        if isinstance(msg, Configure):
+            state["f"] = msg.frequency_hz
+        if isinstance(msg, WaitSteady):
+            return SteadyResult(True, msg.window, 0.0)
+        if isinstance(msg, Measure):
+            return Measurement(state["f"], {_REF: force}, {_REF: 0.0}, _REF, max_vpp)
+        return None
+
+    return respond
+
+
+def check_plan(plan: Mapping[str, Any], config: RigConfig) -> None:
+    """Refuse ``plan`` (``{"plan": name, **parameters}``) if any step would break a limit
+    of the rig in ``config`` (module docstring)."""
+    params = {k: v for k, v in dict(plan).items() if k != "plan"}
+    limits = config.limits
+    nyquist = 0.5 * float(config.daq.sample_rate_hz)
+    gen = load_plan(dict(plan))
+    respond = _ideal(params, limits.max_vpp)
+    f, offset, answer = None, 0.0, None
+    try:
+        for step in range(MAX_MESSAGES + 1):
+            try:
+                msg = gen.send(answer)
+            except StopIteration:
+                return
+            if step == MAX_MESSAGES:
+                raise InputError(f"the plan has more than {MAX_MESSAGES} steps", field="parameters")
+            what = f"step {step + 1} ({type(msg).__name__})"
+            if isinstance(msg, (Configure, Ramp)):
+                if isinstance(msg, Configure):
+                    f, offset = msg.frequency_hz, msg.offset_v
+                    vpp = msg.amplitude_vpp
+                else:
+                    vpp = msg.to_vpp
+                try:
+                    check_settings(GeneratorSettings(f or 0.0, vpp, offset), limits)
+                except LimitTrip as trip:
+                    raise InputError(f"{what}: {trip} (the rig's limit)", field=_field(trip.limit)) from None
+                if f is not None and f >= nyquist:
+                    raise InputError(f"{what}: frequency {f:g} Hz is at or above the DAQ's Nyquist "
+                                     f"frequency {nyquist:g} Hz (sample rate "
+                                     f"{config.daq.sample_rate_hz:g} S/s)", field="frequency_hz")
+            if isinstance(msg, Record):
+                seconds = (msg.n_cycles / f if msg.n_cycles is not None and f else msg.duration_s)
+                if seconds is not None and not (math.isfinite(seconds) and seconds <= limits.max_record_s):
+                    raise InputError(f"{what}: the record would last {seconds:.4g} s, above the rig's "
+                                     f"max_record_s = {limits.max_record_s:g} s",
+                                     field="n_cycles" if msg.n_cycles is not None else "duration_s")
+            answer = respond(msg)
+    finally:
+        gen.close()
+
+
+def _field(limit: str) -> str:
+    return {"max_vpp": "amplitude_vpp", "min_frequency_hz": "frequency_hz",
+            "max_frequency_hz": "frequency_hz"}.get(limit, limit)

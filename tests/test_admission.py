@@ -1,0 +1,73 @@
+"""Plans are checked against the rig's limits when submitted, not when they run
+(issue 17 item 1): amplitude, frequency range, Nyquist, record length; refused over REST
+with 422 naming the limit, and by `labjoint submit` with exit code 2."""
+
+import pytest
+
+from labjoint.acquisition.admission import check_plan
+from labjoint.config import load_config
+from labjoint.daemon import JobQueue
+from labjoint.errors import InputError
+
+CONFIG = load_config()        # the simulated seed 002 rig: 20 Vpp, 1 Hz-5 kHz, 600 s records
+
+
+@pytest.mark.parametrize("plan, match", [
+    ({"plan": "dwell", "frequency_hz": 400, "amplitude_vpp": 500}, "500 Vpp exceeds max_vpp = 20"),
+    ({"plan": "dwell", "frequency_hz": 1e9, "amplitude_vpp": 2}, "exceeds max_frequency_hz"),
+    ({"plan": "dwell", "frequency_hz": 400, "amplitude_vpp": 2, "n_cycles": 10**9},
+     "would last 2.5e\\+06 s, above the rig's max_record_s = 600 s"),
+    ({"plan": "amplitude_sweep", "amplitudes_vpp": [2, 10, 25]}, "step 9 \\(Ramp\\): amplitude 25 Vpp"),
+    ({"plan": "step_sine", "frequencies_hz": [100, 200, 40000], "force_amplitude_n": 5},
+     "exceeds max_frequency_hz|Nyquist"),
+])
+def test_a_plan_breaking_a_rig_limit_is_refused_naming_the_step_and_the_limit(plan, match):
+    with pytest.raises(InputError, match=match):
+        check_plan(plan, CONFIG)
+
+
+def test_nyquist_of_the_configured_daq_is_a_limit_of_its_own():
+    cfg = load_config(overrides={"daq": {"sample_rate_hz": 2000.0}})
+    with pytest.raises(InputError, match="Nyquist frequency 1000 Hz") as err:
+        check_plan({"plan": "dwell", "frequency_hz": 1200, "amplitude_vpp": 2}, cfg)
+    assert err.value.field == "frequency_hz"
+    check_plan({"plan": "dwell", "frequency_hz": 900, "amplitude_vpp": 2}, cfg)
+
+
+def test_plans_within_the_limits_pass_including_closed_loop_ones():
+    for plan in ({"plan": "dwell", "frequency_hz": 400, "amplitude_vpp": 20},
+                 {"plan": "amplitude_sweep"}, {"plan": "torque_series"}, {"plan": "sensor_calibration"},
+                 {"plan": "step_sine", "frequencies_hz": [380, 400, 420], "force_amplitude_n": 20}):
+        check_plan(plan, CONFIG)
+
+
+def test_the_queue_refuses_before_storing(tmp_path):
+    q = JobQueue(tmp_path / "q.sqlite", admit=lambda p: check_plan(p, CONFIG))
+    with pytest.raises(InputError, match="max_vpp"):
+        q.submit({"plan": "dwell", "frequency_hz": 400, "amplitude_vpp": 500})
+    assert q.list() == []
+    q.submit({"plan": "dwell", "frequency_hz": 400, "amplitude_vpp": 5})
+    assert len(q.list()) == 1
+
+
+def test_rest_refuses_an_out_of_limits_plan_with_422_and_the_service_wires_the_check(tmp_path):
+    import httpx
+
+    from labjoint.api import ApiSettings, create_app
+    from labjoint.api.server import build
+    from test_api_helpers import AUTH, CONTROL, live_server, sim_config_file
+
+    queue = JobQueue(tmp_path / "queue.sqlite", admit=lambda p: check_plan(p, CONFIG))
+    app = create_app(ApiSettings(data_dir=tmp_path, control_tokens=[CONTROL]), queue=queue)
+    with live_server(app) as url, httpx.Client(base_url=url + "/api/v1", headers=AUTH) as http:
+        r = http.post("/plans", json={"plan": "dwell", "parameters": {"frequency_hz": 1e9,
+                                                                       "amplitude_vpp": 500}})
+        assert r.status_code == 422, r.text
+        err = r.json()["error"]
+        assert "max_vpp" in err["message"] and err["details"]["field"] == "amplitude_vpp"
+        r = http.post("/plans", json={"plan": "dwell", "parameters": {"frequency_hz": 400,
+                                                                       "amplitude_vpp": 2}})
+        assert r.status_code == 202, r.text
+    svc = build(sim_config_file(tmp_path), daemon=False, data_dir=tmp_path / "svc", port=0, env={})
+    with pytest.raises(InputError, match="max_vpp"):
+        svc.queue.submit({"plan": "dwell", "frequency_hz": 400, "amplitude_vpp": 500})
