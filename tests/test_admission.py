@@ -71,3 +71,20 @@ def test_rest_refuses_an_out_of_limits_plan_with_422_and_the_service_wires_the_c
     svc = build(sim_config_file(tmp_path), daemon=False, data_dir=tmp_path / "svc", port=0, env={})
     with pytest.raises(InputError, match="max_vpp"):
         svc.queue.submit({"plan": "dwell", "frequency_hz": 400, "amplitude_vpp": 500})
+
+
+def test_the_openapi_schema_has_one_request_schema_per_plan_type(tmp_path):
+    from labjoint.acquisition.plans import PLANS
+    from labjoint.api import ApiSettings, create_app
+
+    schema = create_app(ApiSettings(data_dir=tmp_path)).openapi()
+    comps = schema["components"]["schemas"]
+    for name in PLANS:
+        title = "".join(w.title() for w in name.split("_"))
+        assert f"Submit{title}" in comps and f"{title}Parameters" in comps, name
+    dwell = comps["DwellParameters"]
+    assert dwell["required"] == ["frequency_hz", "amplitude_vpp"]
+    assert dwell["properties"]["frequency_hz"]["exclusiveMinimum"] == 0
+    assert dwell["additionalProperties"] is False
+    body = schema["paths"]["/api/v1/plans"]["post"]["requestBody"]["content"]["application/json"]
+    assert body["schema"]["discriminator"]["propertyName"] == "plan"

@@ -111,7 +111,7 @@ def test_readme_example_runs_against_the_service(service, monkeypatch, capsys):
 def test_cancel_a_running_plan(service):
     http, _, _ = service
     r = http.post("/plans", json={"plan": "dwell", "parameters": {
-        "frequency_hz": 400, "amplitude_vpp": 2, "n_cycles": 10**6}})
+        "frequency_hz": 400, "amplitude_vpp": 2, "n_cycles": 200_000}})
     jid = r.json()["id"]
     wait_for(lambda: http.get(f"/plans/{jid}").json()["status"], lambda s: s == "running")
     assert http.post(f"/plans/{jid}/cancel").json()["cancel_requested"] is True
@@ -124,7 +124,7 @@ def test_cancel_a_running_plan(service):
 def test_emergency_stop_aborts_and_holds_the_queue(service):
     http, _, _ = service
     r = http.post("/plans", json={"plan": "dwell", "parameters": {
-        "frequency_hz": 400, "amplitude_vpp": 2, "n_cycles": 10**6}})
+        "frequency_hz": 400, "amplitude_vpp": 2, "n_cycles": 200_000}})
     jid = r.json()["id"]
     wait_for(lambda: http.get(f"/plans/{jid}").json()["status"], lambda s: s == "running")
     assert http.post("/estop", json={"reason": "e2e"}).json()["estop"] == "e2e"

@@ -98,7 +98,7 @@ def test_live_view_follows_a_recording_and_stops_it(web):
     page.wait_for_selector("#plan-type option[value=dwell]", state="attached")
     page.select_option("#plan-type", "dwell")
     page.fill("#plan-params", json.dumps({"frequency_hz": 400, "amplitude_vpp": 8,
-                                          "n_cycles": 10**6}))
+                                          "n_cycles": 200_000}))
     page.click("#plan-submit")
     sel = "svg[data-plot=live-loop-plot]"
     wait_attr(page, sel, "data-points", lambda v: int(v) > 100)

@@ -7,7 +7,8 @@ Units are SI and named in the field (``_hz``, ``_m``, ``_n``, ``_nm``); times ar
 from __future__ import annotations
 
 import dataclasses
-from typing import Annotated, Any, Literal, get_type_hints
+import inspect
+from typing import Annotated, Any, Literal, Union, get_type_hints
 
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
@@ -95,11 +96,35 @@ class EStopResult(BaseModel):
 PlanName = Literal[tuple(sorted(PLANS))]  # type: ignore[valid-type]
 
 
-class PlanSubmit(_In):
-    plan: PlanName = Field(description="plan name, see /plan-types")
-    parameters: dict[str, Any] = Field(default_factory=dict,
-                                       description="the plan's keyword arguments (SI units)")
-    submitted_by: str = Field("", max_length=100)
+def _plan_parameters(name: str) -> type[BaseModel]:
+    """The parameters of plan ``name`` as a model: its signature's names, types (with
+    their limits) and defaults, nothing else allowed."""
+    fn = inspect.unwrap(PLANS[name])
+    hints = get_type_hints(fn, include_extras=True)
+    fields: dict[str, Any] = {}
+    for p in inspect.signature(fn).parameters.values():
+        default = ... if p.default is inspect.Parameter.empty else p.default
+        fields[p.name] = (hints.get(p.name, Any), default)
+    doc = (inspect.getdoc(fn) or "").split("\n\n")[0]
+    title = "".join(w.title() for w in name.split("_"))
+    return create_model(f"{title}Parameters", __config__=ConfigDict(extra="forbid", strict=True),
+                        __doc__=f"Parameters of the {name} plan: {doc}", **fields)
+
+
+def _plan_submit(name: str) -> type[BaseModel]:
+    params = _plan_parameters(name)
+    title = "".join(w.title() for w in name.split("_"))
+    return create_model(
+        f"Submit{title}", __base__=_In, __doc__=f"Submit the {name} plan.",
+        plan=(Literal[name], Field(description="plan name, see /plan-types")),  # type: ignore[valid-type]
+        parameters=(params, Field(default_factory=dict,
+                                  description="the plan's keyword arguments (SI units)")),
+        submitted_by=(str, Field("", max_length=100)))
+
+
+#: A plan submission: one schema per plan type, told apart by ``plan``.
+PlanSubmit = Annotated[Union[tuple(_plan_submit(n) for n in sorted(PLANS))],  # type: ignore[misc]
+                       Field(discriminator="plan")]
 
 
 class TorqueConfirm(_In):

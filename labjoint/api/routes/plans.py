@@ -7,6 +7,7 @@ import inspect
 from typing import Any
 
 from fastapi import APIRouter, Depends, Path, Query, Request
+from pydantic import BaseModel
 
 from labjoint.acquisition.plans import PLANS
 from labjoint.api.auth import require_control, require_read, token_label
@@ -58,12 +59,12 @@ def plan_types() -> list[dict[str, Any]]:
              summary="Submit a plan")
 def submit(request: Request, body: PlanSubmit,
            scope: str = Depends(require_control)) -> dict[str, Any]:
-    """Queue ``plan`` with its parameters; the daemon runs it. Poll the returned job."""
-    if "plan" in body.parameters:
-        raise ApiError(422, "invalid_input", "'plan' is not a parameter",
-                       {"field": "parameters.plan"})
+    """Queue ``plan`` with its parameters; the daemon runs it. Poll the returned job.
+    Parameters are checked against the plan type's schema and the rig's limits first."""
     q = queue(request)
-    job_id = q.submit({"plan": body.plan, **body.parameters},
+    p = body.parameters      # a dict when left out (the plan's defaults then apply)
+    given = p.model_dump(mode="json", exclude_unset=True) if isinstance(p, BaseModel) else dict(p)
+    job_id = q.submit({"plan": body.plan, **given},
                       submitted_by=body.submitted_by or token_label(scope))
     return job_dict(_job(request, str(job_id)))
 
