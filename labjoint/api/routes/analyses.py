@@ -42,10 +42,10 @@ def submit(request: Request, body: AnalysisRequest,
     """Start a pipeline on runs: ``hysteresis`` (seed 002 Eq. 1), ``stick_slip`` (Eqs.
     2-9, needs a friction coefficient) or ``both`` side by side. Poll the returned job."""
     res = request.app.state.resolver
-    opts = parse_options(body.method, body.options, res.data_dir)
     names = list(dict.fromkeys(body.runs))
     for n in names:
-        res.path(n)  # 404/403 now rather than inside the job
+        res.path(n)  # 404/403 first, before the options, and not inside the job
+    opts = parse_options(body.method, body.options, res.data_dir)
     job = runner(request).submit(
         "analysis", {"method": body.method, "runs": names, "options": opts},
         lambda req, progress: run_analysis(res, req["method"], req["runs"], req["options"],
