@@ -58,6 +58,7 @@ class JobRecord:
     message: str = ""
     result: dict[str, Any] | None = None
     error: dict[str, Any] | None = None
+    cancel_requested: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -123,6 +124,10 @@ class JobStore:
                              for c in _COLS}) for r in rows]
 
 
+class JobCancelled(Exception):
+    """Raised by a job's progress callback once its cancellation was requested."""
+
+
 @dataclass
 class _Live:
     job: JobRecord
@@ -131,19 +136,24 @@ class _Live:
 
 
 class JobRunner:
-    """Runs ``work(request, progress)`` callables in ``workers`` threads, recording jobs."""
+    """Runs ``work(request, progress)`` callables in ``workers`` threads, recording jobs;
+    jobs submitted as ``long`` (minutes: diagnoses, ladders) run in ``long_workers`` threads
+    of their own, so a short job never waits behind them. A running job is cancelled
+    cooperatively: once asked, its next ``progress`` call raises :class:`JobCancelled`."""
 
-    def __init__(self, store: JobStore, workers: int = 2) -> None:
+    def __init__(self, store: JobStore, workers: int = 2, long_workers: int = 1) -> None:
         self.store = store
         n = store.fail_unfinished("the service restarted before this job finished")
         if n:
             log.warning("marked %d unfinished jobs of a previous process failed", n)
         self._pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="labjoint-job")
+        self._long = ThreadPoolExecutor(max_workers=long_workers,
+                                        thread_name_prefix="labjoint-long-job")
         self._live: dict[str, _Live] = {}
         self._lock = threading.Lock()
 
     def submit(self, kind: str, request: dict[str, Any], work: Work,
-               submitted_by: str = "") -> JobRecord:
+               submitted_by: str = "", long: bool = False) -> JobRecord:
         job = JobRecord(id=uuid.uuid4().hex, kind=kind, status="queued",
                         request=json_safe(request), submitted_by=submitted_by,
                         submitted_at=_now())
@@ -151,7 +161,7 @@ class JobRunner:
         with self._lock:
             self._live[job.id] = live
         self.store.put(job)
-        live.future = self._pool.submit(self._run, live, work, request)
+        live.future = (self._long if long else self._pool).submit(self._run, live, work, request)
         return self._copy(job)
 
     def _run(self, live: _Live, work: Work, request: dict[str, Any]) -> None:
@@ -163,11 +173,15 @@ class JobRunner:
         self.store.put(job)
 
         def progress(fraction: float, message: str = "") -> None:
+            if job.cancel_requested:
+                raise JobCancelled(job.id)
             job.progress = float(min(max(fraction, 0.0), 1.0))
             job.message = message
 
         try:
             result = work(request, progress)
+        except JobCancelled:
+            self._finish(live, "cancelled")
         except InputError as exc:
             self._finish(live, "failed", error={"code": "invalid_input", "message": str(exc),
                                                 "field": exc.field})
@@ -194,13 +208,18 @@ class JobRunner:
             self._live.pop(job.id, None)
 
     def cancel(self, job_id: str) -> JobRecord | None:
-        """Cancel a queued job; a running or finished one is returned unchanged."""
+        """Cancel a queued job; ask a running one to stop at its next progress call (its
+        ``cancel_requested``); a finished one is returned unchanged."""
         with self._lock:
             live = self._live.get(job_id)
         if live is None:
             return self.store.get(job_id)
         if live.future is not None and live.future.cancel():
             self._finish(live, "cancelled")
+        else:
+            with self._lock:
+                if live.job.status == "running":
+                    live.job.cancel_requested = True
         return self._copy(live.job)
 
     def get(self, job_id: str) -> JobRecord | None:
@@ -227,6 +246,7 @@ class JobRunner:
 
     def shutdown(self, wait: bool = True) -> None:
         self._pool.shutdown(wait=wait, cancel_futures=True)
+        self._long.shutdown(wait=wait, cancel_futures=True)
         with self._lock:
             pending = [v for v in self._live.values() if v.job.status == "queued"]
         for live in pending:

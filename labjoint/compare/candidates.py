@@ -186,10 +186,14 @@ def _run(tasks: list[tuple[str, Callable[..., FitResult], tuple]], fit_runs: lis
     with ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context(_start_method()),
                              initializer=_init_worker, initargs=(fit_runs, val_runs, floor)) as ex:
         futs = {name: ex.submit(fn, *args) for name, fn, args in tasks}
-        for name, fut in futs.items():
-            out[name] = fut.result()
-            if progress is not None:
-                progress(name)
+        try:
+            for name, fut in futs.items():
+                out[name] = fut.result()
+                if progress is not None:
+                    progress(name)
+        except BaseException:       # e.g. the job was cancelled: start no more refits
+            ex.shutdown(wait=False, cancel_futures=True)
+            raise
     return out
 
 

@@ -77,9 +77,11 @@ def cancel(request: Request, job_id: str = Path(pattern=JOB_ID)) -> dict[str, An
 
 
 def cancel_job(request: Request, job_id: str, kinds: tuple[str, ...]) -> dict[str, Any]:
-    get_job(request, job_id, kinds)
+    """Cancel a queued job, or ask a running one to stop (409 once it has finished)."""
+    before = get_job(request, job_id, kinds)
     job = runner(request).cancel(job_id)
-    if job.status != "cancelled":
-        raise ApiError(409, "conflict", f"job {job_id} is {job.status}; only a queued job "
-                       "can be cancelled")
+    if before["status"] not in ("queued", "running") or (job.status != "cancelled"
+                                                         and not job.cancel_requested):
+        raise ApiError(409, "conflict", f"job {job_id} is {job.status}; only a queued or "
+                       "running job can be cancelled")
     return job.to_dict()

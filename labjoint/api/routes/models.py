@@ -4,14 +4,17 @@ Each job calls ``labjoint.compare.<operation>(run_paths, model, **options)`` (``
 also gets ``max_steps``) with the runs' files, resolved inside the data directory, and
 returns the result (the CLI's JSON; ``options.full`` adds what the web page draws). The
 options are checked before the job is queued: an unknown option or a bad value answers
-422 naming ``options.<key>``; runs named in ``options.validate`` go through the catalog
-like ``runs``. The job's progress messages are compare's own.
+422 naming ``options.<key>``, an unknown effect in the model or the candidates 422
+naming it and the vocabulary; runs named in ``options.validate`` go through the catalog
+like ``runs``. The job's progress messages are compare's own. Diagnoses and ladders run
+in the job runner's long-job worker, so a fit never waits behind one; both can be
+cancelled while they run.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Callable, Literal
+from typing import Annotated, Any, Callable, Literal
 
 from fastapi import APIRouter, Depends, Path, Query, Request
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
@@ -19,14 +22,18 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 import labjoint.compare as compare
 from labjoint.api.auth import require_control, require_read, token_label
 from labjoint.api.errors import errors_doc
-from labjoint.api.routes.analyses import get_job, job_page, runner
+from labjoint.api.routes.analyses import cancel_job, get_job, job_page, runner
 from labjoint.api.schemas import JOB_ID, Job, JobList, ModelRequest, RunName
 from labjoint.compare.api import settings_from
 from labjoint.errors import InputError
+from labjoint.models import Model
+from labjoint.vocabulary import EFFECTS
 
 router = APIRouter(prefix="/models", tags=["models"])
 OPERATIONS = ("fit", "diagnose", "ladder")
 KINDS = tuple(f"model_{op}" for op in OPERATIONS)
+#: operations that may take minutes: they run in their own worker, so fits never wait
+LONG = ("diagnose", "ladder")
 JobStatus = Literal["queued", "running", "complete", "failed", "cancelled"]
 Auto = Literal["auto"]
 
@@ -41,6 +48,10 @@ class FitOptions(BaseModel):
     multistart: Auto | int = Field("auto")
     seed: int = Field(0, ge=0, le=2**32 - 1)
     full: bool = False
+    kind: Literal["auto", "sine", "record"] = Field(
+        "auto", description="sine: steady cycles; record: any excitation, along the history")
+    warmup: Auto | Annotated[float, Field(ge=0, allow_inf_nan=False)] = Field(
+        "auto", description="record kind: seconds left unjudged at the start")
 
 
 class DiagnoseOptions(FitOptions):
@@ -106,9 +117,17 @@ def _submit(request: Request, operation: str, body: ModelRequest, scope: str) ->
     names = list(dict.fromkeys(body.runs))
     paths = [res.path(n) for n in names]
     options = check_options(operation, body.options)
+    model = "+".join(p.strip() for p in body.model.split("+"))
+    Model.parse(model)                      # an unknown effect is 422 now, not a failed job
+    cands = options.get("candidates")
+    if cands is not None:
+        cands = [c.strip() for c in cands.split(",")] if isinstance(cands, str) else cands
+        unknown = [c for c in cands if c not in EFFECTS]
+        if unknown:
+            raise InputError(f"unknown effect(s) {unknown}; the vocabulary is {list(EFFECTS)}",
+                             field="options.candidates")
     if options.get("validate"):      # names -> files inside the data directory
         options["validate"] = [v if v in names else str(res.path(v)) for v in options["validate"]]
-    model = "+".join(p.strip() for p in body.model.split("+"))
     req = {"operation": operation, "runs": names, "model": model,
            "max_steps": body.max_steps, "options": body.options}
 
@@ -122,7 +141,8 @@ def _submit(request: Request, operation: str, body: ModelRequest, scope: str) ->
         return as_result(fn([str(p) for p in paths], model, **kw))
 
     return runner(request).submit(f"model_{operation}", req, work,
-                                  submitted_by=token_label(scope)).to_dict()
+                                  submitted_by=token_label(scope),
+                                  long=operation in LONG).to_dict()
 
 
 @router.post("/fit", response_model=Job, status_code=202, responses=errors_doc(),
@@ -157,6 +177,15 @@ def list_jobs(request: Request, status: JobStatus | None = Query(None),
               limit: int = Query(50, ge=1, le=500),
               offset: int = Query(0, ge=0, le=10**9)) -> dict[str, Any]:
     return job_page(request, KINDS, status, limit, offset)
+
+
+@router.post("/jobs/{job_id}/cancel", response_model=Job, responses=errors_doc(409),
+             summary="Cancel a model job", dependencies=[Depends(require_control)])
+def cancel(request: Request, job_id: str = Path(pattern=JOB_ID)) -> dict[str, Any]:
+    """A queued job is cancelled at once; a running diagnosis or ladder stops at its next
+    step (after the candidate refits in progress; a fit, being short, runs to its end) and
+    ends ``cancelled``; ``cancel_requested`` says it was asked. 409 once finished."""
+    return cancel_job(request, job_id, KINDS)
 
 
 @router.get("/jobs/{job_id}", response_model=Job, responses=errors_doc(),
