@@ -11,6 +11,7 @@ import argparse
 from typing import Any
 
 from labjoint.cli.output import Progress, emit_json, fmt, table
+from labjoint.errors import InputError
 
 
 def _pct(x: Any) -> str:
@@ -50,6 +51,15 @@ def _judging(p: argparse.ArgumentParser) -> None:
 
 def add_fit_arguments(p: argparse.ArgumentParser) -> None:
     _common(p)
+    p.add_argument("--error", choices=("equation", "simulation"), default="equation",
+                   help="equation: the force balance along the measured displacement (any "
+                        "kind); simulation: the displacement simulated from the applied force "
+                        "(output error; the model needs inertia)")
+    p.add_argument("--out", default=None, metavar="MODEL.json",
+                   help="with --error simulation: save the identified model")
+    p.add_argument("--periodic", action="store_true",
+                   help="with --error simulation: each record is whole periods of a steady "
+                        "periodic input; simulate to its steady state")
 
 
 def add_diagnose_arguments(p: argparse.ArgumentParser) -> None:
@@ -88,6 +98,10 @@ def _progress(args: argparse.Namespace, label: str, total: int) -> Any:
 def fit(args: argparse.Namespace) -> int:
     from labjoint.compare import fit_runs
 
+    if args.error == "simulation":
+        return _fit_simulation(args)
+    if args.out or args.periodic:
+        raise InputError("--out and --periodic go with --error simulation", field="error")
     res = fit_runs(args.runs, args.model, **_options(args, False))
     if args.json:
         emit_json(res)
@@ -99,6 +113,27 @@ def fit(args: argparse.Namespace) -> int:
     print(table(["run", "NRMSE %", "energy loss err %", "stiffness err %"],
                 [[r["run"], _x100(r["nrmse"]), r["energy_loss_error_pct"], r["stiffness_error_pct"]]
                  for r in res["runs"]]))
+    return 0
+
+
+def _fit_simulation(args: argparse.Namespace) -> int:
+    from labjoint.compare.output_error import fit_simulation, save_model
+
+    fit = fit_simulation(args.runs, args.model, validate=args.validate, periodic=args.periodic,
+                         warmup=args.warmup, seed=args.seed)
+    if args.out:
+        save_model(fit, args.out)
+    res = fit.to_dict()
+    res["saved"] = args.out
+    if args.json:
+        emit_json(res)
+        return 0
+    print(f"model {res['model']} by simulation error: RMSE {res['rmse']:.4g} m, NRMSE "
+          f"{_pct(res['nrmse'])}, noise floor {_pct(res['noise_floor'])}")
+    print(table(["parameter", "value", "stderr", "unit"],
+                [[k, v["value"], v["stderr"], v["unit"]] for k, v in res["parameters"].items()]))
+    if args.out:
+        print(f"saved to {args.out}")
     return 0
 
 

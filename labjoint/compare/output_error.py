@@ -1,0 +1,289 @@
+"""Identification by simulation error (output error) and forward prediction.
+
+The force applied to the structure is the input, the measured displacement the output:
+a model with inertia is simulated from the force (:mod:`labjoint.models.simulate`) and
+its parameters are those that minimise the simulation error of the displacement over the
+judged samples of every record, pooled (NRMSE of the displacement, design.md's NRMSE with
+the output in place of the force).
+
+- Records are prepared as the record kind (:mod:`labjoint.compare.kinds.record`): the
+  excitation is found, and with it whether the record is periodic.
+- Start (no user guess): the equation-error fit of the same model on the same records
+  (the force balance along the measured history, :func:`labjoint.compare.api.fit_report`),
+  which needs only the data's loop quantities.
+- Search: ``scipy.optimize.least_squares`` (trf, 2-point Jacobian) in scaled coordinates,
+  ln(p / p0) for the effects' positive scale parameters and (p - p0) / |p0| otherwise,
+  within the vocabulary's bounds; standard errors from the Jacobian at the optimum
+  (:func:`labjoint.models.covariance.covariance`), which assume independent residuals.
+- The simulation starts at rest at each record's first sample, so the displacement is
+  compared with its first sample as zero; a ``periodic`` record is simulated to its
+  periodic steady state and compared about its mean (a displacement sensor's DC level
+  is arbitrary). Judged samples: those of the record kind (after the warm-up).
+- Noise floor: the record's displacement noise (period scatter or the difference method)
+  over the rms of its judged displacement.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from labjoint.compare.api import fit_report
+from labjoint.compare.kinds import prepare
+from labjoint.compare.kinds.record import RecordMeasurement
+from labjoint.compare.measurement import Measurement
+from labjoint.errors import InputError
+from labjoint.models import Model, Parameters
+from labjoint.models.covariance import covariance
+from labjoint.models.effects import get_effect
+from labjoint.models.scores import nrmse_from_sums, pooled_nrmse
+from labjoint.models.simulate import DEFAULT_SUBSTEPS, check_simulable, simulate
+
+MAX_NFEV_PER_PARAM = 60
+FORMAT = "labjoint-model/1"
+
+
+@dataclass
+class Prediction:
+    """A model simulated on one record: predicted and measured displacement (m)."""
+
+    name: str
+    predicted: np.ndarray
+    measured: np.ndarray
+    judged: np.ndarray
+    noise_std_m: float = float("nan")
+    fs: float = float("nan")
+
+    @property
+    def residual(self) -> np.ndarray:
+        return (self.measured - self.predicted)[self.judged]
+
+    @property
+    def sse(self) -> float:
+        return float(self.residual @ self.residual)
+
+    @property
+    def sso(self) -> float:
+        y = self.measured[self.judged]
+        return float(y @ y)
+
+    @property
+    def rmse(self) -> float:
+        return float(np.sqrt(self.sse / max(int(self.judged.sum()), 1)))
+
+    @property
+    def nrmse(self) -> float:
+        return nrmse_from_sums(self.sse, self.sso)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"run": self.name, "rmse": self.rmse, "nrmse": self.nrmse,
+                "noise_std_m": self.noise_std_m, "samples": int(self.judged.sum())}
+
+
+def _output(m: RecordMeasurement, periodic: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(the measured displacement about its zero, the judged mask) of a record."""
+    y = m.data.inputs.u + float(m.metadata.get("displacement_reference_m", 0.0))
+    if periodic:
+        return y - float(np.mean(y)), np.ones(y.size, bool)
+    return y - y[0], m.data.steady.copy()
+
+
+def predict_record(model: Model, params: Parameters | dict[str, float], m: RecordMeasurement,
+                   *, periodic: bool = False, substeps: int = DEFAULT_SUBSTEPS) -> Prediction:
+    """Simulate ``model`` on the record's force and compare with its displacement."""
+    y, judged = _output(m, periodic)
+    pred = simulate(model, params, m.data.force, m.fs, substeps=substeps, periodic=periodic)
+    if periodic:
+        pred = pred - float(np.mean(pred))
+    return Prediction(m.name, pred, y, judged, float(m.noise().displacement_std), m.fs)
+
+
+@dataclass
+class SimulationFit:
+    """An output-error fit: the model, its parameters with standard errors, the start it
+    came from, and the predictions on the fit and validation records."""
+
+    model: Model
+    params: Parameters
+    stderr: dict[str, float]
+    start: dict[str, float]
+    fit: list[Prediction]
+    validation: list[Prediction] = field(default_factory=list)
+    periodic: bool = False
+    substeps: int = DEFAULT_SUBSTEPS
+    n_evals: int = 0
+    message: str = ""
+
+    def nrmse(self, which: str = "fit") -> float:
+        ps = self.fit if which == "fit" else self.validation
+        return pooled_nrmse([p.sse for p in ps], [p.sso for p in ps])
+
+    def noise_floor(self) -> float:
+        """The displacement noise over the rms of the judged displacement, pooled."""
+        num = sum(p.noise_std_m ** 2 * p.judged.sum() for p in self.fit
+                  if np.isfinite(p.noise_std_m))
+        den = sum(p.sso for p in self.fit)
+        return float(np.sqrt(num / den)) if den > 0 else float("nan")
+
+    def model_dict(self) -> dict[str, Any]:
+        """What ``--out MODEL.json`` holds: effects by name with parameters, the structure."""
+        return {"format": FORMAT, "model": self.model.expr, "structure": "sdof",
+                "input": "force_N", "output": "displacement_m", "substeps": self.substeps,
+                "parameters": {k: {"value": p.value, "stderr": self.stderr.get(k), "unit": p.unit}
+                               for k, p in self.params.items()}}
+
+    def to_dict(self) -> dict[str, Any]:
+        d = self.model_dict()
+        d.update(error="simulation", kind="record", nrmse=self.nrmse(),
+                 noise_floor=self.noise_floor(),
+                 rmse=float(np.sqrt(sum(p.sse for p in self.fit)
+                                    / max(sum(int(p.judged.sum()) for p in self.fit), 1))),
+                 runs=[p.to_dict() for p in self.fit],
+                 validation_runs=[p.to_dict() for p in self.validation],
+                 nrmse_validation=self.nrmse("validation") if self.validation else None,
+                 start=self.start, n_evals=self.n_evals, message=self.message)
+        return d
+
+
+class _Scaled:
+    """Scaled coordinates of the varied parameters (module docstring)."""
+
+    def __init__(self, model: Model, start: Parameters) -> None:
+        self.names, self.p0, self.log = [], [], []
+        logs = {f"{e.name}.{p}" for e in model.effects for p in get_effect(e.name).log_params}
+        for k, p in start.items():
+            self.names.append(k)
+            self.p0.append(p.value)
+            self.log.append(k in logs and p.value > 0)
+        self.start = start
+
+    def to_p(self, x: np.ndarray) -> dict[str, float]:
+        out = {}
+        for k, xi, p0, lg in zip(self.names, x, self.p0, self.log):
+            out[k] = p0 * np.exp(xi) if lg else p0 + xi * max(abs(p0), 1e-12)
+        return out
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        lo, hi = [], []
+        for k, p0, lg in zip(self.names, self.p0, self.log):
+            q = self.start[k]
+            if lg:
+                lo.append(np.log(q.lower / p0) if q.lower > 0 else -30.0)
+                hi.append(np.log(q.upper / p0) if np.isfinite(q.upper) else 30.0)
+            else:
+                s = max(abs(p0), 1e-12)
+                lo.append((q.lower - p0) / s if np.isfinite(q.lower) else -np.inf)
+                hi.append((q.upper - p0) / s if np.isfinite(q.upper) else np.inf)
+        return np.array(lo), np.array(hi)
+
+
+def fit_simulation(runs: Any, model: str | Model, *, validate: list[Any] | None = None,
+                   periodic: bool = False, substeps: int = DEFAULT_SUBSTEPS,
+                   warmup: str | float = "auto", seed: int = 0) -> SimulationFit:
+    """Identify ``model`` by simulation error on the records (module docstring)."""
+    model = Model.parse(model)
+    check_simulable(model)
+    items = [runs] if isinstance(runs, (str, Path)) else list(runs)
+    ms: list[Measurement] = prepare(items + list(validate or []), kind="record", warmup=warmup)
+    recs = [m for m in ms if isinstance(m, RecordMeasurement)]
+    fit_recs, val_recs = recs[:len(items)], recs[len(items):]
+    start_fit = fit_report(fit_recs, model, seed=seed)
+    start = start_fit.fit.params_.copy()
+    if not start["inertia.m"].value > 0:   # an equation-error mass <= 0 cannot be simulated
+        k = abs(start["linear_stiffness.k"].value) if "linear_stiffness.k" in start else 1.0
+        start["inertia.m"].value = k / (2 * np.pi * fit_recs[0].data.frequency_hz) ** 2
+    for k, q in start.items():             # log-scaled parameters need a positive start
+        if q.value <= 0 and q.lower >= 0:
+            q.value = max(abs(q.upper) * 1e-6 if np.isfinite(q.upper) else 1e-6, 1e-9)
+    sc = _Scaled(model, start)
+    targets = [_output(m, periodic) for m in fit_recs]
+    scales = [np.sqrt(np.mean(y[j] ** 2)) for y, j in targets]
+    n_evals = [0]
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        n_evals[0] += 1
+        vals = sc.to_p(x)
+        parts = []
+        for m, (y, j), s in zip(fit_recs, targets, scales):
+            try:
+                pred = simulate(model, vals, m.data.force, m.fs, substeps=substeps,
+                                periodic=periodic)
+            except InputError:
+                return np.full(sum(int(t[1].sum()) for t in targets), 1e3)
+            if periodic:
+                pred = pred - float(np.mean(pred))
+            r = (y - pred)[j] / s
+            parts.append(np.where(np.isfinite(r), r, 1e3))
+        return np.concatenate(parts)
+
+    lo, hi = sc.bounds()
+    x0 = np.clip(np.zeros(len(sc.names)), lo + 1e-9, hi - 1e-9)
+    sol = least_squares(residual, x0, bounds=(lo, hi), method="trf", x_scale=1.0,
+                        diff_step=1e-6, max_nfev=MAX_NFEV_PER_PARAM * len(x0))
+    vals = sc.to_p(sol.x)
+    out = start.copy()
+    for k, v in vals.items():
+        out[k].value = float(v)
+    stderr = _stderr(sc, sol, vals, scales, targets)
+    preds = [predict_record(model, out, m, periodic=periodic, substeps=substeps) for m in fit_recs]
+    vpreds = [predict_record(model, out, m, periodic=periodic, substeps=substeps) for m in val_recs]
+    return SimulationFit(model, out, stderr, {k: float(v.value) for k, v in start.items()},
+                         preds, vpreds, periodic, int(substeps), n_evals[0], str(sol.message))
+
+
+def _stderr(sc: _Scaled, sol: Any, vals: dict[str, float], scales: list[float],
+            targets: list[tuple[np.ndarray, np.ndarray]]) -> dict[str, float]:
+    """Standard errors in natural units from the scaled Jacobian at the optimum."""
+    J = np.asarray(sol.jac, dtype=float)
+    # residuals are (y - pred) / s per record: back to metres row by row
+    rows = np.concatenate([np.full(int(j.sum()), s) for (y, j), s in zip(targets, scales)])
+    J_m = J * rows[:, None]
+    r_m = np.asarray(sol.fun) * rows
+    dpdx = np.array([vals[k] if lg else max(abs(p0), 1e-12)
+                     for k, p0, lg in zip(sc.names, sc.p0, sc.log)])
+    cov, _ = covariance(J_m / dpdx[None, :], float(r_m @ r_m))
+    se = np.sqrt(np.abs(np.diag(cov)))
+    return {k: float(s) for k, s in zip(sc.names, se)}
+
+
+def save_model(fit: SimulationFit, path: str | Path) -> Path:
+    """Write the identified model as JSON (effect names and parameters, never code)."""
+    p = Path(path)
+    tmp = p.with_name(p.name + ".tmp")
+    tmp.write_text(json.dumps(fit.model_dict(), indent=2, allow_nan=False))
+    tmp.replace(p)
+    return p
+
+
+def load_model(path: str | Path) -> tuple[Model, dict[str, float], int]:
+    """(model, parameter values, substeps) from a file written by :func:`save_model`."""
+    p = Path(path)
+    try:
+        d = json.loads(p.read_text())
+    except (OSError, ValueError) as exc:
+        raise InputError(f"cannot read the model file: {exc}", file=str(p)) from None
+    if not isinstance(d, dict) or d.get("format") != FORMAT:
+        raise InputError(f"not a labjoint model file (format {FORMAT!r} expected)", file=str(p),
+                         field="format")
+    try:
+        model = Model.parse(d["model"])
+        vals = {k: float(v["value"]) for k, v in d["parameters"].items()}
+        model.values(vals)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise InputError(f"malformed model file: {exc}", file=str(p)) from None
+    except InputError as exc:
+        raise InputError(exc.message, file=str(p), field=exc.field) from None
+    return model, vals, int(d.get("substeps", DEFAULT_SUBSTEPS))
+
+
+def predict_file(model_path: str | Path, record: Any, *, periodic: bool = False) -> Prediction:
+    """Simulate a saved model on a record (run file, CSV or Run)."""
+    model, vals, substeps = load_model(model_path)
+    m = prepare([record], kind="record", warmup=0 if periodic else "auto")[0]
+    assert isinstance(m, RecordMeasurement)
+    return predict_record(model, vals, m, periodic=periodic, substeps=substeps)
