@@ -20,8 +20,8 @@ from labjoint.models.effects.base import (
     ModifierEffect,
     SlipModifiers,
 )
-from labjoint.models.fit import ModelFitter, nrmse
-from labjoint.models.scores import nrmse_from_sums, pooled_nrmse
+from labjoint.models.fit import ModelFitter
+from labjoint.models.scores import nrmse, nrmse_from_sums, pooled_nrmse
 from labjoint.models.inputs import ModelInputs, RunData, derivatives, estimate_frequency
 from labjoint.models.params import Parameter, Parameters
 from labjoint.models.result import FitResult

@@ -42,7 +42,7 @@ from labjoint.models.effects.base import ForceEffect
 from labjoint.models.inputs import RunData
 from labjoint.models.params import Parameters
 from labjoint.models.result import FitResult
-from labjoint.models.scores import nrmse_from_sums
+from labjoint.models.scores import as_runs, run_labels, nrmse
 from labjoint.models.summary import LoopSummary, period_shift_floor
 
 TRUST = 1e6
@@ -55,41 +55,6 @@ SCREEN = 4          # random draws screened (one evaluation each) per extra star
 #: parameters' standard errors resolve, and it spares the creeping steps of flat valleys
 FTOL = 1e-6
 XTOL = 1e-6
-
-
-def _labels(runs: Sequence[RunData]) -> list[str]:
-    """Unique run labels: names, with #k appended to repeats (or run<i> if unnamed)."""
-    out, seen = [], {}
-    for i, r in enumerate(runs):
-        base = r.name or f"run{i}"
-        seen[base] = seen.get(base, 0) + 1
-        out.append(base if seen[base] == 1 else f"{base}#{seen[base]}")
-    return out
-
-
-def _as_runs(runs: RunData | Sequence[RunData], field: str) -> list[RunData]:
-    runs = [runs] if isinstance(runs, RunData) else list(runs)
-    for r in runs:
-        if not isinstance(r, RunData):
-            raise InputError(f"expected RunData items, got {type(r).__name__}", field=field)
-    return runs
-
-
-def nrmse(model: Model | str, params: Parameters | dict[str, Any],
-          runs: RunData | Sequence[RunData]) -> tuple[float, dict[str, float]]:
-    """Pooled NRMSE (design.md) over the steady samples of ``runs``, and per run."""
-    model = Model.parse(model)
-    runs = _as_runs(runs, "runs")
-    num = den = 0.0
-    per = {}
-    for lab, r in zip(_labels(runs), runs):
-        m = r.steady
-        e = r.force[m] - model.eval(params, r)[m]
-        se, sf = float(e @ e), float(r.force[m] @ r.force[m])
-        per[lab] = nrmse_from_sums(se, sf)
-        num += se
-        den += sf
-    return nrmse_from_sums(num, den), per
 
 
 @dataclass
@@ -348,8 +313,8 @@ class ModelFitter:
         NRMSE, where multi-start "auto" stops (module docstring).
         """
         model = Model.parse(self.model)
-        runs = _as_runs(runs, "runs")
-        val = _as_runs(validation or [], "validation")
+        runs = as_runs(runs, "runs")
+        val = as_runs(validation or [], "validation")
         if not runs:
             raise InputError("no runs to fit", field="runs")
         summary = LoopSummary.from_runs(runs)
@@ -396,6 +361,6 @@ class ModelFitter:
             nrmse_=fit_n, run_nrmse_=fit_per, validation_nrmse_=val_n,
             validation_run_nrmse_=val_per, n_evals_=prob.n_evals, success_=ok,
             message_=msg + note, n_samples_=int(prob.y.size), ssr_=ssr,
-            start_costs_=tuple(costs), fit_runs_=tuple(_labels(runs)),
-            validation_runs_=tuple(_labels(val)))
+            start_costs_=tuple(costs), fit_runs_=tuple(run_labels(runs)),
+            validation_runs_=tuple(run_labels(val)))
         return self.result_
