@@ -28,8 +28,8 @@ Preparation (:func:`prepare_record`):
 
 Noise floor (stated): periodic excitation with at least ``MIN_WINDOW_CYCLES`` judged
 periods: the period-to-period scatter of the sine kind (:mod:`labjoint.compare.noise`,
-windows, trend, excess-scatter windows left out); with 2 to 4 periods: the plain
-scatter of each period about the mean period (K - 1 degrees of freedom per point).
+windows, trend, excess-scatter windows left out); with 2 to 4 periods: the difference of
+the quietest pair of consecutive periods (a decaying start-up response is left out).
 Non-periodic: the difference method (the robust variance of the d-th difference,
 from its median absolute deviation, divided by C(2d, d), the smallest over d = 1..6;
 consistent for Gaussian white noise on a signal smooth on the sample scale, whose
@@ -155,12 +155,15 @@ class RecordMeasurement:
 
 
 def period_scatter(x: np.ndarray, bounds: np.ndarray) -> float:
-    """White-noise variance from the scatter of 2 or more periods about their mean
-    (each period resampled at the nearest integer number of samples per period)."""
+    """White-noise variance from 2 or more periods: half the mean square difference of
+    two consecutive periods, the quietest pair (each period resampled at the nearest
+    integer number of samples per period). A structure's free response decaying from the
+    start differs most between the first periods; the quietest pair is the most settled
+    (the minimum of a few estimates with M degrees of freedom each is low by ~sqrt(2/M))."""
     m = max(8, int(round(float(np.mean(np.diff(bounds))))))
     c = resample_cycles(np.asarray(x, dtype=float), bounds, m, check=False)
-    r = c - c.mean(axis=0)
-    return float(np.sum(r * r)) / ((c.shape[0] - 1) * m) / interpolation_gain(bounds, m)
+    d = np.diff(c, axis=0)
+    return float(np.min(np.mean(d * d, axis=1))) / 2.0 / interpolation_gain(bounds, m)
 
 
 def difference_variance(x: np.ndarray) -> float:
