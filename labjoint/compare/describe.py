@@ -213,8 +213,9 @@ def overall_finding(nr: float, floor: float, factor: float) -> tuple[list[dict[s
         return [{"where": "overall",
                  "text": (f"NRMSE {pct_text(nr)} is within {factor:g}x the noise floor "
                           f"({pct_text(floor)}): no error beyond measurement noise")}], True
+    times = f" ({nr / floor:.3g}x)" if floor > 0 else ""     # noise-free data: a floor of 0
     return [{"where": "overall",
-             "text": f"NRMSE {pct_text(nr)} against a noise floor of {pct_text(floor)} ({nr / floor:.3g}x)"}], False
+             "text": f"NRMSE {pct_text(nr)} against a noise floor of {pct_text(floor)}{times}"}], False
 
 
 def failures(ev: Evaluation, maps: ResidualMaps, curves: PhysicsCurves, noise_floor: float,
