@@ -228,7 +228,7 @@ class RunEngine:
 
     @command(Output)
     def _do_output(self, msg: Output) -> GeneratorSettings | None:
-        return self._output_on() if msg.on else self._output_off()
+        return self.drive.on() if msg.on else self._output_off()
 
     @command(SetTorque)
     def _do_set_torque(self, msg: SetTorque) -> float:
@@ -263,9 +263,6 @@ class RunEngine:
         """A generator change: a steady state found before it no longer holds."""
         self.sampler.steady = None
 
-    def _output_on(self) -> GeneratorSettings | None:
-        return self.drive.on()
-
     def _output_off(self) -> None:
         self.drive.off()
         self.sampler.stop()
@@ -278,7 +275,7 @@ class RunEngine:
             self.rig.set_torque(torque_nm)
             self._torque = self._torque_requested = float(torque_nm)
             if was_on:
-                self._output_on()
+                self.drive.on()
             return self._torque
         answer = self._operator("torque", torque_nm=float(torque_nm))
         self._torque_requested = float(torque_nm)
@@ -302,7 +299,7 @@ class RunEngine:
             self.state = "running"
         self._abort.check()
         if was_on:
-            self._output_on()
+            self.drive.on()
         return answer
 
     # ---- runs -----------------------------------------------------------------------

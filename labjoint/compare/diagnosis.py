@@ -276,10 +276,11 @@ def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
     runs = judged_runs(runs, fit_r, val_r)
     fit_names, val_names = [r.name for r in fit_r], [r.name for r in val_r]
     noise = noise or noise_floor(runs)
+    floor_fit = noise.over(runs, fit_names)
     if base_fit is None:
         base_fit = ModelFitter(model, multistart=settings.multistart, seed=settings.seed).fit(
             [r.data for r in fit_r], validation=[r.data for r in val_r],
-            floor=noise.over(runs, fit_names))
+            floor=floor_fit)
     t1 = time.perf_counter()
     if progress:
         progress(f"fitted {model.expr}")
@@ -296,7 +297,7 @@ def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
     fits = refit_candidates(base_fit, model, names, [r.data for r in fit_r],
                             [r.data for r in val_r], warm=settings.warm, n_jobs=settings.n_jobs,
                             multistart=settings.multistart, seed=settings.seed, progress=progress,
-                            floor=noise.over(runs, fit_names))
+                            floor=floor_fit)
     sig_s = settings.significance
     judge = Baseline(kind, runs, ev, maps, val_names, floor_val, sig_s).judge
     cands = [judge(n, fits[n]) for n in names]

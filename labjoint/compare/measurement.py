@@ -136,7 +136,6 @@ class Kind(Protocol):
     """The set-level operations of one kind of measurement (module docstring)."""
 
     name: str
-    noise_method: str
 
     def split(self, ms: Sequence[Any]) -> tuple[list[Any], list[Any], str]: ...
 

@@ -111,9 +111,7 @@ class PreparedRun:
         return out
 
     def renamed(self, name: str) -> PreparedRun:
-        d = self.data
-        return replace(self, name=name, data=RunData(replace(d.inputs, name=name), d.force,
-                                                     d.steady))
+        return replace(self, name=name, data=self.data.renamed(name))
 
     def cycle_index(self) -> np.ndarray:
         """Per sample: index of its steady cycle (-1 outside them)."""

@@ -22,7 +22,7 @@ begins; model outputs always cover the record samples only.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -311,6 +311,11 @@ class RunData:
     @property
     def name(self) -> str:
         return self.inputs.name
+
+    def renamed(self, name: str, steady: Any = None) -> RunData:
+        """The same data under another name (and, if given, other judged samples)."""
+        return RunData(replace(self.inputs, name=name), self.force,
+                       self.steady if steady is None else steady)
 
     @property
     def frequency_hz(self) -> float:

@@ -25,9 +25,9 @@ from labjoint.api.errors import errors_doc
 from labjoint.api.routes.analyses import cancel_job, get_job, job_page, runner
 from labjoint.api.schemas import JOB_ID, Job, JobList, ModelRequest, RunName
 from labjoint.compare.api import settings_from
+from labjoint.compare.candidates import candidate_effects
 from labjoint.errors import InputError
 from labjoint.models import Model
-from labjoint.vocabulary import EFFECTS
 
 router = APIRouter(prefix="/models", tags=["models"])
 OPERATIONS = ("fit", "diagnose", "ladder")
@@ -118,14 +118,13 @@ def _submit(request: Request, operation: str, body: ModelRequest, scope: str) ->
     paths = [res.path(n) for n in names]
     options = check_options(operation, body.options)
     model = "+".join(p.strip() for p in body.model.split("+"))
-    Model.parse(model)                      # an unknown effect is 422 now, not a failed job
+    parsed = Model.parse(model)             # an unknown effect is 422 now, not a failed job
     cands = options.get("candidates")
     if cands is not None:
-        cands = [c.strip() for c in cands.split(",")] if isinstance(cands, str) else cands
-        unknown = [c for c in cands if c not in EFFECTS]
-        if unknown:
-            raise InputError(f"unknown effect(s) {unknown}; the vocabulary is {list(EFFECTS)}",
-                             field="options.candidates")
+        try:
+            candidate_effects(parsed, settings_from({"candidates": cands}).candidates)
+        except InputError as exc:
+            raise InputError(exc.message, field="options.candidates") from None
     if options.get("validate"):      # names -> files inside the data directory
         options["validate"] = [v if v in names else str(res.path(v)) for v in options["validate"]]
     req = {"operation": operation, "runs": names, "model": model,

@@ -49,11 +49,11 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
     items = [read_any(r) if isinstance(r, (str, Path)) else r for r in runs]
     if not items:
         raise InputError("no runs given", field="runs")
+    found = {id(r): detect_excitation(r.excitation, r.sample_rate_hz, dict(r.metadata))
+             for r in items if isinstance(r, Run) and kind == "auto"}
     if kind == "auto":
-        raw = [r for r in items if isinstance(r, Run)]
         given = {r.kind for r in items if isinstance(r, (PreparedRun, RecordMeasurement))}
-        sine = all(detect_excitation(r.excitation, r.sample_rate_hz, dict(r.metadata)).kind == "sine"
-                   for r in raw)
+        sine = all(e.kind == "sine" for e in found.values())
         kind = "sine" if sine and given <= {"sine"} else "record"
     out: list[Measurement] = []
     for r in items:
@@ -64,7 +64,7 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
             out.append(r)
         elif isinstance(r, Run):
             out.append(prepare_run(r, prime_cycles=prime_cycles) if kind == "sine"
-                       else prepare_record(r, warmup=warmup))
+                       else prepare_record(r, warmup=warmup, excitation=found.get(id(r))))
         else:
             raise InputError(f"expected a run file path or a Run, got {type(r).__name__}",
                              field="runs")

@@ -137,9 +137,7 @@ class RecordMeasurement:
                         eq / rms if rms > 0 else float("nan"), n_used, n_win)
 
     def renamed(self, name: str) -> RecordMeasurement:
-        d = self.data
-        return replace(self, name=name, data=RunData(replace(d.inputs, name=name), d.force,
-                                                     d.steady))
+        return replace(self, name=name, data=self.data.renamed(name))
 
     def part(self, first: int, stop: int, label: str) -> RecordMeasurement:
         """The same record judged on its units ``first:stop`` only, named ``name[label]``
@@ -149,9 +147,8 @@ class RecordMeasurement:
         keep[int(spans[0, 0]):int(spans[-1, 1])] = True
         bounds = None if self.bounds is None else self.bounds[first:stop + 1]
         name = f"{self.name}[{label}]"
-        d = self.data
         return replace(self, name=name, spans=spans, bounds=bounds,
-                       data=RunData(replace(d.inputs, name=name), d.force, keep))
+                       data=self.data.renamed(name, keep))
 
 
 def period_scatter(x: np.ndarray, bounds: np.ndarray) -> float:
@@ -211,8 +208,10 @@ def _band(exc: Excitation) -> tuple[float | None, float | None]:
 
 
 def prepare_record(run: Run | str | Path, *, band_hz: float | None = None,
-                   warmup: str | float = "auto") -> RecordMeasurement:
-    """Prepare a record under any excitation (module docstring)."""
+                   warmup: str | float = "auto",
+                   excitation: Excitation | None = None) -> RecordMeasurement:
+    """Prepare a record under any excitation (module docstring); ``excitation``: what
+    :func:`~labjoint.signal.excitation.detect_excitation` already found in it."""
     if isinstance(run, (str, Path)):
         run = read_any(run)
     if not isinstance(run, Run):
@@ -222,7 +221,7 @@ def prepare_record(run: Run | str | Path, *, band_hz: float | None = None,
     F = np.asarray(run.force, dtype=float)
     u_raw = np.asarray(run.displacement, dtype=float)
     n = F.size
-    exc = detect_excitation(run.excitation, fs, dict(run.metadata))
+    exc = excitation or detect_excitation(run.excitation, fs, dict(run.metadata))
     if exc.kind == "none":
         raise InputError(f"run '{run.name}': the force is silent, nothing excites the joint",
                          file=where, field="force")

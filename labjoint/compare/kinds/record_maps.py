@@ -302,7 +302,6 @@ class RecordKind:
     """Set-level operations of records (:class:`labjoint.compare.measurement.Kind`)."""
 
     name: str = "record"
-    noise_method: str = ("periodic: period-to-period scatter; otherwise the difference method")
 
     def split(self, ms: Sequence[Any]) -> tuple[list[Any], list[Any], str]:
         """Two or more records: every 3rd by rms displacement is validation (both ends stay

@@ -18,7 +18,6 @@ from labjoint.compare.curves import PhysicsCurves, mean_loops, physics_curves
 from labjoint.compare.describe import failures
 from labjoint.compare.evidence import evidence
 from labjoint.compare.metrics import Evaluation, RunEval
-from labjoint.compare.noise import METHOD
 from labjoint.compare.residuals import ResidualMaps, residual_maps
 from labjoint.compare.runs import PreparedRun, default_split
 from labjoint.models import FitResult
@@ -29,7 +28,6 @@ class SineKind:
     """Set-level operations of steady-sine runs (:class:`labjoint.compare.measurement.Kind`)."""
 
     name: str = "sine"
-    noise_method: str = METHOD
 
     def split(self, ms: Sequence[PreparedRun]) -> tuple[list[PreparedRun], list[PreparedRun], str]:
         return default_split(ms)
