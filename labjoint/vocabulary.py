@@ -18,8 +18,9 @@ Canonical laws (SI):
   S = (F_S / phi_max) (beta / (beta + (chi + 1)/(chi + 2))).
   F_S is the macro-slip force, K_T the initial stiffness; micro-slip dissipation
   grows like U^(3 + chi) (seed 001).
-- ``bouc_wen``: F = z, dz/dt = k0 du/dt [1 - |z/F_y|^n (beta sgn(z du/dt) + 1 - beta)]
-  (seed 001's A = k0; beta in [0, 1] shapes unloading; z saturates at F_y).
+- ``bouc_wen``: F = z, dz/dt = k0 du/dt - alpha |du/dt| |z|^(n-1) z - beta du/dt |z|^n
+  (seed 001's classical form, A = k0; alpha + beta > 0 saturates z at
+  (k0 / (alpha + beta))^(1/n), alpha + beta < 0 hardens it).
 - ``valanis``: seed 001 (Lenz and Gaul): dF/dt = E0 du/dt [1 + (lam/E0) sgn(du/dt)(Et u - F)]
   / [1 + kappa (lam/E0) sgn(du/dt)(Et u - F)].
 - ``richard_abbott``: backbone (seed 000 Eq. 2 with stress -> force, strain -> displacement)
@@ -77,8 +78,8 @@ EFFECTS: dict[str, EffectSpec] = {
             ParamSpec("beta", "1", 0.0, INF, "weight of the macro-slip delta"))),
         EffectSpec("bouc_wen", "hysteretic", (
             ParamSpec("k0", "N/m", 0.0, INF, "initial stiffness (A)"),
-            ParamSpec("F_y", "N", 0.0, INF, "saturation force"),
-            ParamSpec("beta", "1", 0.0, 1.0, "unloading shape"),
+            ParamSpec("alpha", "N^(1-n)/m", -INF, INF, "|du| |z|^(n-1) z coefficient"),
+            ParamSpec("beta", "N^(1-n)/m", -INF, INF, "du |z|^n coefficient"),
             ParamSpec("n", "1", 0.2, 20.0, "sharpness"))),
         EffectSpec("valanis", "hysteretic", (
             ParamSpec("E0", "N/m", 0.0, INF, "initial stiffness"),

@@ -24,7 +24,8 @@ TOLERANCE = {"iwan.F_S": (0.05, 0.0), "iwan.beta": (0.0, 0.05)}
 FAMILIES = {
     "coulomb": ({"family": "coulomb", "k": 14e6, "f_s": 60.0}, LEVELS),
     "iwan": (MICRO_SLIP, NEAR_MACRO),
-    "bouc_wen": ({"family": "bouc_wen", "k0": 14e6, "F_y": 80.0, "beta": 0.5, "n": 1.5}, LEVELS),
+    "bouc_wen": ({"family": "bouc_wen", "k0": 14e6, "alpha": 9782.8, "beta": 9782.8, "n": 1.5},
+                 LEVELS),     # saturating at (k0 / (alpha + beta))^(1/n) = 80 N
     "valanis": ({"family": "valanis", "E0": 14e6, "Et": 1e6, "lam": 1.7e5, "kappa": 0.5}, LEVELS),
     "richard_abbott": ({"family": "richard_abbott", "ke": 14e6, "kp": 1e6, "F_y": 60.0, "n": 2.0},
                        LEVELS),

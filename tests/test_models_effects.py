@@ -146,9 +146,10 @@ def test_iwan_population_discretisation_accuracy():
             assert E == pytest.approx(energy(U), rel=1e-3)
 
 
-def test_bouc_wen_saturates_at_F_y_with_initial_slope_k0():
+def test_bouc_wen_saturates_at_its_slip_force_with_initial_slope_k0():
     m = Model.parse("bouc_wen")
-    vals = {"bouc_wen.k0": 1e7, "bouc_wen.F_y": 30.0, "bouc_wen.beta": 0.5, "bouc_wen.n": 2.0}
+    ab = 0.5e7 / 30.0 ** 2          # alpha = beta: loading saturates at (k0 / (alpha + beta))^(1/n) = 30 N
+    vals = {"bouc_wen.k0": 1e7, "bouc_wen.alpha": ab, "bouc_wen.beta": ab, "bouc_wen.n": 2.0}
     F = m.eval(vals, tone(50e-6, 100.0, 3))
     assert np.max(F) == pytest.approx(30.0, rel=1e-6)
     ramp = ModelInputs.from_record(np.linspace(0, 1e-10, 64), FS)
@@ -238,7 +239,8 @@ def test_offset_and_asymmetric_slip_make_even_harmonics_symmetric_models_do_not(
     h = harmonics(Model.parse("coulomb+asymmetric_slip").eval({**sym, "asymmetric_slip.asym": 0.2},
                                                               inp), 100.0, FS)
     assert h[0] == pytest.approx(0.2 * 40.0, rel=1e-6)   # plateaus at +48 N and -32 N
-    bw = {"bouc_wen.k0": 1e7, "bouc_wen.F_y": 30.0, "bouc_wen.beta": 0.5, "bouc_wen.n": 1.5}
+    ab = 0.5e7 / 30.0 ** 1.5
+    bw = {"bouc_wen.k0": 1e7, "bouc_wen.alpha": ab, "bouc_wen.beta": ab, "bouc_wen.n": 1.5}
     h_sym = harmonics(Model.parse("bouc_wen").eval(bw, inp), 100.0, FS)
     h_asym = harmonics(Model.parse("bouc_wen+asymmetric_slip").eval(
         {**bw, "asymmetric_slip.asym": 0.2}, inp), 100.0, FS)

@@ -21,7 +21,12 @@ from labjoint.storage import Run
 FS = 750.0
 N = 1024                                   # samples per period: lines every 0.73 Hz
 LINEAR = {"inertia.m": 2.0, "viscous.c": 10.0, "linear_stiffness.k": 5e4}
-BW = {**LINEAR, "bouc_wen.k0": 3e4, "bouc_wen.F_y": 40.0, "bouc_wen.beta": 0.6, "bouc_wen.n": 1.5}
+#: the Bouc-Wen benchmark's system (a hardening law: alpha + beta < 0)
+BW = {**LINEAR, "bouc_wen.k0": 5e4, "bouc_wen.alpha": 800.0, "bouc_wen.beta": -1100.0,
+      "bouc_wen.n": 1.0}
+#: a saturating law: (k0 / (alpha + beta))^(1/n) = 40 N
+SOFT = {**LINEAR, "bouc_wen.k0": 3e4, "bouc_wen.alpha": 71.15, "bouc_wen.beta": 47.43,
+        "bouc_wen.n": 1.5}
 EXPR = "inertia+viscous+linear_stiffness+bouc_wen"
 
 
@@ -47,7 +52,7 @@ def test_a_linear_oscillator_reaches_its_closed_form_steady_state():
 
 
 @pytest.mark.parametrize("expr, params", [
-    (EXPR, BW),
+    (EXPR, SOFT),
     ("inertia+viscous+linear_stiffness+coulomb", {**LINEAR, "coulomb.k": 3e4, "coulomb.f_s": 20.0}),
 ])
 def test_the_simulated_response_balances_the_force_through_every_joint_law(expr, params):
@@ -97,7 +102,7 @@ def _csv(path, run):
 def test_cli_fit_by_simulation_saves_a_model_that_predict_runs(tmp_path, capsys):
     train = _csv(tmp_path / "train.csv", _record("train", multisine(1, periods=4),
                                                  params=LINEAR | {"bouc_wen.k0": 1.0,
-                                                                  "bouc_wen.F_y": 1.0,
+                                                                  "bouc_wen.alpha": 0.5,
                                                                   "bouc_wen.beta": 0.5,
                                                                   "bouc_wen.n": 1.0}))
     model = tmp_path / "model.json"

@@ -109,7 +109,7 @@ def test_default_sim_config_from_the_rig_config():
     ({"seed": -1}, "sim.seed"),
     ({"module_name": "NI 0000"}, "sim.module_name"),
     ({"joint": "glue"}, "sim.joint"),
-    ({"joint": {"family": "bouc_wen", "k0": 1e7, "F_y": 50.0, "beta": 0.5}}, "sim.joint.n"),
+    ({"joint": {"family": "bouc_wen", "k0": 1e7, "alpha": 2e3, "beta": 2e3}}, "sim.joint.n"),
     ({"joint": {"family": "coulomb", "k": 0.0, "f_s": 10.0}}, "sim.joint.k"),
     ({"effects": [{"name": "visc", "c": 1.0}]}, "sim.effects[0].name"),
     ({"effects": [{"name": "viscous", "c": 1.0, "d": 2.0}]}, "sim.effects[0].d"),

@@ -182,11 +182,12 @@ def test_iwan_family_matches_segalman_dissipation():
     assert prescribed_displacement(spec, np.array([0.0, tiny]))[1] / tiny == pytest.approx(KT, rel=1e-9)
 
 
-def test_bouc_wen_saturates_at_f_y_with_initial_stiffness_k0():
-    spec = parse_joint({"family": "bouc_wen", "k0": 1e7, "F_y": 50.0, "beta": 0.5, "n": 2.0}, [])
+def test_bouc_wen_saturates_with_initial_stiffness_k0():
+    spec = parse_joint({"family": "bouc_wen", "k0": 1e7, "alpha": 2000.0, "beta": 2000.0, "n": 2.0}, [])
     u = np.linspace(0, 1e-4, 20001)
     F = prescribed_displacement(spec, u)
-    # monotonic loading with beta = 0.5: dz/du = k0 (1 - (z/F_y)^2)  ->  z = F_y tanh(k0 u / F_y)
+    # monotonic loading: dz/du = k0 - (alpha + beta) z^2 = k0 (1 - (z/F)^2), F = (k0 / 4000)^(1/2) = 50
+    # ->  z = F tanh(k0 u / F)
     np.testing.assert_allclose(F, 50.0 * np.tanh(1e7 * u / 50.0), atol=1e-6)
 
 

@@ -15,10 +15,12 @@ the output in place of the force).
   ln(p / p0) for the effects' positive scale parameters and (p - p0) / |p0| otherwise,
   within the vocabulary's bounds; standard errors from the Jacobian at the optimum
   (:func:`labjoint.models.covariance.covariance`), which assume independent residuals.
-- The simulation starts at rest at each record's first sample, so the displacement is
-  compared with its first sample as zero; a ``periodic`` record is simulated to its
-  periodic steady state and compared about its mean (a displacement sensor's DC level
-  is arbitrary). Judged samples: those of the record kind (after the warm-up).
+- The simulation starts at rest at each record's first sample; a ``periodic`` record is
+  simulated to its periodic steady state. A displacement sensor's DC level is arbitrary,
+  so the prediction is compared after adding the constant that best matches it to the
+  measurement over the judged samples (the mean residual, solved exactly; taking the
+  first sample as zero instead biased the parameters by the noise of that one sample).
+  Judged samples: those of the record kind (after the warm-up).
 - Noise floor: the record's displacement noise (period scatter or the difference method)
   over the rms of its judged displacement.
 """
@@ -69,7 +71,9 @@ class Prediction:
 
     @property
     def sso(self) -> float:
+        """Sum of squares of the judged measured output about its mean (its DC is arbitrary)."""
         y = self.measured[self.judged]
+        y = y - float(np.mean(y))
         return float(y @ y)
 
     @property
@@ -85,21 +89,23 @@ class Prediction:
                 "noise_std_m": self.noise_std_m, "samples": int(self.judged.sum())}
 
 
-def _output(m: RecordMeasurement, periodic: bool) -> tuple[np.ndarray, np.ndarray]:
+def _output(m: RecordMeasurement) -> tuple[np.ndarray, np.ndarray]:
     """(the measured displacement about its zero, the judged mask) of a record."""
     y = m.data.inputs.u + float(m.metadata.get("displacement_reference_m", 0.0))
-    if periodic:
-        return y - float(np.mean(y)), np.ones(y.size, bool)
-    return y - y[0], m.data.steady.copy()
+    return y, m.data.steady.copy()
+
+
+def _aligned(pred: np.ndarray, y: np.ndarray, judged: np.ndarray) -> np.ndarray:
+    """The prediction plus the constant that best matches it to ``y`` on the judged samples."""
+    return pred + float(np.mean((y - pred)[judged]))
 
 
 def predict_record(model: Model, params: Parameters | dict[str, float], m: RecordMeasurement,
                    *, periodic: bool = False, substeps: int = DEFAULT_SUBSTEPS) -> Prediction:
     """Simulate ``model`` on the record's force and compare with its displacement."""
-    y, judged = _output(m, periodic)
+    y, judged = _output(m)
     pred = simulate(model, params, m.data.force, m.fs, substeps=substeps, periodic=periodic)
-    if periodic:
-        pred = pred - float(np.mean(pred))
+    pred = _aligned(pred, y, judged)
     return Prediction(m.name, pred, y, judged, float(m.noise().displacement_std), m.fs)
 
 
@@ -189,20 +195,42 @@ def fit_simulation(runs: Any, model: str | Model, *, validate: list[Any] | None 
     model = Model.parse(model)
     check_simulable(model)
     items = [runs] if isinstance(runs, (str, Path)) else list(runs)
-    ms: list[Measurement] = prepare(items + list(validate or []), kind="record", warmup=warmup)
+    ms: list[Measurement] = prepare(items + list(validate or []), kind="record",
+                                    warmup=0 if periodic else warmup)
     recs = [m for m in ms if isinstance(m, RecordMeasurement)]
-    fit_recs, val_recs = recs[:len(items)], recs[len(items):]
-    start_fit = fit_report(fit_recs, model, seed=seed)
-    start = start_fit.fit.params_.copy()
+    return fit_prepared(recs[:len(items)], model, validation=recs[len(items):],
+                        periodic=periodic, substeps=substeps, seed=seed)
+
+
+def start_values(fit_recs: list[RecordMeasurement], model: Model, seed: int = 0,
+                 warm: Parameters | None = None) -> Parameters:
+    """Start of the search: the equation-error fit of ``model`` (no user guess), with the
+    values of ``warm`` (a fit of a smaller model) where it has them."""
+    start = fit_report(fit_recs, model, seed=seed).fit.params_.copy()
+    for k, q in (warm or {}).items():
+        if k in start:
+            start[k].value = float(q.value)
     if not start["inertia.m"].value > 0:   # an equation-error mass <= 0 cannot be simulated
         k = abs(start["linear_stiffness.k"].value) if "linear_stiffness.k" in start else 1.0
         start["inertia.m"].value = k / (2 * np.pi * fit_recs[0].data.frequency_hz) ** 2
     for k, q in start.items():             # log-scaled parameters need a positive start
         if q.value <= 0 and q.lower >= 0:
             q.value = max(abs(q.upper) * 1e-6 if np.isfinite(q.upper) else 1e-6, 1e-9)
+    return start
+
+
+def fit_prepared(fit_recs: list[RecordMeasurement], model: Model, *,
+                 validation: list[RecordMeasurement] | None = None, periodic: bool = False,
+                 substeps: int = DEFAULT_SUBSTEPS, seed: int = 0,
+                 warm: Parameters | None = None) -> SimulationFit:
+    """:func:`fit_simulation` on prepared records, each judged on its ``data.steady``
+    samples (a part of a record split in time is still simulated along its whole history)."""
+    check_simulable(model)
+    start = start_values(fit_recs, model, seed, warm)
+    val_recs = list(validation or [])
     sc = _Scaled(model, start)
-    targets = [_output(m, periodic) for m in fit_recs]
-    scales = [np.sqrt(np.mean(y[j] ** 2)) for y, j in targets]
+    targets = [_output(m) for m in fit_recs]
+    scales = [float(np.std(y[j])) for y, j in targets]
     n_evals = [0]
 
     def residual(x: np.ndarray) -> np.ndarray:
@@ -215,9 +243,7 @@ def fit_simulation(runs: Any, model: str | Model, *, validate: list[Any] | None 
                                 periodic=periodic)
             except InputError:
                 return np.full(sum(int(t[1].sum()) for t in targets), 1e3)
-            if periodic:
-                pred = pred - float(np.mean(pred))
-            r = (y - pred)[j] / s
+            r = (y - _aligned(pred, y, j))[j] / s
             parts.append(np.where(np.isfinite(r), r, 1e3))
         return np.concatenate(parts)
 

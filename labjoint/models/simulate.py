@@ -6,7 +6,9 @@ of motion, the applied force F(t) balancing every effect's force on the displace
     m y'' + c y' + k y + k3 y^3 + F0 + z_bw + z_j = F(t)
 
 (inertia m, viscous c, linear_stiffness k, cubic_stiffness k3, offset F0; the hysteretic
-forces of ``bouc_wen``, dz/dt = k0 y' [1 - |z/F_y|^n (beta sgn(z y') + 1 - beta)], and of
+forces of ``bouc_wen``, dz/dt = k0 y' - alpha |y'| |z|^(n-1) z - beta y' |z|^n (seed 001's
+classical form; the Bouc-Wen benchmark's law with alpha = beta_B gamma_B, beta = beta_B
+delta_B), and of
 ``coulomb``, a Jenkins element: dz/dt = k y' while |z| < f_s or the motion unloads it, z
 held within +-f_s). Other effects are refused by name.
 
@@ -41,11 +43,11 @@ SUPPORTED = ("inertia", "viscous", "linear_stiffness", "cubic_stiffness", "offse
 
 @njit(cache=True)
 def _rates(t_force, y, v, zb, zj, m, c, k, k3, f0, bw, jk):  # pragma: no cover - numba
-    k0, fy, beta, n = bw[0], bw[1], bw[2], bw[3]
+    k0, al, be, n = bw[0], bw[1], bw[2], bw[3]
     dzb = 0.0
     if k0 > 0.0:
         s = 1.0 if zb * v > 0.0 else (-1.0 if zb * v < 0.0 else 0.0)
-        dzb = k0 * v * (1.0 - abs(zb / fy) ** n * (beta * s + 1.0 - beta))
+        dzb = v * (k0 - abs(zb) ** n * (al * s + be))
     dzj = 0.0
     if jk[0] > 0.0:
         if abs(zj) < jk[1] or zj * v < 0.0:
@@ -102,7 +104,7 @@ def _coefficients(model: Model, params: Parameters | Mapping[str, Any]) -> tuple
         raise InputError(f"the mass must be > 0 to simulate, got {m:g} kg", field="inertia.m")
     bw = np.zeros(4)
     if "bouc_wen" in vals:
-        bw[:] = [g("bouc_wen", "k0"), g("bouc_wen", "F_y"), g("bouc_wen", "beta"), g("bouc_wen", "n")]
+        bw[:] = [g("bouc_wen", "k0"), g("bouc_wen", "alpha"), g("bouc_wen", "beta"), g("bouc_wen", "n")]
     jk = np.zeros(2)
     if "coulomb" in vals:
         jk[:] = [g("coulomb", "k"), g("coulomb", "f_s")]

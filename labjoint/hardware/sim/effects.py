@@ -30,7 +30,7 @@ from labjoint.vocabulary import EFFECTS, HYSTERETIC
 #: ``seed002`` (default) adds the viscoelastic layer that makes the joint dissipate like
 #: seed 002's (Tables 2-4); ``dry_microslip`` (alias ``contact``) is the dry contact alone.
 PRESETS = {"seed002": True, "dry_microslip": False, "contact": False}
-STRICT = {"coulomb": ("k", "f_s"), "iwan": ("F_S", "K_T"), "bouc_wen": ("k0", "F_y"),
+STRICT = {"coulomb": ("k", "f_s"), "iwan": ("F_S", "K_T"), "bouc_wen": ("k0",),
           "valanis": ("E0",), "richard_abbott": ("ke", "F_y"), "wear": ("E_w",)}
 
 

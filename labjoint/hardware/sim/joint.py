@@ -27,7 +27,7 @@ from labjoint.hardware.sim.effects import JointSpec
 
 BOUC_WEN, VALANIS, RICHARD_ABBOTT = 1, 2, 3
 SMOOTH_CODES = {"bouc_wen": BOUC_WEN, "valanis": VALANIS, "richard_abbott": RICHARD_ABBOTT}
-PARAM_ORDER = {"bouc_wen": ("k0", "F_y", "beta", "n"), "valanis": ("E0", "Et", "lam", "kappa"),
+PARAM_ORDER = {"bouc_wen": ("k0", "alpha", "beta", "n"), "valanis": ("E0", "Et", "lam", "kappa"),
                "richard_abbott": ("ke", "kp", "F_y", "n")}
 N_SMOOTH_STATE = 6
 # eff array layout
@@ -154,30 +154,36 @@ def _jenkins(u, k, phi, z, w, asym):
 
 
 @njit(cache=True)
-def _bw_rhs(z, s, k0, fy, beta, n):
+def _bw_rhs(z, s, k0, al, be, n):
     sg = 1.0 if z * s > 0.0 else (-1.0 if z * s < 0.0 else 0.0)
-    return k0 * (1.0 - abs(z / fy) ** n * (beta * sg + 1.0 - beta))
+    return k0 - abs(z) ** n * (al * sg + be)
 
 
 @njit(cache=True)
 def _bouc_wen(st, par, du, w, asym):
+    # classical law dz/du = k0 - |z|^n (alpha sgn(z du) + beta); wear and asym scale the
+    # slip strength, i.e. alpha and beta by (w (1 +- asym))^-n
     z0 = st[0]
     if du == 0.0:
         return z0, 0.0
-    k0, fy0, beta, n = par[0], par[1], par[2], par[3]
+    k0, n = par[0], par[3]
     s = 1.0 if du > 0.0 else -1.0
-    fy = fy0 * w * (1.0 + asym * s)
-    m = min(int(k0 * max(n, 1.0) * abs(du) / (0.25 * fy)) + 1, 400)
+    f = (w * (1.0 + asym * s)) ** (-n)
+    al, be = par[1] * f, par[2] * f
+    zsat = (k0 / (al + be)) ** (1.0 / n) if al + be > 0.0 else 1e12
+    zsat = max(zsat, abs(z0))
+    zr = min(abs(z0) + k0 * abs(du), zsat)
+    lam = n * (abs(al) + abs(be)) * max(zr, 1e-300) ** (n - 1.0)
+    m = 1 + int(min(4.0 * lam * abs(du), 399.0))
     h = du / m
     z = z0
     for _ in range(m):
-        a1 = _bw_rhs(z, s, k0, fy, beta, n)
-        a2 = _bw_rhs(z + 0.5 * h * a1, s, k0, fy, beta, n)
-        a3 = _bw_rhs(z + 0.5 * h * a2, s, k0, fy, beta, n)
-        a4 = _bw_rhs(z + h * a3, s, k0, fy, beta, n)
+        a1 = _bw_rhs(z, s, k0, al, be, n)
+        a2 = _bw_rhs(z + 0.5 * h * a1, s, k0, al, be, n)
+        a3 = _bw_rhs(z + 0.5 * h * a2, s, k0, al, be, n)
+        a4 = _bw_rhs(z + h * a3, s, k0, al, be, n)
         z += h * (a1 + 2.0 * a2 + 2.0 * a3 + a4) / 6.0
-        if z * s > fy:
-            z = s * fy
+        z = min(max(z, -zsat), zsat)
     st[0] = z
     return z, 0.5 * (z0 + z) * du - (z * z - z0 * z0) / (2.0 * k0)
 

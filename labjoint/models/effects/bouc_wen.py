@@ -1,12 +1,17 @@
-"""Bouc-Wen hysteretic variable (seed 001, with A = k0 and a saturation force F_y).
+"""Bouc-Wen hysteretic variable in Wen's classical form (seed 001, Bouc-Wen model).
 
-F = z, dz/du = k0 [1 - |z/F_y|^n (beta sgn(z du) + 1 - beta)] (vocabulary law), integrated
-per sample by classical RK4 in u with m = 1 + floor(2 k0 n |du| / F_y) substeps (the
-linearised step k0 n |du| / F_y stays below 0.5, well inside RK4 stability), at most
-MAX_SUBSTEPS; z is kept within max(|z|, F_y), a bound of the exact solution, so a
-sample spanning hundreds of yield displacements saturates instead of diverging.
-Dissipation (for wear): E_d = int z du - z^2 / (2 k0), the plastic work, exact over
-closed cycles. Slip strength = F_y.
+F = z, dz/dt = A du/dt - alpha |du/dt| |z|^(n-1) z - beta du/dt |z|^n (seed 001), so along
+the displacement dz/du = k0 - |z|^n (alpha sgn(z du) + beta) with A = k0. alpha + beta > 0
+saturates the loading branch at F_sat = (k0 / (alpha + beta))^(1/n) (softening, the usual
+joint); alpha + beta < 0 hardens it (the Bouc-Wen benchmark: alpha = 800, beta = -1100 for
+n = 1). Integrated per sample by classical RK4 in u with m = 1 + floor(2 lambda |du|)
+substeps, lambda = n |z|^(n-1) (|alpha| + |beta|) the law's stiffness in z at the largest
+|z| the step can reach (so lambda h < 0.5, well inside RK4 stability), at most
+MAX_SUBSTEPS; a saturating law keeps z within max(|z|, F_sat), a bound of the exact
+solution, so a sample spanning hundreds of yield displacements saturates instead of
+diverging. Dissipation (for wear): E_d = int z du - z^2 / (2 k0), the plastic work, exact
+over closed cycles. Slip modifiers scale the slip strength F_sat by s, that is alpha and
+beta by s^-n.
 """
 
 from __future__ import annotations
@@ -20,17 +25,45 @@ from labjoint.models.effects.base import NO_MODIFIERS, HystereticEffect, SlipMod
 from labjoint.models.summary import LoopSummary
 
 MAX_SUBSTEPS = 256
+Z_CAP = 1e12          # N: a hardening law is held finite here (no joint carries this)
 
 
 @njit(cache=True)
-def _rhs(z, h, k0, fy, beta, n):  # pragma: no cover - numba
-    zh = z * h
+def bw_rate(z, sg_h, k0, al, be, n):  # pragma: no cover - numba
+    """dz/du of the classical law; ``sg_h`` carries the sign of du."""
+    zh = z * sg_h
     sg = 1.0 if zh > 0.0 else (-1.0 if zh < 0.0 else 0.0)
-    return k0 * (1.0 - abs(z / fy) ** n * (beta * sg + 1.0 - beta))
+    return k0 - abs(z) ** n * (al * sg + be)
 
 
 @njit(cache=True)
-def bouc_wen_force(u, k0, fy0, beta, n, asym, inv_ew, e_other):  # pragma: no cover - numba
+def bw_bound(z, k0, al, be, n):  # pragma: no cover - numba
+    """The largest |z| the exact solution can reach from z (saturating law), else Z_CAP."""
+    if al + be > 0.0:
+        return min(max(abs(z), (k0 / (al + be)) ** (1.0 / n)), Z_CAP)
+    return Z_CAP
+
+
+@njit(cache=True)
+def bw_step(z, du, k0, al, be, n):  # pragma: no cover - numba
+    """z after a displacement step du (RK4 with the module's substep rule)."""
+    zmax = bw_bound(z, k0, al, be, n)
+    zr = min(abs(z) + k0 * abs(du), zmax)
+    lam = n * (abs(al) + abs(be)) * max(zr, 1e-300) ** (n - 1.0)
+    m = 1 + int(min(2.0 * lam * abs(du), MAX_SUBSTEPS - 1.0))
+    h = du / m
+    for _ in range(m):
+        k1 = bw_rate(z, h, k0, al, be, n)
+        k2 = bw_rate(z + 0.5 * h * k1, h, k0, al, be, n)
+        k3 = bw_rate(z + 0.5 * h * k2, h, k0, al, be, n)
+        k4 = bw_rate(z + h * k3, h, k0, al, be, n)
+        z += h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
+        z = min(max(z, -zmax), zmax)
+    return z
+
+
+@njit(cache=True)
+def bouc_wen_force(u, k0, al0, be0, n, asym, inv_ew, e_other):  # pragma: no cover - numba
     """z (N) and cumulative plastic work (J) along ``u``, relaxed at u[0]."""
     m_out = u.size
     out = np.empty(m_out)
@@ -40,7 +73,6 @@ def bouc_wen_force(u, k0, fy0, beta, n, asym, inv_ew, e_other):  # pragma: no co
     ed = 0.0
     out[0] = 0.0
     ed_out[0] = 0.0
-    nn = max(n, 1.0)
     for i in range(1, m_out):
         du = u[i] - u[i - 1]
         if du == 0.0:
@@ -50,18 +82,10 @@ def bouc_wen_force(u, k0, fy0, beta, n, asym, inv_ew, e_other):  # pragma: no co
         s = 1.0
         if inv_ew != 0.0:
             s = np.exp(-(ed + e_other[i - 1]) * inv_ew)
-        fy = fy0 * s * ((1.0 + asym) if du > 0.0 else (1.0 - asym))
-        m = min(1 + int(2.0 * k0 * nn * abs(du) / fy), MAX_SUBSTEPS)
-        h = du / m
+        s *= (1.0 + asym) if du > 0.0 else (1.0 - asym)
+        f = s ** (-n)
         z_old = z
-        zmax = max(abs(z), fy)  # the exact solution never leaves [-zmax, zmax]
-        for _ in range(m):
-            k1 = _rhs(z, h, k0, fy, beta, n)
-            k2 = _rhs(z + 0.5 * h * k1, h, k0, fy, beta, n)
-            k3 = _rhs(z + 0.5 * h * k2, h, k0, fy, beta, n)
-            k4 = _rhs(z + h * k3, h, k0, fy, beta, n)
-            z += h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
-            z = min(max(z, -zmax), zmax)
+        z = bw_step(z, du, k0, al0 * f, be0 * f, n)
         work += 0.5 * (z_old + z) * du
         ed = work - z * z / (2.0 * k0)
         out[i] = z
@@ -70,34 +94,38 @@ def bouc_wen_force(u, k0, fy0, beta, n, asym, inv_ew, e_other):  # pragma: no co
 
 
 class BoucWen(HystereticEffect):
-    """Smooth hysteresis saturating at F_y, initial stiffness k0."""
+    """Smooth hysteresis of initial stiffness k0, softening or hardening with |z|^n."""
 
     name = "bouc_wen"
-    log_params = frozenset({"k0", "F_y"})
+    log_params = frozenset({"k0"})
     description = (
         "A phenomenological smooth hysteresis (Bouc 1967, Wen 1976; seed 001): an internal "
-        "force z grows with stiffness k0 after each reversal and bends over smoothly to a "
-        "saturation force F_y, the sharpness set by n and the unloading shape by beta. It "
+        "force z grows with stiffness k0 after each reversal and bends over smoothly, the "
+        "sharpness set by n; alpha + beta > 0 saturates it at (k0 / (alpha + beta))^(1/n), "
+        "alpha + beta < 0 hardens it, and alpha sets how unloading differs from loading. It "
         "describes gradual stick-to-slip transitions without a slider population.")
     signature = (
-        "Rounded loop saturating at +-F_y; stiffness softens with amplitude, dissipation "
-        "grows from ~U^(n+1)-like at small amplitude to linear once saturated; odd "
-        "harmonics; independent of frequency; beta != 0.5 makes unloading differ from a "
-        "Masing branch.")
+        "Rounded loop; with alpha + beta > 0 it saturates and stiffness softens with "
+        "amplitude, dissipation growing from ~U^(n+1)-like at small amplitude to linear once "
+        "saturated; odd harmonics; independent of frequency; alpha != beta makes unloading "
+        "differ from a Masing branch.")
 
     def simulate(self, params: Mapping[str, float], u: np.ndarray,
                  modifiers: SlipModifiers = NO_MODIFIERS,
                  e_other: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        k0, fy = float(params["k0"]), float(params["F_y"])
-        if k0 <= 0 or fy <= 0:
+        k0 = float(params["k0"])
+        if k0 <= 0:
             return np.zeros_like(u), np.zeros_like(u)
         e = np.zeros_like(u) if e_other is None else e_other
-        return bouc_wen_force(u, k0, fy, float(params["beta"]), float(params["n"]),
-                              modifiers.asym, modifiers.inv_ew, e)
+        return bouc_wen_force(u, k0, float(params["alpha"]), float(params["beta"]),
+                              float(params["n"]), modifiers.asym, modifiers.inv_ew, e)
 
     def guess(self, summary: LoopSummary) -> dict[str, float]:
         k0 = summary.k_stick
-        return {"k0": k0, "F_y": summary.jenkins_strength(k0), "beta": 0.5, "n": 2.0}
+        n = 2.0
+        half = 0.5 * k0 / summary.jenkins_strength(k0) ** n      # saturating at the slip force
+        return {"k0": k0, "alpha": half, "beta": half, "n": n}
 
     def scales(self, summary: LoopSummary, guess: Mapping[str, float]) -> dict[str, float]:
-        return {"k0": guess["k0"], "F_y": guess["F_y"], "beta": 0.25, "n": 1.0}
+        a = abs(guess["alpha"]) + abs(guess["beta"])
+        return {"k0": guess["k0"], "alpha": 0.5 * a, "beta": 0.5 * a, "n": 1.0}
