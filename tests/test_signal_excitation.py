@@ -89,3 +89,19 @@ def test_two_incommensurate_tones_are_not_a_sine():
 def test_too_short_is_an_error():
     with pytest.raises(InputError, match="x"):
         detect_excitation(np.ones(5), FS)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_a_broadband_record_is_never_read_as_a_sweep_by_chance(seed):
+    """The dominant line of a multisine or of band-limited noise wanders between quarters
+    by chance (monotonic in about 1 of 12 draws); that alone must not make a sweep."""
+    fs, n = 750.0, 1024
+    rng = np.random.default_rng(seed)
+    f = np.fft.rfftfreq(n, 1 / fs)
+    spec = np.where((f >= 5) & (f <= 150), np.exp(2j * np.pi * rng.random(f.size)), 0)
+    period = np.fft.irfft(spec, n)
+    ms = np.tile(period, 4)[rng.integers(0, n):][:3 * n + 100]     # starts anywhere in a period
+    assert detect_excitation(ms, fs).kind == "multisine"
+    noise = np.fft.irfft(np.where((np.fft.rfftfreq(4096, 1 / fs) >= 5), 1.0, 0.0)
+                         * np.fft.rfft(rng.standard_normal(4096)), 4096)
+    assert detect_excitation(noise, fs).kind == "random"

@@ -49,27 +49,33 @@ def _judging(p: argparse.ArgumentParser) -> None:
                    help="only try these effects (default: every effect not in the model)")
 
 
-def add_fit_arguments(p: argparse.ArgumentParser) -> None:
-    _common(p)
+def _error(p: argparse.ArgumentParser) -> None:
     p.add_argument("--error", choices=("equation", "simulation"), default="equation",
                    help="equation: the force balance along the measured displacement (any "
                         "kind); simulation: the displacement simulated from the applied force "
                         "(output error; the model needs inertia)")
-    p.add_argument("--out", default=None, metavar="MODEL.json",
-                   help="with --error simulation: save the identified model")
     p.add_argument("--periodic", action="store_true",
                    help="with --error simulation: each record is whole periods of a steady "
                         "periodic input; simulate to its steady state")
 
 
+def add_fit_arguments(p: argparse.ArgumentParser) -> None:
+    _common(p)
+    _error(p)
+    p.add_argument("--out", default=None, metavar="MODEL.json",
+                   help="with --error simulation: save the identified model")
+
+
 def add_diagnose_arguments(p: argparse.ArgumentParser) -> None:
     _common(p)
     _judging(p)
+    _error(p)
 
 
 def add_ladder_arguments(p: argparse.ArgumentParser) -> None:
     _common(p)
     _judging(p)
+    _error(p)
     p.add_argument("--max-steps", type=int, default=None, metavar="N",
                    help="add at most N effects (default: until adequate)")
     p.add_argument("--manual", action="store_true",
@@ -137,9 +143,28 @@ def _fit_simulation(args: argparse.Namespace) -> int:
     return 0
 
 
+def _simulation_options(args: argparse.Namespace) -> dict[str, Any]:
+    from labjoint.compare.significance import SignificanceSettings
+
+    if args.kind == "sine":
+        raise InputError("--error simulation judges records (--kind record or auto)", field="kind")
+    return {"validate": args.validate, "periodic": args.periodic, "warmup": args.warmup,
+            "seed": args.seed, "factor": args.factor,
+            "significance": SignificanceSettings(alpha=args.alpha),
+            "candidates": args.candidates}
+
+
+def _simulation_only(args: argparse.Namespace) -> None:
+    if args.periodic:
+        raise InputError("--periodic goes with --error simulation", field="periodic")
+
+
 def diagnose(args: argparse.Namespace) -> int:
     from labjoint.compare import diagnose_runs
 
+    if args.error == "simulation":
+        return _diagnose_simulation(args)
+    _simulation_only(args)
     res = diagnose_runs(args.runs, args.model, **_options(args, True),
                         progress=_progress(args, "diagnose", 14))
     if args.json:
@@ -163,9 +188,53 @@ def diagnose(args: argparse.Namespace) -> int:
     return 0
 
 
+def _diagnose_simulation(args: argparse.Namespace) -> int:
+    from labjoint.compare.simulation_loop import diagnose_simulation
+
+    res = diagnose_simulation(args.runs, args.model, **_simulation_options(args),
+                              progress=_progress(args, "diagnose", 8)).to_dict()
+    if args.json:
+        emit_json(res)
+        return 0
+    print(f"model {res['model']} by simulation error: NRMSE {_pct(res['nrmse'])}, noise floor "
+          f"{_pct(res['noise_floor'])}, adequate: {'yes' if res['adequate'] else 'no'}")
+    print(res["verdict"])
+    print("\nwhere it fails:")
+    for f in res["failures"]:
+        print(f"  [{f['where']}] {f['text']}")
+    print()
+    print(table(["effect", "NRMSE after %", "validation %", "significant", "p"],
+                [[c["effect"], _x100(c["nrmse_after"]), _x100(c["nrmse_after_validation"]),
+                  "yes" if c["significant"] else "no", fmt(c["p_value"], 2)]
+                 for c in res["candidates"]]))
+    return 0
+
+
+def _ladder_simulation(args: argparse.Namespace) -> int:
+    from labjoint.compare.simulation_loop import ladder_simulation
+
+    res = ladder_simulation(args.runs, args.model, max_steps=args.max_steps,
+                            progress=_progress(args, "ladder", 8 * (args.max_steps or 3)),
+                            **_simulation_options(args))
+    if args.json:
+        emit_json(res)
+        return 0
+    print(table(["step", "model", "added", "NRMSE %", "validation %", "adequate"],
+                [[i, s["model"], s["added"] or "-", _x100(s["nrmse"]), _x100(s["nrmse_validation"]),
+                  "yes" if s["adequate"] else "no"] for i, s in enumerate(res["steps"])]))
+    print(f"\nby simulation error; noise floor {_pct(res['noise_floor'])}; adequate: "
+          f"{'yes' if res['adequate'] else 'no'} ({res['stop_reason']})")
+    return 0
+
+
 def ladder(args: argparse.Namespace) -> int:
     from labjoint.compare import ladder_runs
 
+    if args.error == "simulation":
+        if args.manual:
+            raise InputError("--manual goes with --error equation", field="manual")
+        return _ladder_simulation(args)
+    _simulation_only(args)
     res = ladder_runs(args.runs, args.model, max_steps=args.max_steps, auto=not args.manual,
                       save=not args.no_save, **_options(args, True),
                       progress=_progress(args, "ladder", 14 * (args.max_steps or 3)))

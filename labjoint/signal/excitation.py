@@ -11,8 +11,10 @@ run's metadata only as a hint that is checked, never trusted blindly:
 2. the steady core: the longest stretch with RMS at least half that median (ramps out).
 3. sine: one spectral line (Hann window, its main lobe) stands 100x above the
    broadband noise and holds >= 80 % of the core's power above that noise, with its
-   harmonics >= 95 %; a sine whose frequency drifts monotonically
-   between the core's quarters by more than 1 % (and more than the resolution) is swept.
+   harmonics >= 95 %; a signal whose dominant line drifts monotonically between the
+   core's quarters by more than 1 % (and more than the resolution), each quarter's
+   90 %-power band narrower than 0.6 of the whole core's, and that is not periodic
+   (step 4), is swept.
 4. periodic: the core's autocorrelation has a peak >= 0.8 at a lag with at least two
    periods in the core; the DFT over whole periods then shows the excited lines (power
    20x above the mean noise of the lines between them): a multisine when there are two
@@ -39,6 +41,8 @@ from labjoint.signal import validate
 KINDS = ("none", "sine", "swept_sine", "multisine", "random", "transient")
 #: Longest stretch examined at once (a centred window of longer records).
 MAX_SAMPLES = 1 << 21
+#: a sweep's quarters each span at most this fraction of the record's 90 %-power band
+SWEEP_QUARTER_BAND = 0.6
 #: Peak RMS this many times the active part's median RMS: a transient, not steady...
 TRANSIENT_PEAK_RATIO = 2.5
 #: ...unless the RMS stays within this fraction of the median (flat)...
@@ -125,8 +129,8 @@ def detect_excitation(x: np.ndarray, fs: float, metadata: dict[str, Any] | None 
         mid = core.size // 2
         core = core[mid - MAX_SAMPLES // 2: mid + MAX_SAMPLES // 2]
     found = _sine_or_sweep(core, fs)
-    if found is None:
-        found = _periodic(core, fs) or _random(core, fs)
+    if found is None or found.kind == "swept_sine":   # a periodic record is never a sweep
+        found = _periodic(core, fs) or found or _random(core, fs)
     found.active_s = span
     hint = (metadata or {}).get("frequency_hz")
     if hint and found.kind == "sine" and abs(found.frequency_hz - float(hint)) > 0.02 * float(hint):
@@ -211,7 +215,15 @@ def _sine_or_sweep(core: np.ndarray, fs: float) -> Excitation | None:
     d = np.diff(fq)
     monotonic = len(fq) >= 3 and (np.all(d > 0) or np.all(d < 0))
     spread = max(fq) - min(fq) if fq else 0.0
-    if monotonic and spread > max(0.01 * np.median(fq), res):
+    # a sweep's quarters each hold a narrow part of its band; a broadband signal's
+    # dominant line wanders by chance, but each quarter spans the whole band
+    narrow = False
+    if quarters:
+        core_w = np.subtract(*_band90(core, fs)[::-1])
+        q_res = fs / quarters[0].size            # a quarter's bin: bands below ~8 unresolved
+        q_w = float(np.median([np.subtract(*_band90(q, fs)[::-1]) for q in quarters]))
+        narrow = core_w <= 8 * q_res or q_w < SWEEP_QUARTER_BAND * core_w
+    if monotonic and narrow and spread > max(0.01 * np.median(fq), res):
         return Excitation("swept_sine", band_hz=(float(fq[0]), float(fq[-1])), evidence=(
             f"the dominant line moves from {fq[0]:.4g} Hz to {fq[-1]:.4g} Hz across the record"))
     if fund >= 0.8 and fund + harm >= 0.95:
@@ -269,11 +281,16 @@ def _periodic(core: np.ndarray, fs: float) -> Excitation | None:
                                 f"stand 100x above the lines between them over {m} periods"))
 
 
+def _band90(x: np.ndarray, fs: float) -> tuple[float, float]:
+    """The band holding the middle 90 % of the power of ``x`` (Hz)."""
+    freqs, p = _spectrum(x, fs)
+    c = np.cumsum(p) / max(float(p.sum()), 1e-300)
+    return (float(freqs[int(np.searchsorted(c, 0.05))]),
+            float(freqs[min(int(np.searchsorted(c, 0.95)), freqs.size - 1)]))
+
+
 def _random(core: np.ndarray, fs: float) -> Excitation:
-    freqs, p = _spectrum(core, fs)
-    c = np.cumsum(p) / p.sum()
-    lo = float(freqs[int(np.searchsorted(c, 0.05))])
-    hi = float(freqs[min(int(np.searchsorted(c, 0.95)), freqs.size - 1)])
+    lo, hi = _band90(core, fs)
     return Excitation("random", band_hz=(lo, hi), evidence=(
         "no single line, no drift of one line, and no repetition: broadband"))
 

@@ -30,7 +30,8 @@ Noise floor (stated): periodic excitation with at least ``MIN_WINDOW_CYCLES`` ju
 periods: the period-to-period scatter of the sine kind (:mod:`labjoint.compare.noise`,
 windows, trend, excess-scatter windows left out); with 2 to 4 periods: the difference of
 the quietest pair of consecutive periods (a decaying start-up response is left out).
-Non-periodic: the difference method (the robust variance of the d-th difference,
+Non-periodic, or one judged period (the validation part of a short periodic record): the
+difference method (the robust variance of the d-th difference,
 from its median absolute deviation, divided by C(2d, d), the smallest over d = 1..6;
 consistent for Gaussian white noise on a signal smooth on the sample scale, whose
 stick-slip kinks are sparse spikes the median ignores; an upper bound where the signal
@@ -123,7 +124,7 @@ class RecordMeasurement:
         if self.bounds is not None and n_units >= MIN_WINDOW_CYCLES:
             var_f, n_used, n_win = scatter_variance(F, [self.bounds])
             var_u = quietest_variance(u, [self.bounds])
-        elif self.bounds is not None:
+        elif self.bounds is not None and n_units >= 2:
             var_f, var_u, n_used, n_win = (period_scatter(F, self.bounds),
                                            period_scatter(u, self.bounds), n_units, 1)
         else:
