@@ -65,11 +65,17 @@ def import_csv(csv_path: str | Path, data_dir: str | Path, name: str | None = No
     Raises InputError (naming file, line and column) for bad input, or if a run of
     that name exists; nothing is left behind on failure.
     """
-    src = Path(csv_path)
+    return import_parsed(parse_csv(csv_path), data_dir, name, catalog)
+
+
+def import_parsed(parsed: ParsedCSV, data_dir: str | Path, name: str | None = None,
+                  catalog: Any = None) -> Path:
+    """Store columns read by :func:`parse_csv` or :func:`labjoint.storage.foreign.read_foreign`
+    as ``<data_dir>/<name>.h5`` (name: the source file's stem)."""
+    src = parsed.path
     if name is None:
         name = re.sub(r"[^A-Za-z0-9_.\-]", "_", src.stem).lstrip("._-") or "imported"
     final = layout.run_path(data_dir, name)
-    parsed = parse_csv(src)
     if final.exists():
         raise InputError("a run file with this name already exists; pass another name",
                          file=str(final))
@@ -78,8 +84,8 @@ def import_csv(csv_path: str | Path, data_dir: str | Path, name: str | None = No
     now = utc_now()
     md.setdefault("start_time", now)
     md.update(plan=md.get("plan", "import"), source_file=str(src.resolve()), imported_at=now,
-              displacement_channels=["displacement"], joint_force_channel="force",
-              csv_header=parsed.columns)
+              displacement_channels=["displacement"], joint_force_channel="force")
+    md.setdefault("csv_header", parsed.columns)
     Path(data_dir).mkdir(parents=True, exist_ok=True)
     tmp = layout.temp_path(final, f"{os.getpid()}-{secrets.token_hex(4)}")
     try:
