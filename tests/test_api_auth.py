@@ -37,10 +37,13 @@ def _err(r: httpx.Response, status: int) -> dict:
 
 
 @pytest.mark.parametrize("method,path,body", [
-    ("POST", "/plans", DWELL), ("POST", "/estop", {}), ("POST", "/estop/clear", None),
+    ("POST", "/plans", DWELL), ("POST", "/estop/clear", None),
     ("POST", "/analyses", {"runs": ["x"]}), ("POST", "/models/fit", {"runs": ["x"]}),
-    ("POST", "/plans/abc/cancel", None), ("POST", "/plans/abc/torque", {"torque_nm": 5})])
+    ("POST", "/plans/abc/cancel", None), ("POST", "/plans/abc/torque", {"torque_nm": 5}),
+    ("POST", "/plans/abc/resume", None)])
 def test_write_endpoints_need_a_control_token(http, method, path, body):
+    """(The emergency stop itself is the one exception, from loopback only:
+    tests/test_estop_hold.py.)"""
     e = _err(http.request(method, path, json=body), 401)
     assert "token" in e["message"]
     wrong = {"Authorization": "Bearer wrong-token-xx"}
@@ -48,6 +51,13 @@ def test_write_endpoints_need_a_control_token(http, method, path, body):
     assert e["message"] == "unknown API token"
     e = _err(http.request(method, path, json=body, headers=READ_AUTH), 403)
     assert "read-only" in e["message"]
+
+
+def test_a_token_sent_to_the_emergency_stop_is_still_checked(http):
+    wrong = {"Authorization": "Bearer wrong-token-xx"}
+    assert _err(http.post("/estop", json={}, headers=wrong), 401)["message"] == "unknown API token"
+    assert "read-only" in _err(http.post("/estop", json={}, headers=READ_AUTH), 403)["message"]
+    assert http.get("/rig").json()["estop"] is None
 
 
 def test_missing_token_challenges_with_bearer(http):

@@ -134,8 +134,13 @@ def test_emergency_stop_aborts_and_holds_the_queue(service):
     assert rig["estop"] == "e2e" and rig["daemon"]["generator"]["output"] is False
     held = http.post("/plans", json={"plan": "dwell", "parameters": {
         "frequency_hz": 400, "amplitude_vpp": 2, **SHORT}}).json()
-    assert http.get(f"/plans/{held['id']}").json()["status"] == "queued"
+    assert http.get(f"/plans/{held['id']}").json()["status"] == "held"
+    assert http.post(f"/plans/{held['id']}/resume").status_code == 409     # still latched
     http.post("/estop/clear")
+    import time
+    time.sleep(0.5)
+    assert http.get(f"/plans/{held['id']}").json()["status"] == "held"   # nothing by itself
+    assert http.post(f"/plans/{held['id']}/resume").json()["status"] == "queued"
     job = wait_for(lambda: http.get(f"/plans/{held['id']}").json(), lambda j: j["status"] in DONE)
     assert job["status"] == "done"
 
@@ -189,7 +194,7 @@ def test_serve_runs_until_sigterm_and_leaves_the_output_off(tmp_path):
         url = f"http://127.0.0.1:{port}/api/v1"
         health = wait_for(lambda: _try_get(url + "/health"), lambda r: r is not None, timeout=30)
         assert health["daemon"] == "embedded"
-        assert httpx.post(url + "/estop").status_code == 401
+        assert httpx.post(url + "/estop/clear").status_code == 401
     finally:
         proc.send_signal(signal.SIGTERM)
         _, err = proc.communicate(timeout=30)

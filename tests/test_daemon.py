@@ -151,8 +151,11 @@ def test_emergency_stop_from_another_process_aborts_and_blocks_new_jobs(tmp_path
                                     **SHORT})
         wait_for(lambda: daemon.status()["estop"] == "operator pressed stop", what="status")
         thread.join(0.5)  # several poll periods
-        assert operator.get(next_job).status == "queued"
+        assert operator.get(next_job).status == "held"
         operator.clear_estop()
+        thread.join(0.5)
+        assert operator.get(next_job).status == "held"        # clearing starts nothing
+        operator.resume(next_job)
         done = wait_for(lambda: (j := operator.get(next_job)).finished and j, what="next job")
     finally:
         daemon.stop()

@@ -131,15 +131,24 @@ def test_live_view_follows_a_recording_and_stops_it(web):
     assert not w.problems(), w.problems()
 
 
-def test_without_the_token_nothing_is_sent(web):
+def test_without_the_token_only_the_emergency_stop_is_sent_from_this_machine(web):
+    """The stop is in the header of every page and works without a token from the
+    machine itself (loopback); clearing it still needs the token, refused in the page."""
     s, browser = web
     w = open_page(browser, s.url)
     page = w.page
-    page.goto(f"{s.url}/#/live")
-    page.wait_for_selector("#rig-state")
+    page.goto(f"{s.url}/#/models")
+    page.wait_for_selector("#estop")
     page.click("#estop")
+    page.wait_for_selector("#estop-msg.sent")
+    assert s.http.get("/rig").json()["estop"] == "emergency stop from the dashboard"
+    screenshot(page, "estop-from-any-page")
+    page.goto(f"{s.url}/#/live")
+    page.wait_for_selector("#estop-banner:not([hidden])")
+    page.click("#estop-clear")
     page.wait_for_selector("#live-msg.error")
     assert "control token" in page.inner_text("#live-msg")
+    assert s.http.post("/estop/clear").status_code == 200
     assert not w.problems(), w.problems()       # refused in the page: no 401 on the wire
 
 

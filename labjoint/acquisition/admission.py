@@ -5,7 +5,8 @@ dry against an ideal rig (every wait reaches steady state, every measurement fin
 force the plan asks for) and checks each message as the engine would: generator settings
 within the safety limits (:func:`~labjoint.acquisition.safety.check_settings`: amplitude,
 frequency range), every drive frequency below the DAQ's Nyquist frequency, every record
-at most ``limits.max_record_s`` long, and the plan at most ``MAX_MESSAGES`` messages. A
+at most ``limits.max_record_s`` long, no two records of the plan under one name (the second
+would be refused by storage mid-plan), and the plan at most ``MAX_MESSAGES`` messages. A
 plan that fails is refused with an :class:`~labjoint.errors.InputError` naming the step
 and the limit; the engine still checks everything again while it runs (the one safety
 hook stays the authority).
@@ -55,6 +56,7 @@ def check_plan(plan: Mapping[str, Any], config: RigConfig) -> None:
     gen = load_plan(dict(plan))
     respond = _ideal(params, limits.max_vpp)
     f, offset, answer = None, 0.0, None
+    names: dict[str, int] = {}
     try:
         for step in range(MAX_MESSAGES + 1):
             try:
@@ -79,6 +81,11 @@ def check_plan(plan: Mapping[str, Any], config: RigConfig) -> None:
                                      f"frequency {nyquist:g} Hz (sample rate "
                                      f"{config.daq.sample_rate_hz:g} S/s)", field="frequency_hz")
             if isinstance(msg, Record):
+                if msg.name in names:
+                    raise InputError(f"{what}: a record named {msg.name!r} was already made by "
+                                     f"step {names[msg.name]}; run names must be unique",
+                                     field="parameters")
+                names[msg.name] = step + 1
                 seconds = (msg.n_cycles / f if msg.n_cycles is not None and f else msg.duration_s)
                 if seconds is not None and not (math.isfinite(seconds) and seconds <= limits.max_record_s):
                     raise InputError(f"{what}: the record would last {seconds:.4g} s, above the rig's "

@@ -132,7 +132,7 @@ class TorqueConfirm(_In):
                              description="bolt torque now applied (N m)")
 
 
-PlanStatus = Literal["queued", "running", "waiting_torque", "done", "failed", "cancelled",
+PlanStatus = Literal["queued", "held", "running", "waiting_torque", "done", "failed", "cancelled",
                      "aborted"]
 
 

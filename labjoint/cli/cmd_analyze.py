@@ -4,12 +4,13 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
 from labjoint.cli.inputs import load_runs
 from labjoint.cli.output import Progress, emit_json, table
-from labjoint.errors import InputError
+from labjoint.errors import InputError, LabjointError
 
 #: design.md's analyze fields, in order.
 FIELDS = ("run", "frequency_hz", "displacement_amplitude_m", "force_amplitude_n",
@@ -64,10 +65,14 @@ def loop_row(item: Any, force: str, save: bool) -> dict[str, Any]:
 
 def analyze_paths(paths: list[str], method: str = "loop", force: str = "joint",
                   friction: Any = None, save: bool = False, data_dir: str | None = None,
-                  progress: bool = False, friction_run: str | None = None
-                  ) -> list[dict[str, Any]]:
+                  progress: bool = False, friction_run: str | None = None,
+                  errors: list[dict[str, str]] | None = None) -> list[dict[str, Any]]:
     """Rows of ``labjoint analyze``; ``friction`` a number or Identified, or ``friction_run``
-    a friction-test file mu is identified from (else the one stored in ``data_dir``)."""
+    a friction-test file mu is identified from (else the one stored in ``data_dir``).
+
+    With ``errors`` a list, a file that cannot be analysed (missing, unreadable, a missing
+    channel, not a sine ...) is noted there as {"file", "error"} and the others go on;
+    without it the first such error is raised."""
     if friction_run is not None:
         if method == "loop":
             raise InputError("applies to --method stickslip or both", field="--friction-run")
@@ -75,20 +80,24 @@ def analyze_paths(paths: list[str], method: str = "loop", force: str = "joint",
             raise InputError("give --friction or --friction-run, not both", field="--friction-run")
         from labjoint.cli.cmd_calibrate import friction_from_file
         friction = friction_from_file(friction_run)
-    runs = load_runs(paths)
-    bar = Progress(len(runs), "analyze", enabled=progress)
-    rows = []
-    if method == "loop":
-        for item in runs:
-            rows.append(loop_row(item, force, save))
-            bar.advance(note=str(rows[-1]["run"]))
-        return rows
-    from labjoint.identify.methods import analyze_runs
-
-    for item in runs:
-        rows += analyze_runs([item], method, friction=friction, data_dir=data_dir, store=save,
-                             force=force)
-        bar.advance(note=str(rows[-1].get("run", "")))
+    bar = Progress(len(paths), "analyze", enabled=progress)
+    rows: list[dict[str, Any]] = []
+    for p in paths:
+        try:
+            (item,) = load_runs([p])
+            if method == "loop":
+                rows.append(loop_row(item, force, save))
+            else:
+                from labjoint.identify.methods import analyze_runs
+                rows += analyze_runs([item], method, friction=friction, data_dir=data_dir,
+                                     store=save, force=force)
+        except LabjointError as exc:
+            if errors is None:
+                raise
+            msg = str(exc)
+            errors.append({"file": str(p), "error": msg[len(f"{p}: "):]
+                           if msg.startswith(f"{p}: ") else msg})
+        bar.advance(note=Path(p).name)
     return rows
 
 
@@ -127,14 +136,22 @@ def run(args: argparse.Namespace) -> int:
     if args.method != "loop" and data_dir is None:
         from labjoint.config import load_config
         data_dir = load_config(args.config).rig.data_dir
+    errors: list[dict[str, str]] = []
     rows = analyze_paths(args.runs, args.method, args.force, args.friction, args.save, data_dir,
-                         progress=not (args.json or args.quiet), friction_run=args.friction_run)
+                         progress=not (args.json or args.quiet), friction_run=args.friction_run,
+                         errors=errors)
+    for e in errors:
+        sys.stderr.write(f"labjoint: error: {e['file']}: {e['error']}\n")
+    code = 2 if errors else 0
+    if errors and not rows:
+        return code                       # nothing but errors: stderr only
     if args.json:
-        emit_json({"runs": rows})
+        emit_json({"runs": rows, "errors": errors})
+        return code
     elif args.method == "loop":
         print_loop_table(rows)
     else:
         from labjoint.identify.methods import MODEL_NOTE, format_table
         print(format_table(rows))
         print("\n" + MODEL_NOTE)
-    return 0
+    return code

@@ -1,4 +1,5 @@
-"""`labjoint hw check`: list instruments and DAQ devices."""
+"""`labjoint hw check`: list instruments and DAQ devices; exit code 3 when a configured
+instrument does not answer (0 when the rig is ready)."""
 
 from __future__ import annotations
 
@@ -20,4 +21,4 @@ def run(args: argparse.Namespace) -> int:
         emit_json(result)
     else:
         print(format_check(result))
-    return 0
+    return 0 if result["ok"] else 3     # an unreachable configured instrument (as HardwareError)

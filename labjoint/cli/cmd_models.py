@@ -170,17 +170,7 @@ def diagnose(args: argparse.Namespace) -> int:
     if args.json:
         emit_json(res)
         return 0
-    print(f"model {res['model']}: NRMSE {_pct(res['nrmse'])}, noise floor "
-          f"{_pct(res['noise_floor'])}, adequate: {'yes' if res['adequate'] else 'no'}")
-    print(res["verdict"])
-    print("\nwhere it fails:")
-    for f in res["failures"]:
-        print(f"  [{f['where']}] {f['text']}")
-    print()
-    print(table(["effect", "NRMSE after %", "validation %", "significant", "p"],
-                [[c["effect"], _x100(c["nrmse_after"]), _x100(c["nrmse_after_validation"]),
-                  "yes" if c["significant"] else "no", fmt(c["p_value"], 2)]
-                 for c in res["candidates"]]))
+    _print_diagnosis(res, "")
     for c in res["candidates"][:3]:
         print(f"\n{c['effect']}: {c['evidence']}")
         if "tie" in c:
@@ -196,7 +186,12 @@ def _diagnose_simulation(args: argparse.Namespace) -> int:
     if args.json:
         emit_json(res)
         return 0
-    print(f"model {res['model']} by simulation error: NRMSE {_pct(res['nrmse'])}, noise floor "
+    _print_diagnosis(res, " by simulation error")
+    return 0
+
+
+def _print_diagnosis(res: dict[str, Any], how: str) -> None:
+    print(f"model {res['model']}{how}: NRMSE {_pct(res['nrmse'])}, noise floor "
           f"{_pct(res['noise_floor'])}, adequate: {'yes' if res['adequate'] else 'no'}")
     print(res["verdict"])
     print("\nwhere it fails:")
@@ -207,7 +202,6 @@ def _diagnose_simulation(args: argparse.Namespace) -> int:
                 [[c["effect"], _x100(c["nrmse_after"]), _x100(c["nrmse_after_validation"]),
                   "yes" if c["significant"] else "no", fmt(c["p_value"], 2)]
                  for c in res["candidates"]]))
-    return 0
 
 
 def _ladder_simulation(args: argparse.Namespace) -> int:
@@ -219,12 +213,16 @@ def _ladder_simulation(args: argparse.Namespace) -> int:
     if args.json:
         emit_json(res)
         return 0
+    _print_ladder(res, "by simulation error; ")
+    return 0
+
+
+def _print_ladder(res: dict[str, Any], how: str) -> None:
     print(table(["step", "model", "added", "NRMSE %", "validation %", "adequate"],
                 [[i, s["model"], s["added"] or "-", _x100(s["nrmse"]), _x100(s["nrmse_validation"]),
                   "yes" if s["adequate"] else "no"] for i, s in enumerate(res["steps"])]))
-    print(f"\nby simulation error; noise floor {_pct(res['noise_floor'])}; adequate: "
+    print(f"\n{how}noise floor {_pct(res['noise_floor'])}; adequate: "
           f"{'yes' if res['adequate'] else 'no'} ({res['stop_reason']})")
-    return 0
 
 
 def ladder(args: argparse.Namespace) -> int:
@@ -241,11 +239,7 @@ def ladder(args: argparse.Namespace) -> int:
     if args.json:
         emit_json(res)
         return 0
-    print(table(["step", "model", "added", "NRMSE %", "validation %", "adequate"],
-                [[i, s["model"], s["added"] or "-", _x100(s["nrmse"]), _x100(s["nrmse_validation"]),
-                  "yes" if s["adequate"] else "no"] for i, s in enumerate(res["steps"])]))
-    print(f"\nnoise floor {_pct(res['noise_floor'])}; adequate: {'yes' if res['adequate'] else 'no'}"
-          f" ({res['stop_reason']})")
+    _print_ladder(res, "")
     if res.get("saved"):
         print(f"saved as processed group model_ladder_{res['key']} in {len(res['saved'])} run file(s)")
     return 0

@@ -56,6 +56,7 @@ def run(args: argparse.Namespace) -> int:
     from labjoint.acquisition.plans import amplitude_sweep, load_plan
     from labjoint.acquisition.rig import open_rig
     from labjoint.cli.cmd_analyze import analyze_paths, print_loop_table
+    from labjoint.cli.signals import terminate_as_interrupt
     from labjoint.config import load_config
     from labjoint.daemon.setup import calibrated_config
     from labjoint.storage.catalog import Catalog
@@ -90,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
             bar.advance(note=f"{getattr(doc, 'status', '')}")
 
     t0 = time.perf_counter()
-    with open_rig(cfg) as rig:
+    with terminate_as_interrupt(), open_rig(cfg) as rig:
         result = rig.engine([writer, progress], calibration_sources=sources).run(plan)
     elapsed = time.perf_counter() - t0
     paths = [str(out / f"{r.name}.h5") for r in result.runs if r.n_samples > 0]

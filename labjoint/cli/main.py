@@ -23,6 +23,7 @@ COMMANDS = {
     "calibrate": ("cmd_calibrate", "calibrate", "calibrate the joint-force sensor (N/V per frequency)"),
     "friction": ("cmd_calibrate", "friction", "identify mu from a friction-test run and store it"),
     "runs": ("cmd_runs", "run", "query the run catalog"),
+    "recover": ("cmd_recover", "run", "close run files whose writer died; fix the catalog"),
     "fit": ("cmd_models", "fit", "fit a joint model to runs"),
     "diagnose": ("cmd_models", "diagnose", "where a model fails and which effect is missing"),
     "ladder": ("cmd_models", "ladder", "add effects until the model is adequate"),
@@ -30,6 +31,9 @@ COMMANDS = {
     "hw": ("cmd_hw", "run", "hardware: `labjoint hw check` lists instruments and DAQ devices"),
     "daemon": ("cmd_daemon", "run", "run the headless acquisition daemon"),
     "submit": ("cmd_daemon", "submit", "queue a plan (TOML/JSON) for the daemon"),
+    "status": ("cmd_status", "status", "is the daemon alive, what is it doing, how many jobs"),
+    "jobs": ("cmd_status", "jobs", "the daemon's plan jobs (newest first)"),
+    "resume": ("cmd_status", "resume", "resume a plan held by an emergency stop"),
     "torque": ("cmd_daemon", "torque", "confirm the new bolt torque so a paused plan continues"),
     "serve": ("cmd_serve", "run", "run the REST service (and, by default, the daemon on the simulated rig)"),
 }

@@ -54,3 +54,22 @@ class DaemonLock:
                 os.ftruncate(fd, 0)
             finally:
                 os.close(fd)
+
+
+def holder_pid(path: str | Path) -> int | None:
+    """The pid written in the lock file at ``path`` when that process is alive on this
+    host, else None (a dead daemon's file holds no pid, or one no process has)."""
+    try:
+        text = Path(path).read_text().strip()
+        pid = int(text.split()[0]) if text else 0
+    except (OSError, ValueError, IndexError):
+        return None
+    if pid <= 0:
+        return None
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return None
+    except PermissionError:
+        return pid                  # alive, owned by another user
+    return pid

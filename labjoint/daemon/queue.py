@@ -13,6 +13,7 @@ Job life cycle::
 
     queued -> running <-> waiting_torque -> done | failed | aborted | cancelled
     queued -> cancelled
+    queued -> held (an emergency stop) -> queued (an explicit resume) | cancelled
 
 >>> import tempfile, pathlib
 >>> q = JobQueue(pathlib.Path(tempfile.mkdtemp()) / "queue.sqlite")
@@ -38,9 +39,11 @@ from pathlib import Path
 from typing import Any, Callable, Iterator, Mapping
 
 from labjoint.acquisition.plans import load_plan
+from labjoint.daemon.control import HELD_MESSAGE, ControlMixin, JobStateError
 from labjoint.errors import InputError, LabjointError
 
-JOB_STATUSES = ("queued", "running", "waiting_torque", "done", "failed", "cancelled", "aborted")
+JOB_STATUSES = ("queued", "held", "running", "waiting_torque", "done", "failed", "cancelled",
+                "aborted")
 ACTIVE = ("running", "waiting_torque")
 FINISHED = ("done", "failed", "cancelled", "aborted")
 BUSY_TIMEOUT_S = 30.0
@@ -78,10 +81,6 @@ CREATE TABLE IF NOT EXISTS control (
 _UPDATABLE = ("status", "started_at", "finished_at", "progress", "message", "runs",
               "waiting_for", "error", "worker", "gaps")
 _JSON_FIELDS = ("runs", "waiting_for", "gaps")
-
-
-class JobStateError(LabjointError):
-    """The job is not in a state that allows the request (e.g. cancelling a finished job)."""
 
 
 class JobNotFound(InputError):
@@ -152,7 +151,7 @@ def validate_plan(plan: Mapping[str, Any]) -> dict[str, Any]:
     return data
 
 
-class JobQueue:
+class JobQueue(ControlMixin):
     """Jobs in the SQLite database at ``db_path`` (created if missing). ``admit``: a check
     every submitted plan must pass before it is queued (e.g. the rig's limits,
     :func:`labjoint.acquisition.admission.check_plan`); it raises InputError to refuse."""
@@ -226,9 +225,11 @@ class JobQueue:
             self.admit(dict(data))
         job_id = uuid.uuid4().hex
         with self._write() as con:
-            con.execute("INSERT INTO jobs (id, status, plan, submitted_by, submitted_at) "
-                        "VALUES (?, 'queued', ?, ?, ?)",
-                        (job_id, json.dumps(data), str(submitted_by), utc_now()))
+            held = self._estop(con) is not None
+            con.execute("INSERT INTO jobs (id, status, plan, submitted_by, submitted_at, message) "
+                        "VALUES (?, ?, ?, ?, ?, ?)",
+                        (job_id, "held" if held else "queued", json.dumps(data),
+                         str(submitted_by), utc_now(), HELD_MESSAGE if held else ""))
         return job_id
 
     def get(self, job_id: str) -> Job | None:
@@ -265,7 +266,7 @@ class JobQueue:
         with self._write() as con:
             row = self._row(con, job_id)
             status = row["status"]
-            if status == "queued":
+            if status in ("queued", "held"):
                 con.execute("UPDATE jobs SET status = 'cancelled', finished_at = ?, "
                             "message = 'cancelled before it started' WHERE id = ?",
                             (utc_now(), job_id))
@@ -354,42 +355,3 @@ class JobQueue:
                             "message = ?, waiting_for = NULL WHERE id = ?",
                             [(now, reason, reason, i) for i in ids])
         return ids
-
-    # ---- emergency stop and daemon status ------------------------------------------
-    def _set(self, key: str, value: Any) -> None:
-        with self._write() as con:
-            con.execute("INSERT OR REPLACE INTO control (key, value, updated_at) VALUES (?, ?, ?)",
-                        (key, None if value is None else json.dumps(value), utc_now()))
-
-    def _get(self, key: str) -> tuple[Any, str] | None:
-        row = self._connect().execute("SELECT value, updated_at FROM control WHERE key = ?",
-                                      (key,)).fetchone()
-        if row is None or row["value"] is None:
-            return None
-        return json.loads(row["value"]), row["updated_at"]
-
-    def request_estop(self, reason: str) -> None:
-        """Ask the daemon to stop everything now: output off, running job aborted, and no
-        job started until :meth:`clear_estop`."""
-        self._set("estop", str(reason) or "emergency stop")
-
-    def estop_requested(self) -> str | None:
-        """The pending emergency stop's reason, or None."""
-        got = self._get("estop")
-        return None if got is None else str(got[0])
-
-    def clear_estop(self) -> None:
-        """Allow jobs to start again after an emergency stop."""
-        self._set("estop", None)
-
-    def set_daemon_status(self, status: Mapping[str, Any]) -> None:
-        """Publish the daemon's status for other processes (CLI, REST)."""
-        self._set("daemon_status", dict(status))
-
-    def daemon_status(self) -> dict[str, Any] | None:
-        """The last status the daemon published, with ``updated_at``; None if never."""
-        got = self._get("daemon_status")
-        if got is None:
-            return None
-        value, updated = got
-        return {**value, "updated_at": updated}

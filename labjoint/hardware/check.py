@@ -35,7 +35,24 @@ def hardware_check(config: Any = None) -> dict[str, Any]:
     result["nidaqmx"] = _nidaqmx_status()
     if daq is not None:
         result["daq"] = _daq_match(daq, result["nidaqmx"])
+    real = getattr(getattr(config, "rig", None), "backend", "real") == "real"
+    result["problems"] = _problems(result, real)
+    result["ok"] = not result["problems"]
     return result
+
+
+def _problems(result: dict[str, Any], real: bool) -> list[str]:
+    """What keeps the configured rig from running: an unreachable generator; on the real
+    backend a configured DAQ module not found (the simulated rig has its own DAQ)."""
+    out = []
+    g = result.get("generator")
+    if g is not None and not g["reachable"]:
+        out.append(f"the generator {g['resource']} is not reachable: {g['error']}")
+    d = result.get("daq")
+    if real and d is not None and d["found"] is not True:
+        why = "NI-DAQmx is not installed" if d["found"] is None else "no such device"
+        out.append(f"the DAQ {d['module']} at {d['device']} is not found ({why})")
+    return out
 
 
 def _visa_backend(visa_library: str) -> dict[str, Any]:
@@ -136,4 +153,7 @@ def format_check(result: dict[str, Any]) -> str:
         lines.append(f"  configured {d['module']} at {d['device']}: {state}")
         if d.get("warning"):
             lines.append(f"  warning: {d['warning']}")
+    if "ok" in result:
+        lines.append("ready: every configured instrument answers" if result["ok"] else
+                     "NOT READY: " + "; ".join(result["problems"]))
     return "\n".join(lines)

@@ -138,8 +138,10 @@ class Catalog:
 
     # -- writing -----------------------------------------------------------------
     def put(self, rec: RunRecord, con: sqlite3.Connection | None = None) -> None:
-        """Insert or replace the row of ``rec.name``."""
+        """Insert the row of ``rec.name``, or update it when it is the same run file; a
+        different file under a name the catalog holds is refused, never replaced."""
         row = {k: getattr(rec, k) for k in _COLUMNS if k != "extra"}
+        self._check_name(rec, con)
         row["extra"] = to_json(rec.metadata)
         sql = (f"INSERT OR REPLACE INTO runs ({', '.join(row)}) "
                f"VALUES ({', '.join('?' for _ in row)})")
@@ -148,6 +150,31 @@ class Catalog:
             return
         with closing(self._connect()) as c, c:
             c.execute(sql, list(row.values()))
+
+    def _check_name(self, rec: RunRecord, con: sqlite3.Connection | None) -> None:
+        sql = "SELECT path, uid FROM runs WHERE name = ?"
+        if con is not None:
+            old = con.execute(sql, (rec.name,)).fetchone()
+        else:
+            with closing(self._connect()) as c:
+                old = c.execute(sql, (rec.name,)).fetchone()
+        if old is None or (old["uid"] and old["uid"] == rec.uid):
+            return
+        self._refuse_other(rec.name, old["path"], rec.path)
+
+    def check_free(self, name: str, path: str | Path) -> None:
+        """Refuse to store a run called ``name`` at ``path`` when the catalog holds another
+        existing file under that name (call before writing, so nothing is half-stored)."""
+        old = self.get(name)
+        if old is not None:
+            self._refuse_other(name, old.path, path)
+
+    @staticmethod
+    def _refuse_other(name: str, old_path: str, new_path: str | Path) -> None:
+        if Path(old_path).resolve() == Path(new_path).resolve() or not Path(old_path).exists():
+            return       # the same file re-indexed, or the catalogued file is gone (stale row)
+        raise InputError(f"the catalog already holds a run named {name!r} (file {old_path}); "
+                         "rename one of them", file=str(new_path), field="name")
 
     def add(self, path: str | Path) -> RunRecord:
         """Index (or re-index) the run file at ``path``."""

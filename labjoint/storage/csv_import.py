@@ -76,6 +76,8 @@ def import_parsed(parsed: ParsedCSV, data_dir: str | Path, name: str | None = No
     if name is None:
         name = re.sub(r"[^A-Za-z0-9_.\-]", "_", src.stem).lstrip("._-") or "imported"
     final = layout.run_path(data_dir, name)
+    if catalog is not None:
+        catalog.check_free(name, final)
     if final.exists():
         raise InputError("a run file with this name already exists; pass another name",
                          file=str(final))

@@ -95,6 +95,16 @@ def cancel(request: Request, job_id: str = JobId) -> dict[str, Any]:
     return job_dict(queue(request).cancel(job_id))
 
 
+@router.post("/plans/{job_id}/resume", response_model=PlanJob, responses=errors_doc(409, 503),
+             summary="Resume a plan held by an emergency stop",
+             dependencies=[Depends(require_control)])
+def resume(request: Request, job_id: str = JobId) -> dict[str, Any]:
+    """A plan held by an emergency stop goes back to the queue (409 while the stop is
+    latched or when the plan is not held). Clearing the stop resumes nothing by itself."""
+    _job(request, job_id)
+    return job_dict(queue(request).resume(job_id))
+
+
 @router.post("/plans/{job_id}/torque", response_model=PlanJob, responses=errors_doc(409, 503),
              summary="Continue after a torque change", dependencies=[Depends(require_control)])
 def continue_torque(request: Request, body: TorqueConfirm, job_id: str = JobId) -> dict[str, Any]:

@@ -10,10 +10,11 @@ from typing import Any
 from fastapi import APIRouter, Depends, Request
 
 from labjoint import __version__
-from labjoint.api.auth import require_control, require_read
+from labjoint.api.auth import require_control, require_control_or_loopback, require_read
 from labjoint.api.errors import ApiError, errors_doc
 from labjoint.api.jobs import json_safe
 from labjoint.api.schemas import EStopRequest, EStopResult, Health, RigStatus, Version
+from labjoint.daemon.liveness import liveness
 
 log = logging.getLogger(__name__)
 router = APIRouter(tags=["system"])
@@ -38,18 +39,26 @@ def version(request: Request) -> dict[str, Any]:
             "openapi_url": request.app.openapi_url}
 
 
+#: what only a caller with a token sees of the daemon (where files live, process ids)
+PRIVATE = ("pid", "worker_id", "data_dir", "queue_db")
+
+
 @router.get("/rig", response_model=RigStatus, responses=errors_doc(),
-            summary="Rig and instrument status", dependencies=[Depends(require_read)])
-def rig(request: Request) -> dict[str, Any]:
+            summary="Rig and instrument status")
+def rig(request: Request, scope: str | None = Depends(require_read)) -> dict[str, Any]:
     """The daemon's view of the rig (generator settings and output, current job and run,
-    samples) and the number of plan jobs in each state."""
+    samples) and the number of plan jobs in each state. With ``--no-daemon`` the daemon's
+    liveness comes from its lock and its last heartbeat: ``state`` is "not running" when
+    no daemon holds the queue. Paths and process ids only with a token."""
     st = request.app.state
     out: dict[str, Any] = {"mode": mode(request), "backend": st.backend, "daemon": None,
                            "queue": None, "estop": None}
     if st.daemon is not None:
-        out["daemon"] = json_safe(st.daemon.status())
+        out["daemon"] = json_safe({**st.daemon.status(), "running": True})
     elif st.queue is not None:
-        out["daemon"] = json_safe(st.queue.daemon_status())
+        out["daemon"] = json_safe(liveness(st.queue))
+    if out["daemon"] is not None and scope is None:
+        out["daemon"] = {k: v for k, v in out["daemon"].items() if k not in PRIVATE}
     if st.queue is not None:
         out["queue"] = st.queue.counts()
         out["estop"] = st.queue.estop_requested()
@@ -65,13 +74,17 @@ def _stopper(request: Request) -> Any:
 
 
 @router.post("/estop", response_model=EStopResult, responses=errors_doc(503),
-             summary="Emergency stop", dependencies=[Depends(require_control)])
+             summary="Emergency stop", dependencies=[Depends(require_control_or_loopback)],
+             openapi_extra={"security": [{"bearer": []}, {}]})   # no token from loopback
 def estop(request: Request, body: EStopRequest | None = None) -> dict[str, Any]:
-    """Output off at once (no ramp), the running plan ends 'aborted', and no plan starts
-    until the stop is cleared (``POST /estop/clear``). Needs a control token."""
+    """Output off at once (no ramp), the running plan ends 'aborted', and every queued
+    plan is held: after the stop is cleared (``POST /estop/clear``) each waits for
+    ``POST /plans/{id}/resume`` or is cancelled. Needs a control token, except from the
+    machine itself (a loopback client address), so a user at the rig can always stop it."""
     st = _stopper(request)
     reason = (body or EStopRequest()).reason
-    log.warning("emergency stop requested through the API: %s", reason)
+    log.warning("emergency stop requested through the API: %s",
+                reason.encode("unicode_escape").decode("ascii"))
     if st.daemon is not None:
         st.daemon.emergency_stop(reason)
     else:
@@ -83,7 +96,8 @@ def estop(request: Request, body: EStopRequest | None = None) -> dict[str, Any]:
 @router.post("/estop/clear", response_model=EStopResult, responses=errors_doc(503),
              summary="Clear an emergency stop", dependencies=[Depends(require_control)])
 def estop_clear(request: Request) -> dict[str, Any]:
-    """Allow queued plans to start again after an emergency stop."""
+    """Unlatch an emergency stop. Plans it held stay held until each is resumed
+    (``POST /plans/{id}/resume``) or cancelled."""
     st = _stopper(request)
     q = st.queue if st.queue is not None else st.daemon.queue
     log.warning("emergency stop cleared through the API")

@@ -66,6 +66,24 @@ function tokenBox() {
   show();
 }
 
+// The emergency stop sits in the header of every page. From the machine itself the
+// service accepts it without a token (loopback); from elsewhere the control token is sent.
+function estopButton() {
+  const btn = document.getElementById('estop');
+  const out = document.getElementById('estop-msg');
+  btn.addEventListener('click', async () => {
+    try {
+      const r = await api('/estop', { method: 'POST', body: { reason: 'emergency stop from the dashboard' } });
+      out.textContent = `STOPPED: ${r.estop}. Output off; queued plans held.`;
+      out.className = 'estop-msg sent';
+    } catch (err) {
+      out.textContent = `NOT sent: ${err.message}. Switch the amplifier off at its interlock.`;
+      out.className = 'estop-msg failed';
+    }
+    window.dispatchEvent(new Event('labjoint:estop'));
+  });
+}
+
 async function service() {
   const el = document.getElementById('service');
   try {
@@ -78,6 +96,7 @@ async function service() {
 }
 
 tokenBox();
+estopButton();
 service();
 window.addEventListener('hashchange', route);
 route();

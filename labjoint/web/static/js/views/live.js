@@ -60,7 +60,7 @@ function rigTable(rig) {
   ], { class: 'kv', id: 'rig-state' });
 }
 
-function jobView(job, onTorque) {
+function jobView(job, onTorque, onResume) {
   if (!job) return h('p', { class: 'note' }, 'No plan yet.');
   const pc = Math.round(100 * (job.progress || 0));
   const bar = h('div');
@@ -73,6 +73,10 @@ function jobView(job, onTorque) {
     const t = h('input', { type: 'number', step: 'any', min: 0, value: job.waiting_for.torque_nm ?? '' });
     parts.push(h('p', { class: 'note busy' }, `Set the bolt torque to ${fmt(job.waiting_for.torque_nm)} N m, then confirm: `,
       t, ' ', h('button', { class: 'small', onclick: () => onTorque(job.id, Number(t.value)) }, 'Torque applied')));
+  }
+  if (job.status === 'held') {
+    parts.push(h('p', { class: 'note busy' }, 'Held by an emergency stop: it starts only when you resume it. ',
+      h('button', { class: 'small', id: 'plan-resume', onclick: () => onResume(job.id) }, 'Resume')));
   }
   if (job.error) parts.push(h('p', { class: 'note error' }, job.error));
   if (job.runs && job.runs.length) {
@@ -92,28 +96,26 @@ export async function show(el) {
   const jobBox = h('div', { id: 'plan-box' });
   const loopBox = h('div', { id: 'live-loop' }, loopPlot(null, { id: 'live-loop-plot' }));
   const loopCaption = h('p', { class: 'caption', id: 'live-caption' }, 'Nothing recorded yet.');
-  const estop = h('button', { class: 'estop', id: 'estop', type: 'button' }, 'EMERGENCY STOP');
   const clearBtn = h('button', { class: 'secondary', id: 'estop-clear', type: 'button', hidden: true }, 'Clear the emergency stop');
   const types = await api('/plan-types').catch(() => []);
 
-  estop.addEventListener('click', async () => {
-    try {
-      needToken();
-      const r = await api('/estop', { method: 'POST', body: { reason: 'emergency stop from the dashboard' } });
-      note(msg, `Emergency stop sent: ${r.estop}. Output off; no plan starts until cleared.`, 'error');
-    } catch (err) {
-      note(msg, `Emergency stop NOT sent: ${err.message}`, 'error');
-    }
-  });
   clearBtn.addEventListener('click', async () => {
     try {
       needToken();
       await api('/estop/clear', { method: 'POST' });
-      note(msg, 'Emergency stop cleared: queued plans may start.', 'ok');
+      note(msg, 'Emergency stop cleared: plans it held wait until you resume or cancel them.', 'ok');
     } catch (err) {
       note(msg, err.message, 'error');
     }
   });
+  async function onResume(id) {
+    try {
+      needToken();
+      await api(`/plans/${id}/resume`, { method: 'POST' });
+    } catch (err) {
+      note(msg, err.message, 'error');
+    }
+  }
   async function onTorque(id, torque) {
     try {
       needToken();
@@ -154,7 +156,7 @@ export async function show(el) {
       rigBox.replaceChildren(rigTable(rig));
       if (rig.mode !== 'none') {
         const job = d.job ? await api(`/plans/${d.job}`) : (await api('/plans', { query: { limit: 1 } })).items[0];
-        jobBox.replaceChildren(jobView(job, onTorque));
+        jobBox.replaceChildren(jobView(job, onTorque, onResume));
       } else {
         jobBox.replaceChildren(h('p', { class: 'note' }, 'This service runs without a daemon: nothing to watch.'));
       }
@@ -174,7 +176,7 @@ export async function show(el) {
   }
 
   el.append(h('h1', {}, 'Live'), banner,
-    h('div', { class: 'card live-top' }, estop, clearBtn, msg),
+    h('div', { class: 'card live-top' }, clearBtn, msg),
     h('div', { class: 'grid2' }, section('Current loop', loopBox, loopCaption),
       h('div', {}, section('Plan', jobBox), section('Rig', rigBox))),
     section('Queue a plan', planForm(types, msg)));

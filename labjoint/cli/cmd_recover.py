@@ -1,0 +1,49 @@
+"""`labjoint recover [--data DIR]`: close run files whose writer died (marked "incomplete"
+with the samples all channels reached), delete temporary files of dead writers and
+imports, and bring the catalog in line with the files (the daemon does the same at start)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from labjoint.cli.output import emit_json
+
+
+def add_recover_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--data", default=None, help="data directory (default: the config's data_dir)")
+
+
+def run(args: argparse.Namespace) -> int:
+    from labjoint.config import load_config
+    from labjoint.errors import InputError
+    from labjoint.storage.catalog import Catalog
+    from labjoint.storage.recover import recover_all
+
+    data = Path(args.data or load_config(args.config).rig.data_dir)
+    if not data.is_dir():
+        raise InputError("no such data directory", file=str(data), field="--data")
+    catalog = Catalog(data / "catalog.sqlite")
+    done = recover_all(data, catalog=catalog)
+    stale = []
+    for rec in catalog.query(status="running"):
+        p = Path(rec.path)
+        if not p.exists():
+            catalog.remove(rec.name)
+            stale.append(rec.name)
+        elif p.parent.resolve() == data.resolve():
+            catalog.add(p)             # re-read the file's own status
+    res = {"recovered": [str(p) for p in done], "removed_from_catalog": stale,
+           "still_running": [r.name for r in catalog.query(status="running")]}
+    if args.json:
+        emit_json(res)
+        return 0
+    for p in done:
+        print(f"recovered {p}: marked incomplete")
+    for n in stale:
+        print(f"catalog: removed {n} (its file is gone)")
+    for n in res["still_running"]:
+        print(f"{n}: still being written by a live process")
+    if not (done or stale or res["still_running"]):
+        print("nothing to recover")
+    return 0
