@@ -48,7 +48,7 @@ def test_the_reason_is_stored_as_given_and_logged_escaped(tmp_path, caplog):
 
 async def _post(app, client, headers=None):
     transport = httpx.ASGITransport(app=app, client=client)
-    async with httpx.AsyncClient(transport=transport, base_url="http://labjoint") as http:
+    async with httpx.AsyncClient(transport=transport, base_url="http://127.0.0.1:8000") as http:
         return await http.post("/api/v1/estop", headers=headers or {},
                                json={"reason": "from the test"})
 

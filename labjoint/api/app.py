@@ -19,7 +19,9 @@ from fastapi.staticfiles import StaticFiles
 from starlette.routing import compile_path
 
 from labjoint import __version__
+from labjoint.api.docs import install_docs
 from labjoint.api.errors import install_error_handlers
+from labjoint.api.hosts import HostCheck
 from labjoint.api.jobs import JobRunner, JobStore
 from labjoint.api.limits import BodySizeLimit
 from labjoint.api.resolve import RunResolver
@@ -58,7 +60,8 @@ def create_app(settings: ApiSettings, daemon: Any = None, queue: Any = None,
     app = FastAPI(title="labjoint", version=__version__, lifespan=lifespan,
                   description="Bolted-joint dynamics lab: plans on the shaker rig, run files, "
                               "identification and model comparison. SI units throughout.",
-                  openapi_url="/openapi.json", docs_url="/docs", redoc_url="/redoc")
+                  openapi_url="/openapi.json", docs_url=None, redoc_url=None)
+    install_docs(app)
     catalog = Catalog(data_dir / CATALOG_FILE)
     st = app.state
     st.settings, st.catalog, st.jobs = settings, catalog, jobs
@@ -68,6 +71,7 @@ def create_app(settings: ApiSettings, daemon: Any = None, queue: Any = None,
 
     install_error_handlers(app)
     app.add_middleware(BodySizeLimit, max_bytes=settings.max_request_bytes)
+    app.add_middleware(HostCheck, names=settings.host_names())
     table = [(r.path_regex, set(r.methods)) for r in app.routes
              if getattr(r, "methods", None) and hasattr(r, "path_regex")]
     for module in (system, plans, runs, analyses, models):

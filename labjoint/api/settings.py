@@ -46,6 +46,9 @@ class ApiSettings(BaseModel):
 
     data_dir: Path
     host: str = "127.0.0.1"
+    #: names a request's Host header may carry (DNS rebinding); empty: loopback names, the
+    #: bound address, and on a wildcard bind this machine's name and addresses
+    allowed_hosts: tuple[str, ...] = ()
     port: int = Field(8000, ge=0, le=65535)
     control_tokens: tuple[str, ...] = ()
     read_tokens: tuple[str, ...] = ()
@@ -62,6 +65,21 @@ class ApiSettings(BaseModel):
                 raise ValueError(f"tokens need at least {MIN_TOKEN_CHARS} characters and no "
                                  "whitespace")
         return tuple(dict.fromkeys(v))
+
+    def host_names(self) -> set[str]:
+        """The Host names this service answers to (lower case, without port)."""
+        if self.allowed_hosts:
+            return {h.lower().strip("[]") for h in self.allowed_hosts}
+        names = {"localhost", "127.0.0.1", "::1", self.host.lower().strip("[]")}
+        if self.host in ("0.0.0.0", "::", ""):
+            import socket
+            name = socket.gethostname()
+            names |= {name.lower(), socket.getfqdn().lower()}
+            try:
+                names |= set(socket.gethostbyname_ex(name)[2])
+            except OSError:
+                pass
+        return names
 
     def scope_of(self, token: str | None) -> Scope | None:
         """'control', 'read' or None for ``token`` (constant-time comparisons)."""
