@@ -42,3 +42,11 @@ def test_hw_check_exits_non_zero_when_the_configured_generator_does_not_answer(c
     assert main(["hw", "check", "--config", str(CONFIG_DIR / "rig-real.toml"), "--json"]) == 3
     res = json.loads(capsys.readouterr().out)
     assert res["ok"] is False and "generator" in res["problems"][0]
+
+
+def test_messages_show_plain_numbers_not_numpy_reprs(tmp_path, capsys):
+    bad = tmp_path / "back.csv"
+    bad.write_text("time_s,displacement_m,force_N\n0,0,0\n0.002,0,0\n0.001,0,0\n")
+    assert main(["analyze", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "time does not increase: 0.001 s after 0.002 s" in err and "np." not in err

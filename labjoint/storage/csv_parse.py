@@ -241,7 +241,7 @@ def _check_time(values: np.ndarray, columns: list[str], md: dict, meta_lines: di
     nonpos = np.flatnonzero(d <= 0)
     if nonpos.size:
         k = int(nonpos[0]) + 1
-        raise InputError(f"time does not increase: {t[k]!r} s after {t[k - 1]!r} s",
+        raise InputError(f"time does not increase: {float(t[k])!r} s after {float(t[k - 1])!r} s",
                          file=f, line=first + k, column=tname)
     dt = (t[-1] - t[0]) / (len(t) - 1)
     off = np.flatnonzero(np.abs(d - dt) > STEP_TOLERANCE * dt)
