@@ -120,6 +120,7 @@ def test_cli_fit_by_simulation_saves_a_model_that_predict_runs(tmp_path, capsys)
     assert main(["predict", str(model), str(test), "--periodic", "--out", str(out), "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
     assert res["rmse"] < 1e-2 * np.std(y) and res["nrmse"] < 1e-2
+    assert res["samples"] == N                   # one steady period: every sample judged
     lines = out.read_text().splitlines()
     assert lines[0] == "time_s,displacement_m,predicted_m" and len(lines) == N + 1
 

@@ -28,7 +28,7 @@ the output in place of the force).
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -188,6 +188,19 @@ class _Scaled:
         return np.array(lo), np.array(hi)
 
 
+def prepare_records(items: list[Any], *, periodic: bool = False,
+                    warmup: str | float = "auto") -> list[RecordMeasurement]:
+    """Records prepared as the record kind for simulation error. A ``periodic`` record is
+    whole periods of a steady input, simulated to its steady state: every sample is
+    judged (no warm-up, no partial unit left out)."""
+    ms: list[Measurement] = prepare(items, kind="record", warmup=0 if periodic else warmup)
+    recs = [m for m in ms if isinstance(m, RecordMeasurement)]
+    if periodic:
+        recs = [replace(m, data=m.data.renamed(m.name, np.ones(len(m.data.force), bool)))
+                for m in recs]
+    return recs
+
+
 def fit_simulation(runs: Any, model: str | Model, *, validate: list[Any] | None = None,
                    periodic: bool = False, substeps: int = DEFAULT_SUBSTEPS,
                    warmup: str | float = "auto", seed: int = 0) -> SimulationFit:
@@ -195,9 +208,7 @@ def fit_simulation(runs: Any, model: str | Model, *, validate: list[Any] | None 
     model = Model.parse(model)
     check_simulable(model)
     items = [runs] if isinstance(runs, (str, Path)) else list(runs)
-    ms: list[Measurement] = prepare(items + list(validate or []), kind="record",
-                                    warmup=0 if periodic else warmup)
-    recs = [m for m in ms if isinstance(m, RecordMeasurement)]
+    recs = prepare_records(items + list(validate or []), periodic=periodic, warmup=warmup)
     return fit_prepared(recs[:len(items)], model, validation=recs[len(items):],
                         periodic=periodic, substeps=substeps, seed=seed)
 
@@ -310,6 +321,5 @@ def load_model(path: str | Path) -> tuple[Model, dict[str, float], int]:
 def predict_file(model_path: str | Path, record: Any, *, periodic: bool = False) -> Prediction:
     """Simulate a saved model on a record (run file, CSV or Run)."""
     model, vals, substeps = load_model(model_path)
-    m = prepare([record], kind="record", warmup=0 if periodic else "auto")[0]
-    assert isinstance(m, RecordMeasurement)
+    (m,) = prepare_records([record], periodic=periodic)
     return predict_record(model, vals, m, periodic=periodic, substeps=substeps)

@@ -34,9 +34,10 @@ import numpy as np
 
 from labjoint.compare.candidates import candidate_effects
 from labjoint.compare.describe import pct_text
-from labjoint.compare.kinds import KINDS, prepare
+from labjoint.compare.kinds import KINDS
 from labjoint.compare.kinds.record import RecordMeasurement
-from labjoint.compare.output_error import Prediction, SimulationFit, fit_prepared
+from labjoint.compare.output_error import (Prediction, SimulationFit, fit_prepared,
+                                           prepare_records)
 from labjoint.compare.runs import split_by_names
 from labjoint.compare.significance import (PairedTest, SignificanceSettings, is_significant,
                                            paired_test)
@@ -131,8 +132,7 @@ def prepare_split(runs: Any, validate: Sequence[Any] | None = None, *, periodic:
                                                          list[RecordMeasurement], str]:
     """Records prepared as the record kind and split into fit and validation parts."""
     items = [runs] if isinstance(runs, (str, Path)) else list(runs)
-    ms = prepare(items + list(validate or []), kind="record", warmup=0 if periodic else warmup)
-    recs = [m for m in ms if isinstance(m, RecordMeasurement)]
+    recs = prepare_records(items + list(validate or []), periodic=periodic, warmup=warmup)
     if validate:
         fit_r, val_r, rule = split_by_names(recs, [m.name for m in recs[len(items):]])
     else:
