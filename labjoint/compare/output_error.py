@@ -109,6 +109,14 @@ def predict_record(model: Model, params: Parameters | dict[str, float], m: Recor
     return Prediction(m.name, pred, y, judged, float(m.noise().displacement_std), m.fs)
 
 
+def displacement_floor(preds: list[Prediction]) -> float:
+    """The noise floor of simulation error: the records' displacement noise over the rms
+    of their judged displacement, pooled."""
+    num = sum(p.noise_std_m ** 2 * p.judged.sum() for p in preds if np.isfinite(p.noise_std_m))
+    den = sum(p.sso for p in preds)
+    return float(np.sqrt(num / den)) if den > 0 else float("nan")
+
+
 @dataclass
 class SimulationFit:
     """An output-error fit: the model, its parameters with standard errors, the start it
@@ -131,10 +139,7 @@ class SimulationFit:
 
     def noise_floor(self) -> float:
         """The displacement noise over the rms of the judged displacement, pooled."""
-        num = sum(p.noise_std_m ** 2 * p.judged.sum() for p in self.fit
-                  if np.isfinite(p.noise_std_m))
-        den = sum(p.sso for p in self.fit)
-        return float(np.sqrt(num / den)) if den > 0 else float("nan")
+        return displacement_floor(self.fit)
 
     def model_dict(self) -> dict[str, Any]:
         """What ``--out MODEL.json`` holds: effects by name with parameters, the structure."""

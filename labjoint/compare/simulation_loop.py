@@ -36,14 +36,13 @@ from labjoint.compare.candidates import candidate_effects
 from labjoint.compare.describe import pct_text
 from labjoint.compare.kinds import KINDS
 from labjoint.compare.kinds.record import RecordMeasurement
-from labjoint.compare.output_error import (Prediction, SimulationFit, fit_prepared,
-                                           prepare_records)
+from labjoint.compare.output_error import (Prediction, SimulationFit, displacement_floor,
+                                           fit_prepared, prepare_records)
 from labjoint.compare.runs import split_by_names
 from labjoint.compare.significance import (PairedTest, SignificanceSettings, is_significant,
                                            paired_test)
 from labjoint.errors import InputError
 from labjoint.models import Model
-from labjoint.models.scores import pooled_nrmse
 from labjoint.models.simulate import DEFAULT_SUBSTEPS, SUPPORTED, check_simulable
 
 MIN_TEST_UNITS = 16
@@ -65,16 +64,6 @@ def unit_sse(preds: Sequence[Prediction], spans: Sequence[np.ndarray]) -> np.nda
             edges = np.linspace(a, b, split + 1).round().astype(int)
             out.extend(float(r2[e0:e1].sum()) for e0, e1 in zip(edges[:-1], edges[1:]) if e1 > e0)
     return np.array(out)
-
-
-def _floor(preds: Sequence[Prediction]) -> float:
-    num = sum(p.noise_std_m ** 2 * p.judged.sum() for p in preds if np.isfinite(p.noise_std_m))
-    den = sum(p.sso for p in preds)
-    return float(np.sqrt(num / den)) if den > 0 else float("nan")
-
-
-def _nrmse(preds: Sequence[Prediction]) -> float:
-    return pooled_nrmse([p.sse for p in preds], [p.sso for p in preds])
 
 
 @dataclass
@@ -164,8 +153,8 @@ def _failures(base: SimulationFit, recs: Sequence[RecordMeasurement], floor: flo
             continue
         seg = r[j[0]:j[-1] + 1]
         blocks = np.array_split(seg, min(8, seg.size // 2))
-        worst = int(np.argmax([np.sqrt(np.mean(b ** 2)) for b in blocks]))
         rms = [float(np.sqrt(np.mean(b ** 2))) for b in blocks]
+        worst = int(np.argmax(rms))
         out.append({"where": f"time ({p.name})", "text": (
             f"the residual is largest in the {_ordinal(worst + 1)} of {len(blocks)} equal "
             f"parts of the judged record (rms {rms[worst]:.3g} m against "
@@ -207,7 +196,7 @@ def diagnose_simulation(runs: Any, model: str | Model, *, validate: Sequence[Any
                             substeps=substeps, seed=seed)
     if progress:
         progress(f"fitted {model.expr} by simulation")
-    floor, floor_val = _floor(base.fit), _floor(base.validation)
+    floor, floor_val = displacement_floor(base.fit), displacement_floor(base.validation)
     spans = [m.units() for m in val_r]
     base_units = unit_sse(base.validation, spans)
     only = candidates.split(",") if isinstance(candidates, str) else candidates

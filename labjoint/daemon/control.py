@@ -26,7 +26,8 @@ class JobStateError(LabjointError):
     """The job is not in a state that allows the request (e.g. cancelling a finished job)."""
 
 
-def _now() -> str:
+def utc_now() -> str:
+    """Current UTC time, ISO 8601."""
     return datetime.now(timezone.utc).isoformat()
 
 
@@ -40,7 +41,7 @@ class ControlMixin:
     @staticmethod
     def _put(con: sqlite3.Connection, key: str, value: Any) -> None:
         con.execute("INSERT OR REPLACE INTO control (key, value, updated_at) VALUES (?, ?, ?)",
-                    (key, None if value is None else json.dumps(value), _now()))
+                    (key, None if value is None else json.dumps(value), utc_now()))
 
     def _get(self, key: str) -> tuple[Any, str] | None:
         row = self._connect().execute(  # type: ignore[attr-defined]

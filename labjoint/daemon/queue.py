@@ -34,13 +34,12 @@ import os
 import threading
 from contextlib import closing, contextmanager
 from dataclasses import asdict, dataclass, field
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable, Iterator, Mapping
 
 from labjoint.acquisition.plans import load_plan
-from labjoint.daemon.control import HELD_MESSAGE, ControlMixin, JobStateError
-from labjoint.errors import InputError, LabjointError
+from labjoint.daemon.control import HELD_MESSAGE, ControlMixin, JobStateError, utc_now
+from labjoint.errors import InputError
 
 JOB_STATUSES = ("queued", "held", "running", "waiting_torque", "done", "failed", "cancelled",
                 "aborted")
@@ -85,11 +84,6 @@ _JSON_FIELDS = ("runs", "waiting_for", "gaps")
 
 class JobNotFound(InputError):
     """No job with this id."""
-
-
-def utc_now() -> str:
-    """Current UTC time, ISO 8601."""
-    return datetime.now(timezone.utc).isoformat()
 
 
 @dataclass

@@ -215,15 +215,7 @@ def _sine_or_sweep(core: np.ndarray, fs: float) -> Excitation | None:
     d = np.diff(fq)
     monotonic = len(fq) >= 3 and (np.all(d > 0) or np.all(d < 0))
     spread = max(fq) - min(fq) if fq else 0.0
-    # a sweep's quarters each hold a narrow part of its band; a broadband signal's
-    # dominant line wanders by chance, but each quarter spans the whole band
-    narrow = False
-    if quarters:
-        core_w = np.subtract(*_band90(core, fs)[::-1])
-        q_res = fs / quarters[0].size            # a quarter's bin: bands below ~8 unresolved
-        q_w = float(np.median([np.subtract(*_band90(q, fs)[::-1]) for q in quarters]))
-        narrow = core_w <= 8 * q_res or q_w < SWEEP_QUARTER_BAND * core_w
-    if monotonic and narrow and spread > max(0.01 * np.median(fq), res):
+    if monotonic and spread > max(0.01 * np.median(fq), res) and _narrow(core, quarters, fs):
         return Excitation("swept_sine", band_hz=(float(fq[0]), float(fq[-1])), evidence=(
             f"the dominant line moves from {fq[0]:.4g} Hz to {fq[-1]:.4g} Hz across the record"))
     if fund >= 0.8 and fund + harm >= 0.95:
@@ -231,6 +223,15 @@ def _sine_or_sweep(core: np.ndarray, fs: float) -> Excitation | None:
             f"one line at {f0:.6g} Hz holds {fund:.1%} of the power, with its harmonics "
             f"{fund + harm:.1%}"))
     return None
+
+
+def _narrow(core: np.ndarray, quarters: list[np.ndarray], fs: float) -> bool:
+    """A sweep's quarters each hold a narrow part of its band; a broadband signal's
+    dominant line wanders by chance, but each quarter spans the whole band."""
+    core_w = np.subtract(*_band90(core, fs)[::-1])
+    q_res = fs / quarters[0].size            # a quarter's bin: bands below ~8 unresolved
+    q_w = float(np.median([np.subtract(*_band90(q, fs)[::-1]) for q in quarters]))
+    return bool(core_w <= 8 * q_res or q_w < SWEEP_QUARTER_BAND * core_w)
 
 
 def _periodic(core: np.ndarray, fs: float) -> Excitation | None:

@@ -152,7 +152,8 @@ def read_foreign(path: str | Path, channel_map: str | Path | dict[str, Any]) -> 
     m = load_map(channel_map)
     if not p.is_file():
         raise InputError("no such file", file=str(p))
-    cols, fs_file = (_tdms if _fmt(p, m) == "tdms" else _hdf5)(p, m)
+    fmt = _fmt(p, m)
+    cols, fs_file = (_tdms if fmt == "tdms" else _hdf5)(p, m)
     fs = m.get("sample_rate_hz", fs_file)
     if fs is None:
         raise InputError("no sample rate: give sample_rate_hz in the map", file=str(p),
@@ -179,7 +180,7 @@ def read_foreign(path: str | Path, channel_map: str | Path | dict[str, Any]) -> 
     if drive is not None and drive >= fs / 2:
         raise InputError(f"frequency_hz {drive:g} Hz is at or above the Nyquist frequency "
                          f"{fs / 2:g} Hz of the record", file=str(p), field="frequency_hz")
-    md["source_format"] = _fmt(p, m)
+    md["source_format"] = fmt
     md["channel_map"] = m["_source"]
     names = ["time_s", "displacement_m", "force_N"] + [c for c in cols if c not in REQUIRED]
     t = np.arange(n) / float(fs)
