@@ -18,8 +18,8 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-from labjoint.acquisition.messages import (Configure, Measure, Measurement, Message, Ramp,
-                                           Record, SteadyResult, WaitSteady)
+from labjoint.acquisition.messages import (Configure, LoadWaveform, Measure, Measurement,
+                                           Message, Ramp, Record, SteadyResult, WaitSteady)
 from labjoint.acquisition.plans import load_plan
 from labjoint.acquisition.safety import LimitTrip, check_settings
 from labjoint.config import RigConfig
@@ -36,7 +36,7 @@ def _ideal(params: Mapping[str, Any], max_vpp: float) -> Any:
     state = {"f": 1.0}
 
     def respond(msg: Message) -> Any:
-        if isinstance(msg, Configure):
+        if isinstance(msg, (Configure, LoadWaveform)):
             state["f"] = msg.frequency_hz
         if isinstance(msg, WaitSteady):
             return SteadyResult(True, msg.window, 0.0)
@@ -55,7 +55,7 @@ def check_plan(plan: Mapping[str, Any], config: RigConfig) -> None:
     nyquist = 0.5 * float(config.daq.sample_rate_hz)
     gen = load_plan(dict(plan))
     respond = _ideal(params, limits.max_vpp)
-    f, offset, answer = None, 0.0, None
+    f, offset, answer, band = None, 0.0, None, None
     names: dict[str, int] = {}
     try:
         for step in range(MAX_MESSAGES + 1):
@@ -66,18 +66,21 @@ def check_plan(plan: Mapping[str, Any], config: RigConfig) -> None:
             if step == MAX_MESSAGES:
                 raise InputError(f"the plan has more than {MAX_MESSAGES} steps", field="parameters")
             what = f"step {step + 1} ({type(msg).__name__})"
-            if isinstance(msg, (Configure, Ramp)):
-                if isinstance(msg, Configure):
+            if isinstance(msg, (Configure, Ramp, LoadWaveform)):
+                if isinstance(msg, (Configure, LoadWaveform)):
                     f, offset = msg.frequency_hz, msg.offset_v
                     vpp = msg.amplitude_vpp
+                    band = msg.band_hz if isinstance(msg, LoadWaveform) else None
                 else:
                     vpp = msg.to_vpp
+                shape = "sine" if band is None else "user"
                 try:
-                    check_settings(GeneratorSettings(f or 0.0, vpp, offset), limits)
+                    check_settings(GeneratorSettings(f or 0.0, vpp, offset, shape=shape), limits, band)
                 except LimitTrip as trip:
                     raise InputError(f"{what}: {trip} (the rig's limit)", field=_field(trip.limit)) from None
-                if f is not None and f >= nyquist:
-                    raise InputError(f"{what}: frequency {f:g} Hz is at or above the DAQ's Nyquist "
+                top = f if band is None else band[1]
+                if top is not None and top >= nyquist:
+                    raise InputError(f"{what}: frequency {top:g} Hz is at or above the DAQ's Nyquist "
                                      f"frequency {nyquist:g} Hz (sample rate "
                                      f"{config.daq.sample_rate_hz:g} S/s)", field="frequency_hz")
             if isinstance(msg, Record):

@@ -11,7 +11,9 @@ from __future__ import annotations
 import logging
 import math
 import threading
-from typing import Callable
+from typing import Any, Callable
+
+import numpy as np
 
 from labjoint.acquisition.safety import check_settings
 from labjoint.config import LimitsConfig
@@ -80,6 +82,9 @@ class Drive:
         self.target: GeneratorSettings | None = None
         self.readback: GeneratorSettings | None = None
         self.fault = False
+        #: the loaded arbitrary waveform's band (Hz) and description; None for a sine
+        self.band: tuple[float, float] | None = None
+        self.excitation: dict[str, Any] | None = None
 
     def sync(self) -> None:
         """Adopt the generator's actual state (a plan may start with the output on)."""
@@ -88,7 +93,7 @@ class Drive:
             s = self.generator.read_settings()
         self.readback, self.output, self.vpp = s, bool(s.output), float(s.amplitude_vpp)
         if s.output:
-            self.target = GeneratorSettings(s.frequency_hz, s.amplitude_vpp, s.offset_v)
+            self.target = GeneratorSettings(s.frequency_hz, s.amplitude_vpp, s.offset_v, shape=s.shape)
 
     def off_now(self, why: str) -> None:
         """Output off at once, no ramp (an emergency stop from another thread)."""
@@ -109,12 +114,14 @@ class Drive:
             return self.generator.identify()
 
     def _apply(self, f: float, vpp: float, offset: float) -> None:
-        settings = GeneratorSettings(f, vpp, offset, self.output)
+        shape = self.target.shape if self.target is not None else "sine"
+        settings = GeneratorSettings(f, vpp, offset, self.output, shape)
+        set_it = self.generator.apply_waveform if shape == "user" else self.generator.apply
         with self.lock:
             self.abort.check()
-            check_settings(settings, self.limits)
+            check_settings(settings, self.limits, self.band)
             try:
-                self.readback = self.generator.apply(f, vpp, offset)
+                self.readback = set_it(f, vpp, offset)
             except BaseException:
                 self.fault = True
                 raise
@@ -168,7 +175,11 @@ class Drive:
         off, else the frequency at once and the amplitude by a ramp."""
         target = GeneratorSettings(f, vpp, offset)
         check_settings(target, self.limits)
+        if self.output and self.target is not None and self.target.shape != "sine":
+            raise InputError("switch the output off before changing from an arbitrary waveform "
+                             "to a sine", field="frequency_hz")
         old, self.target = self.target, target
+        self.band = self.excitation = None
         if not self.output:
             self._apply(f, self.floor_vpp, offset)
             return self.readback
@@ -181,9 +192,33 @@ class Drive:
         return self.readback
 
     def ramp(self, vpp: float) -> GeneratorSettings | None:
-        """Ramp the amplitude to ``vpp`` at the configured frequency."""
+        """Ramp the amplitude to ``vpp`` at the configured frequency (and shape)."""
         t = self.need_target("Ramp")
+        if t.shape != "sine":
+            self.target = GeneratorSettings(t.frequency_hz, vpp, t.offset_v, shape=t.shape)
+            check_settings(self.target, self.limits, self.band)
+            self.ramp_to(vpp)
+            return self.readback
         return self.configure(t.frequency_hz, vpp, t.offset_v)
+
+    def load_waveform(self, points: Any, f: float, vpp: float, offset: float,
+                      band_hz: tuple[float, float], excitation: dict[str, Any]) -> GeneratorSettings | None:
+        """Load an arbitrary waveform (output off) and park it at the floor amplitude; the
+        output then ramps up to ``vpp`` as for a sine."""
+        if self.output:
+            raise InputError("switch the output off before loading a waveform", field="points")
+        target = GeneratorSettings(f, vpp, offset, shape="user")
+        check_settings(target, self.limits, band_hz)
+        with self.lock:
+            self.abort.check()
+            try:
+                self.generator.load_waveform(np.asarray(points, dtype=float))
+            except BaseException:
+                self.fault = True
+                raise
+        self.target, self.band, self.excitation = target, tuple(band_hz), dict(excitation)
+        self._apply(f, self.floor_vpp, offset)
+        return self.readback
 
     def on(self) -> GeneratorSettings | None:
         """Output on from the floor, then ramped up to the target amplitude."""

@@ -43,8 +43,8 @@ from labjoint import __version__
 from labjoint.acquisition.calibrations import channel_calibrations
 from labjoint.acquisition.drive import FLOOR_VPP, Abort, AbortSignal, Drive
 from labjoint.acquisition.gate import GateCancelled, TorqueGate
-from labjoint.acquisition.messages import (Checkpoint, Configure, Measure, Measurement, Message,
-                                           Output, Pause, PlanResult, Ramp, Record, RecordResult,
+from labjoint.acquisition.messages import (Checkpoint, Configure, LoadWaveform, Measure,
+                                           Measurement, Message, Output, Pause, PlanResult, Ramp, Record, RecordResult,
                                            SetTorque, SteadyResult, WaitSteady)
 from labjoint.acquisition.recorder import Recorder, utc_now
 from labjoint.acquisition.roles import engine_roles
@@ -222,6 +222,11 @@ class RunEngine:
     def _do_configure(self, msg: Configure) -> GeneratorSettings | None:
         return self.drive.configure(msg.frequency_hz, msg.amplitude_vpp, msg.offset_v)
 
+    @command(LoadWaveform)
+    def _do_load_waveform(self, msg: LoadWaveform) -> GeneratorSettings | None:
+        return self.drive.load_waveform(msg.points, msg.frequency_hz, msg.amplitude_vpp,
+                                        msg.offset_v, msg.band_hz, msg.excitation)
+
     @command(Ramp)
     def _do_ramp(self, msg: Ramp) -> GeneratorSettings | None:
         return self.drive.ramp(msg.to_vpp)
@@ -240,7 +245,8 @@ class RunEngine:
 
     @command(WaitSteady)
     def _do_wait_steady(self, msg: WaitSteady) -> SteadyResult:
-        return self.sampler.wait_steady(msg, self._frequency())
+        periodic = self.drive.need_target("WaitSteady").shape != "sine"
+        return self.sampler.wait_steady(msg, self._frequency(), per_period_rms=periodic)
 
     @command(Measure)
     def _do_measure(self, msg: Measure) -> Measurement:
@@ -336,6 +342,7 @@ class RunEngine:
             "software_version": __version__,
             **self._roles,
             "steady": None if steady is None else steady.to_dict(),
+            **({"excitation": dict(self.drive.excitation)} if self.drive.excitation else {}),
             "daq": self._daq_info(),
         })
         md["displacement_channels"] = list(md["displacement_channels"])

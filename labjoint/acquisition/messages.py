@@ -62,6 +62,40 @@ class Configure:
 
 
 @dataclass(frozen=True)
+class LoadWaveform:
+    """Load one period of an arbitrary waveform (``points``, peak-normalised) and select it,
+    repeated ``frequency_hz`` times per second at ``amplitude_vpp`` (2 x its peak). The
+    output must be off; ``band_hz`` (lowest, highest frequency it holds) is what the
+    frequency limits are checked against, and ``excitation`` describes it in the runs'
+    metadata. Then :class:`Output`, :class:`Ramp` and :class:`Record` work as for a sine
+    (``n_cycles`` counts periods)."""
+
+    points: tuple[float, ...] = field(repr=False)
+    frequency_hz: float
+    amplitude_vpp: float
+    band_hz: tuple[float, float]
+    offset_v: float = 0.0
+    excitation: dict[str, Any] = field(default_factory=dict, compare=False)
+
+    def __post_init__(self) -> None:
+        pts = tuple(float(x) for x in self.points)
+        if not 2 <= len(pts) <= 8192 or not all(math.isfinite(x) for x in pts):
+            raise InputError(f"a waveform has 2..8192 finite points, got {len(pts)}", field="points")
+        if max(abs(x) for x in pts) == 0:
+            raise InputError("the waveform is constant zero", field="points")
+        _set(self, "points", pts)
+        _set(self, "frequency_hz", _finite(self.frequency_hz, "frequency_hz", positive=True))
+        _set(self, "amplitude_vpp", _finite(self.amplitude_vpp, "amplitude_vpp", nonneg=True))
+        _set(self, "offset_v", _finite(self.offset_v, "offset_v"))
+        lo, hi = (_finite(v, "band_hz", positive=True) for v in self.band_hz)
+        if hi < lo:
+            raise InputError(f"band must be (low, high), got {self.band_hz!r}", field="band_hz")
+        _set(self, "band_hz", (lo, hi))
+        if not isinstance(self.excitation, dict):
+            raise InputError("must be a mapping", field="excitation")
+
+
+@dataclass(frozen=True)
 class Ramp:
     """Change only the amplitude, ramped at the limits' rate."""
 
@@ -168,7 +202,7 @@ class Pause:
     reason: str
 
 
-Message = Configure | Ramp | Output | SetTorque | WaitSteady | Measure | Record | Checkpoint | Pause
+Message = Configure | LoadWaveform | Ramp | Output | SetTorque | WaitSteady | Measure | Record | Checkpoint | Pause
 
 
 # ---- answers the engine sends back into the plan --------------------------------------

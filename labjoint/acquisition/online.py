@@ -39,9 +39,13 @@ class CycleAmplitudes:
 
     Cycle ``k`` spans samples ``[s0 + round(k N), s0 + round((k + 1) N))`` with
     ``N = fs / f`` and ``s0`` the first sample fed; ``scale`` turns volts into SI units.
+    With ``rms`` a cycle's amplitude is sqrt(2) times its RMS about its mean (a whole
+    period of any periodic drive; the fundamental's amplitude for a pure sine).
     """
 
-    def __init__(self, frequency_hz: float, sample_rate_hz: float, scale: np.ndarray) -> None:
+    def __init__(self, frequency_hz: float, sample_rate_hz: float, scale: np.ndarray,
+                 rms: bool = False) -> None:
+        self.rms = bool(rms)
         self.frequency_hz = float(frequency_hz)
         self.sample_rate_hz = float(sample_rate_hz)
         self.scale = np.asarray(scale, dtype=float)
@@ -71,8 +75,11 @@ class CycleAmplitudes:
             if self._buf_first + self._buf.shape[1] < b:
                 return done
             seg = self._buf[:, a - self._buf_first: b - self._buf_first]
-            X = fundamental(seg, self.sample_rate_hz, self.frequency_hz, first_sample=a)
-            self.history.append(np.abs(X) * np.abs(self.scale))
+            if self.rms:
+                amp = np.sqrt(2.0 * np.mean((seg - seg.mean(axis=1, keepdims=True)) ** 2, axis=1))
+            else:
+                amp = np.abs(fundamental(seg, self.sample_rate_hz, self.frequency_hz, first_sample=a))
+            self.history.append(amp * np.abs(self.scale))
             self._buf, self._buf_first = self._buf[:, b - self._buf_first:], b
             done += 1
 

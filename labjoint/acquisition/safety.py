@@ -44,8 +44,11 @@ class LimitTrip(LimitExceeded):
                 "channel": self.channel, "index": self.index}
 
 
-def check_settings(settings: GeneratorSettings, limits: LimitsConfig) -> None:
-    """Refuse generator settings outside the amplitude and frequency limits."""
+def check_settings(settings: GeneratorSettings, limits: LimitsConfig,
+                   band_hz: tuple[float, float] | None = None) -> None:
+    """Refuse generator settings outside the amplitude and frequency limits; an arbitrary
+    waveform (``shape`` "user") is checked by the band it holds (``band_hz``), not by its
+    repetition frequency."""
     vpp, f = float(settings.amplitude_vpp), float(settings.frequency_hz)
     if not math.isfinite(vpp) or vpp < 0:
         raise LimitTrip(f"amplitude {vpp:g} Vpp is not within 0..max_vpp = {limits.max_vpp:g} Vpp",
@@ -53,12 +56,20 @@ def check_settings(settings: GeneratorSettings, limits: LimitsConfig) -> None:
     if vpp > limits.max_vpp:
         raise LimitTrip(f"amplitude {vpp:g} Vpp exceeds max_vpp = {limits.max_vpp:g} Vpp",
                         limit="max_vpp", value=vpp, bound=limits.max_vpp)
-    if not math.isfinite(f) or f < limits.min_frequency_hz:
-        raise LimitTrip(f"frequency {f:g} Hz is below min_frequency_hz = {limits.min_frequency_hz:g} Hz",
-                        limit="min_frequency_hz", value=f, bound=limits.min_frequency_hz)
-    if f > limits.max_frequency_hz:
-        raise LimitTrip(f"frequency {f:g} Hz exceeds max_frequency_hz = {limits.max_frequency_hz:g} Hz",
-                        limit="max_frequency_hz", value=f, bound=limits.max_frequency_hz)
+    lo, hi, what = f, f, "frequency"
+    if getattr(settings, "shape", "sine") == "user":
+        if band_hz is None or not (math.isfinite(f) and f > 0):
+            raise LimitTrip("an arbitrary waveform needs its band (lowest and highest frequency) "
+                            "to be checked against the frequency limits",
+                            limit="max_frequency_hz", value=float("nan"), bound=limits.max_frequency_hz)
+        lo, hi = float(band_hz[0]), float(band_hz[1])
+        what = "the waveform's band reaches"
+    if not math.isfinite(lo) or lo < limits.min_frequency_hz:
+        raise LimitTrip(f"{what} {lo:g} Hz is below min_frequency_hz = {limits.min_frequency_hz:g} Hz",
+                        limit="min_frequency_hz", value=lo, bound=limits.min_frequency_hz)
+    if not math.isfinite(hi) or hi > limits.max_frequency_hz:
+        raise LimitTrip(f"{what} {hi:g} Hz exceeds max_frequency_hz = {limits.max_frequency_hz:g} Hz",
+                        limit="max_frequency_hz", value=hi, bound=limits.max_frequency_hz)
     if not math.isfinite(float(settings.offset_v)):
         raise LimitTrip(f"offset_v {settings.offset_v!r} V is not finite",
                         limit="offset_v", value=float("nan"), bound=0.0)

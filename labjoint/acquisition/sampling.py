@@ -79,15 +79,17 @@ class Sampler:
         index = {c.name: i for i, c in enumerate(self.daq.channels)}
         return [index[n] for n in names]
 
-    def wait_steady(self, msg: WaitSteady, f: float) -> SteadyResult:
-        """Read until the displacement amplitudes stop drifting (or ``max_cycles``)."""
+    def wait_steady(self, msg: WaitSteady, f: float, per_period_rms: bool = False) -> SteadyResult:
+        """Read until the displacement amplitudes stop drifting (or ``max_cycles``); with
+        ``per_period_rms`` (an arbitrary periodic drive, ``f`` its repetition frequency)
+        the amplitude of a period is its RMS times sqrt(2), not one line's."""
         names = list(self.relative)
         if not names:
             raise InputError("WaitSteady needs displacement channels", field="displacement_channels")
         fs = self.daq.sample_rate_hz
         rows = self._rows(names)
         scale = [self.daq.channels[i].units_per_volt(f) for i in rows]
-        tracker = CycleAmplitudes(f, fs, np.array(scale))
+        tracker = CycleAmplitudes(f, fs, np.array(scale), rms=per_period_rms)
         reached = False
         blocks = self.blocks(None, f)
         try:

@@ -20,7 +20,7 @@ from typing import Any, Callable, Generator, Mapping
 
 from labjoint.documents import Block, RunStart, RunStop
 from labjoint.acquisition.messages import PlanResult
-from labjoint.acquisition.messages import (Configure, Measure, Measurement, Record,
+from labjoint.acquisition.messages import (Configure, LoadWaveform, Measure, Measurement, Record,
                                            SteadyResult, WaitSteady)
 from labjoint.acquisition.plans import dry_run, load_plan
 from labjoint.daemon.queue import utc_now
@@ -63,6 +63,20 @@ class WatchedGenerator(SignalGenerator):
             self.output = bool(on)
             if not on:
                 self.output_off_at = utc_now()
+
+    def load_waveform(self, points: Any) -> int:
+        with self._lock:
+            return self._call(self.inner.load_waveform, points)
+
+    def apply_waveform(self, frequency_hz: float, amplitude_vpp: float,
+                       offset_v: float = 0.0) -> GeneratorSettings:
+        with self._lock:
+            rb = self._call(self.inner.apply_waveform, frequency_hz, amplitude_vpp, offset_v)
+            self.settings = rb
+            return rb
+
+    def waveform(self) -> Any:
+        return self.inner.waveform()
 
     def read_settings(self) -> GeneratorSettings:
         with self._lock:
@@ -149,7 +163,7 @@ def observe(plan: Generator, tracker: RunTracker, sample_rate_hz: float) -> Gene
                 msg = plan.send(answer)
             except StopIteration:
                 return
-            if isinstance(msg, Configure):
+            if isinstance(msg, (Configure, LoadWaveform)):
                 frequency = msg.frequency_hz
             elif isinstance(msg, Record):
                 n = (msg.n_cycles * sample_rate_hz / frequency if msg.n_cycles is not None

@@ -21,6 +21,7 @@ import math
 import threading
 from pathlib import Path
 
+import numpy as np
 import pyvisa
 import pyvisa.constants
 import pyvisa.errors
@@ -129,6 +130,9 @@ class AFG1022(SignalGenerator):
             raise InputError(f"timeout must be a positive integer (ms), got {self.timeout_ms!r}",
                              field="generator.timeout_ms")
         lib = resolve_visa_library(self.visa_library, self.config_dir)
+        if lib.endswith("@sim"):   # the twin: teach pyvisa-sim the waveform block
+            from labjoint.hardware import visa_twin
+            visa_twin.install()
         try:
             rm = pyvisa.ResourceManager(lib)
         except (ValueError, OSError) as exc:
@@ -237,6 +241,7 @@ class AFG1022(SignalGenerator):
             amplitude_vpp=self._query_float(f"SOURce{ch}:VOLTage:LEVel:IMMediate:AMPLitude?"),
             offset_v=self._query_float(f"SOURce{ch}:VOLTage:LEVel:IMMediate:OFFSet?"),
             output=self._output_state(),
+            shape=_shape_name(self._query(f"SOURce{ch}:FUNCtion:SHAPe?")),
         )
 
     # ---- SCPI plumbing ------------------------------------------------------------
@@ -310,6 +315,64 @@ class AFG1022(SignalGenerator):
             return False
 
 
+    # ---- arbitrary waveforms ------------------------------------------------------
+    @_locked
+    def load_waveform(self, points) -> int:
+        """Load one period into edit memory as 14-bit codes (``DATA:DATA EMEMory`` with an
+        IEEE 488.2 block of big-endian uint16), copy it to ``USER<channel>``, and check the
+        point count the instrument reports; the points are normalised to a peak of 1
+        (:func:`codes_14bit`), so the amplitude setting is the waveform's peak."""
+        codes = codes_14bit(points)
+        if self._res is None:
+            raise HardwareError(f"{self.resource}: not connected (loading a waveform)")
+        cmd = "DATA:DATA EMEMory,"
+        try:
+            self._res.write_binary_values(cmd, codes.tolist(), datatype="H", is_big_endian=True)
+        except _VISA_FAILURES as exc:
+            raise self._failure(cmd + "<block>", exc) from exc
+        self._write(f"DATA:COPY USER{self.channel},EMEMory")
+        self._check_errors("waveform load")
+        n = self._query_float("DATA:POINts? EMEMory")
+        if n != codes.size:
+            raise HardwareError(f"{self.resource}: loaded {codes.size} waveform points but the "
+                                f"instrument holds {n:g}")
+        wave = (codes.astype(float) - CODE_ZERO) / CODE_ZERO
+        wave.setflags(write=False)
+        self._wave = wave
+        return int(codes.size)
+
+    def waveform(self):
+        return getattr(self, "_wave", None)
+
+    @_locked
+    def apply_waveform(self, frequency_hz: float, amplitude_vpp: float,
+                       offset_v: float = 0.0) -> GeneratorSettings:
+        """Select ``USER<channel>`` repeated ``frequency_hz`` times per second at
+        ``amplitude_vpp``; read every setting back and compare, as :meth:`apply`."""
+        if self.waveform() is None:
+            raise HardwareError(f"{self.resource}: no arbitrary waveform loaded (load_waveform first)")
+        f, vpp, off = check_sine(frequency_hz, amplitude_vpp, offset_v)
+        ch = self.channel
+        self._write(f"SOURce{ch}:FUNCtion:SHAPe USER{ch}")
+        self._write(f"SOURce{ch}:FREQuency:FIXed {f:.12E}")
+        amp_cmd = f"SOURce{ch}:VOLTage:LEVel:IMMediate:AMPLitude {vpp:.12E}VPP"
+        off_cmd = f"SOURce{ch}:VOLTage:LEVel:IMMediate:OFFSet {off:.12E}"
+        current_off = self._query_float(f"SOURce{ch}:VOLTage:LEVel:IMMediate:OFFSet?")
+        for cmd in ((off_cmd, amp_cmd) if vpp / 2 + abs(current_off) > MAX_ENVELOPE_V_HIGHZ
+                    else (amp_cmd, off_cmd)):
+            self._write(cmd)
+        self._check_errors("apply_waveform")
+        got = self.read_settings()
+        if got.shape != "user":
+            raise HardwareError(f"{self.resource}: shape read back as {got.shape!r}, not USER{ch}")
+        for name, want, have, res in (("frequency_hz", f, got.frequency_hz, FREQ_RESOLUTION_HZ),
+                                      ("amplitude_vpp", vpp, got.amplitude_vpp, _vpp_resolution(vpp)),
+                                      ("offset_v", off, got.offset_v, OFFSET_RESOLUTION_V)):
+            if abs(have - want) > max(REL_TOL * abs(want), res):
+                raise HardwareError(f"{self.resource}: {name} set to {want!r} but read back "
+                                    f"{have!r} (tolerance {max(REL_TOL * abs(want), res):g})")
+        return got
+
 def check_sine(frequency_hz: float, amplitude_vpp: float, offset_v: float) -> tuple[float, float, float]:
     """Refuse a sine outside the AFG1022's high-Z range (InputError names the parameter).
 
@@ -342,3 +405,36 @@ def _is_high_z(text: str) -> bool:
         return float(t) >= HIGHZ_OHM
     except ValueError:
         return False
+
+
+#: 14-bit waveform codes: 0 is the waveform's -peak, 16382 its +peak, 8191 zero.
+CODE_ZERO = 8191
+MIN_POINTS, MAX_POINTS = 2, 8192
+
+
+def codes_14bit(points) -> "np.ndarray":
+    """Points as 14-bit codes, normalised to a peak of 1 (InputError names what is wrong).
+
+    >>> codes_14bit([-2.0, 0.0, 1.0, 2.0]).tolist()
+    [0, 8191, 12286, 16382]
+    """
+    x = np.asarray(points, dtype=float).ravel()
+    if not MIN_POINTS <= x.size <= MAX_POINTS:
+        raise InputError(f"the {MODEL} stores {MIN_POINTS}..{MAX_POINTS} waveform points, "
+                         f"got {x.size}", field="points")
+    if not np.all(np.isfinite(x)):
+        raise InputError("waveform points must be finite", field="points")
+    peak = float(np.max(np.abs(x)))
+    if peak == 0:
+        raise InputError("the waveform is constant zero", field="points")
+    return np.round(CODE_ZERO + CODE_ZERO * (x / peak)).astype(np.uint16)
+
+
+def _shape_name(text: str) -> str:
+    """'sine' or 'user' (an arbitrary waveform) or the instrument's word, lower case."""
+    t = text.strip().upper()
+    if t.startswith("SIN"):
+        return "sine"
+    if t.startswith("USER") or t.startswith("EMEM"):
+        return "user"
+    return t.lower()

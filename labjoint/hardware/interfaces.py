@@ -12,7 +12,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from labjoint.errors import InputError
+from labjoint.errors import HardwareError, InputError
 
 SENSOR_KINDS = ("force", "capacitive", "nanocomposite", "imported", "voltage")
 QUANTITIES = ("force", "displacement", "voltage", "time")
@@ -106,12 +106,15 @@ class ChannelSpec:
 
 @dataclass(frozen=True)
 class GeneratorSettings:
-    """What the function generator outputs: a sine of frequency, Vpp and offset."""
+    """What the function generator outputs: a sine (``shape`` "sine") or the loaded
+    arbitrary waveform (``shape`` "user", repeated ``frequency_hz`` times per second,
+    its peak at Vpp / 2), with its Vpp and offset."""
 
     frequency_hz: float
     amplitude_vpp: float
     offset_v: float = 0.0
     output: bool = False
+    shape: str = "sine"
 
 
 class SignalGenerator(abc.ABC):
@@ -136,6 +139,22 @@ class SignalGenerator(abc.ABC):
     @abc.abstractmethod
     def close(self) -> None:
         """Leave the output OFF and release the instrument."""
+
+    # -- arbitrary waveforms: a capability; generators without it refuse ----------------
+    def load_waveform(self, points: np.ndarray) -> int:
+        """Load one period of an arbitrary waveform (normalised to a peak of 1, so that
+        the amplitude setting is its peak); return the number of points stored."""
+        raise HardwareError(f"{type(self).__name__} cannot play arbitrary waveforms")
+
+    def apply_waveform(self, frequency_hz: float, amplitude_vpp: float,
+                       offset_v: float = 0.0) -> GeneratorSettings:
+        """Select the loaded waveform, repeated ``frequency_hz`` times per second, at
+        ``amplitude_vpp`` (2 x its peak); read back, compare and return the settings."""
+        raise HardwareError(f"{type(self).__name__} cannot play arbitrary waveforms")
+
+    def waveform(self) -> np.ndarray | None:
+        """The loaded waveform's points (peak 1), None if nothing is loaded."""
+        return None
 
     def __enter__(self) -> "SignalGenerator":
         return self

@@ -8,7 +8,8 @@ run's metadata only as a hint that is checked, never trusted blindly:
    left out). A peak RMS above 2.5x the active part's median (an impact, a decaying
    burst) with no flat stretch (RMS within 15 % of the median) over half the active part
    is a transient; a steady sine after a start-up overshoot keeps its long flat stretch.
-2. the steady core: the longest stretch with RMS at least half that median (ramps out).
+2. the steady core: the longest stretch with RMS (averaged over 5 windows) at least half
+   that median (ramps out).
 3. sine: one spectral line (Hann window, its main lobe) stands 100x above the
    broadband noise and holds >= 80 % of the core's power above that noise, with its
    harmonics >= 95 %; a signal whose dominant line drifts monotonically between the
@@ -122,9 +123,13 @@ def detect_excitation(x: np.ndarray, fs: float, metadata: dict[str, Any] | None 
             f"the peak RMS is {peak / level:.1f}x the median of the active part and the level "
             f"is steady (within {FLAT_TOLERANCE:.0%}) over only {(f1 - f0) / (a1 - a0):.0%} of "
             "it: the energy comes in a burst that decays, not a steady excitation"))
-    strong = rms[a0:a1] >= 0.5 * level
+    # the envelope averaged over 5 windows: a multisine's RMS dips between its bursts
+    # (crest factor) must not cut the steady core; a ramp changes slowly and still shows
+    smooth = np.convolve(rms[a0:a1], np.ones(5) / 5, mode="same") if a1 - a0 >= 5 else rms[a0:a1]
+    strong = smooth >= 0.5 * level
     c0, c1 = _longest_run(strong)
-    core = x[(a0 + c0) * win:(a0 + c1) * win]
+    # a core reaching the last whole window takes the partial window after it too
+    core = x[(a0 + c0) * win:(a0 + c1) * win if a0 + c1 < n_win else x.size]
     if core.size > MAX_SAMPLES:
         mid = core.size // 2
         core = core[mid - MAX_SAMPLES // 2: mid + MAX_SAMPLES // 2]

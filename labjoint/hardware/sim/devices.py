@@ -28,12 +28,14 @@ class MemoryGenerator(SignalGenerator):
     MAX_FREQUENCY_HZ = 25e6
     MAX_VPP = 20.0
     MAX_LEVEL_V = 10.0
+    MIN_POINTS, MAX_POINTS = 2, 8192
 
     def __init__(self, idn: str = "labjoint,MemoryGenerator,SIM0001,1.0") -> None:
         self._idn = idn
         self._lock = threading.Lock()
         self._settings = GeneratorSettings(frequency_hz=1000.0, amplitude_vpp=1.0, offset_v=0.0, output=False)
         self._closed = False
+        self._wave: np.ndarray | None = None
 
     def identify(self) -> str:
         return self._idn
@@ -43,6 +45,32 @@ class MemoryGenerator(SignalGenerator):
             raise HardwareError("generator is closed")
 
     def apply(self, frequency_hz: float, amplitude_vpp: float, offset_v: float = 0.0) -> GeneratorSettings:
+        return self._set(frequency_hz, amplitude_vpp, offset_v, "sine")
+
+    def apply_waveform(self, frequency_hz: float, amplitude_vpp: float,
+                       offset_v: float = 0.0) -> GeneratorSettings:
+        if self._wave is None:
+            raise HardwareError("no arbitrary waveform loaded")
+        return self._set(frequency_hz, amplitude_vpp, offset_v, "user")
+
+    def load_waveform(self, points: np.ndarray) -> int:
+        x = np.array(points, dtype=float).ravel()
+        if not (self.MIN_POINTS <= x.size <= self.MAX_POINTS) or not np.all(np.isfinite(x)):
+            raise InputError(f"a waveform has {self.MIN_POINTS}..{self.MAX_POINTS} finite points, "
+                             f"got {x.size}", field="points")
+        peak = float(np.max(np.abs(x)))
+        if peak == 0:
+            raise InputError("the waveform is constant zero", field="points")
+        with self._lock:
+            self._check_open()
+            self._wave = x / peak
+            self._wave.setflags(write=False)
+        return int(x.size)
+
+    def waveform(self) -> np.ndarray | None:
+        return self._wave
+
+    def _set(self, frequency_hz: float, amplitude_vpp: float, offset_v: float, shape: str) -> GeneratorSettings:
         f, a, o = float(frequency_hz), float(amplitude_vpp), float(offset_v)
         if not (math.isfinite(f) and 0 < f <= self.MAX_FREQUENCY_HZ):
             raise InputError(f"must be in (0, {self.MAX_FREQUENCY_HZ:g}] Hz, got {frequency_hz!r}", field="frequency_hz")
@@ -53,14 +81,14 @@ class MemoryGenerator(SignalGenerator):
                              field="offset_v")
         with self._lock:
             self._check_open()
-            self._settings = GeneratorSettings(f, a, o, self._settings.output)
+            self._settings = GeneratorSettings(f, a, o, self._settings.output, shape)
             return self._settings
 
     def set_output(self, on: bool) -> None:
         with self._lock:
             self._check_open()
             s = self._settings
-            self._settings = GeneratorSettings(s.frequency_hz, s.amplitude_vpp, s.offset_v, bool(on))
+            self._settings = GeneratorSettings(s.frequency_hz, s.amplitude_vpp, s.offset_v, bool(on), s.shape)
 
     def read_settings(self) -> GeneratorSettings:
         with self._lock:
@@ -71,7 +99,7 @@ class MemoryGenerator(SignalGenerator):
         with self._lock:
             if not self._closed:
                 s = self._settings
-                self._settings = GeneratorSettings(s.frequency_hz, s.amplitude_vpp, s.offset_v, False)
+                self._settings = GeneratorSettings(s.frequency_hz, s.amplitude_vpp, s.offset_v, False, s.shape)
             self._closed = True
 
 
@@ -133,7 +161,9 @@ class SimDAQ(DAQ):
             raise BufferOverrun(f"DAQ buffer overrun at sample {self._count + n}: samples were lost")
         if out is not None and out.shape != (len(self.channels), n):
             raise InputError(f"out must have shape {(len(self.channels), n)}, got {out.shape}", field="out")
-        volts = self.rig.advance(n, self.generator.read_settings())
+        settings = self.generator.read_settings()
+        wave = self.generator.waveform() if settings.shape == "user" else None
+        volts = self.rig.advance(n, settings, wave)
         self._count += n
         if self.realtime:
             wait = self._t0 + self._count / self.sample_rate_hz - time.monotonic()

@@ -55,12 +55,14 @@ def _biquads(x, sos, zi):
 
 
 @njit(cache=True, fastmath=True)
-def integrate(n_samples, n_sub, dt, drive, dyn, q, v, acc, st,
+def integrate(n_samples, n_sub, dt, drive, wave, dyn, q, v, acc, st,
               jk, jphi, jz, sm_code, sm_par, sm_st, eff,
               dbuf, didx, delay_steps, delay_group, nc_sos, nc_zi, out):
     """Advance ``n_samples`` samples of ``n_sub`` steps ``dt``; write sample rows into ``out``.
 
     Every state array is updated in place, so calls continue seamlessly (phase included).
+    ``wave`` empty: the drive is a sine; else one period of the generator's arbitrary
+    waveform, each point held for its share of the period (the generator's staircase).
     """
     vamp, voff, omega, on, gk, bal = drive[0], drive[1], drive[2], drive[3], drive[4], drive[5]
     vp = q.copy()
@@ -69,6 +71,8 @@ def integrate(n_samples, n_sub, dt, drive, dyn, q, v, acc, st,
     d_int = int(delay_steps)
     d_frac = delay_steps - d_int
     two_pi = 2.0 * math.pi
+    n_wave = wave.shape[0]
+    per_rad = n_wave / two_pi
     phase = st[0]
     fj = 0.0
     fl1 = 0.0
@@ -83,7 +87,13 @@ def integrate(n_samples, n_sub, dt, drive, dyn, q, v, acc, st,
             phase += omega * dt
             if phase > two_pi:
                 phase -= two_pi
-            volts = (voff + vamp * math.sin(phase)) if on > 0.0 else 0.0
+            if on <= 0.0:
+                volts = 0.0
+            elif n_wave == 0:
+                volts = voff + vamp * math.sin(phase)
+            else:
+                iw = int(phase * per_rad)
+                volts = voff + vamp * wave[iw if iw < n_wave else n_wave - 1]
             fs1 = gk * volts
             fs2 = -bal * gk * volts
             for i in range(4):

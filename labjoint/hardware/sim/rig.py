@@ -23,6 +23,7 @@ ROLE_QUANTITY = {"force_ref": "force", "force_ref_2": "force", "disp_1": "displa
 ROLE_ROW = {"force_ref": ig.FL1M, "force_ref_2": ig.FL2M, "disp_1": ig.X1M, "disp_2": ig.X2M,
             "joint_force": ig.FSM, "drive_voltage": ig.DRIVE}
 CHUNK = 1 << 16
+_NO_WAVE = np.zeros(0)
 
 
 @dataclass(frozen=True)
@@ -210,11 +211,23 @@ class SimRig:
             self._rings = self._make_rings()
             self._joint.set_contact_slip_forces(self._rings.slip_force)
 
-    def simulate(self, n_samples: int, settings: GeneratorSettings) -> np.ndarray:
-        """Advance the physics only; return the kernel's rows (see :mod:`.integrator`)."""
+    def simulate(self, n_samples: int, settings: GeneratorSettings,
+                 wave: np.ndarray | None = None) -> np.ndarray:
+        """Advance the physics only; return the kernel's rows (see :mod:`.integrator`).
+
+        ``settings.shape`` "user" plays ``wave`` (one period, peak 1) as the generator's
+        arbitrary waveform does: each point held for 1 / (N f) (a staircase).
+        """
         n = int(n_samples)
         if n < 0:
             raise ValueError("n_samples must be >= 0")
+        if getattr(settings, "shape", "sine") == "user":
+            if wave is None or np.asarray(wave).size < 2:
+                raise ConfigError("the generator plays an arbitrary waveform but none was given",
+                                  field="generator.waveform")
+            table = np.ascontiguousarray(wave, dtype=float)
+        else:
+            table = _NO_WAVE
         f = float(settings.frequency_hz)
         on = bool(settings.output) and math.isfinite(f) and f > 0
         drive = np.array([0.5 * settings.amplitude_vpp, settings.offset_v, 2 * math.pi * f if on else 0.0,
@@ -224,7 +237,7 @@ class SimRig:
         for a in range(0, n, CHUNK):
             b = min(n, a + CHUNK)
             buf = out if b - a == n else np.empty((ig.N_OUT, b - a))  # always C-contiguous: one compiled kernel
-            ig.integrate(b - a, self._n_sub, self._dt, drive, self._dyn, self._q, self._v, self._acc, self._st,
+            ig.integrate(b - a, self._n_sub, self._dt, drive, table, self._dyn, self._q, self._v, self._acc, self._st,
                          j.jk, j.jphi, j.jz, j.sm_code, j.sm_par, j.sm_st, j.eff, self._dbuf, self._didx,
                          self._delay_steps, self._delay_group, self._nc_sos, self._nc_zi, buf)
             if buf is not out:
@@ -238,9 +251,11 @@ class SimRig:
             sensed={ch.name: out[ROLE_ROW[r]] for ch, r in zip(self._channels, self._roles)})
         return out
 
-    def advance(self, n_samples: int, settings: GeneratorSettings) -> np.ndarray:
-        """Advance ``n_samples`` with the generator at ``settings``; volts (n_channels, n)."""
-        out = self.simulate(n_samples, settings)
+    def advance(self, n_samples: int, settings: GeneratorSettings,
+                wave: np.ndarray | None = None) -> np.ndarray:
+        """Advance ``n_samples`` with the generator at ``settings`` (and its arbitrary
+        waveform ``wave`` when it plays one); volts (n_channels, n)."""
+        out = self.simulate(n_samples, settings, wave)
         volts = np.empty((len(self._channels), out.shape[1]))
         for i, (ch, role, stage) in enumerate(zip(self._channels, self._roles, self._stages)):
             if role == "joint_force" and ch.sensor == "nanocomposite":
