@@ -23,7 +23,7 @@ from typing import Any, Iterable
 
 from labjoint.errors import InputError, LabjointError
 from labjoint.identify.methods import MODEL_NOTE, analyze_one, diff_pct
-from labjoint.identify.powerlaw import SEGALMAN_RANGE, fit_power_law
+from labjoint.identify.powerlaw import SEGALMAN_RANGE, PowerLawFit, fit_power_law
 
 #: x axes of the trends: key -> (label, SI unit); the first three are amplitudes.
 AXES = {"excitation_vpp": ("Excitation amplitude", "Vpp"),
@@ -42,6 +42,8 @@ METHOD_PREFIX = {"loop": "", "stickslip": "stickslip_"}
 MAIN_FIT = ("loop", "force_amplitude_n")
 REFERENCE = (f"seed 001: Segalman's Iwan joint dissipates W ~ F^(3 + chi); micro-slip tests "
              f"give an exponent of {SEGALMAN_RANGE[0]}-{SEGALMAN_RANGE[1]}; a viscous joint 2")
+#: Keys of a fit (None when it was refused).
+FIT_FIELDS = tuple(PowerLawFit.__dataclass_fields__)
 #: Conditions a table is laid out by (seed 002 Table 3: excitation, Table 4: torque).
 CONDITIONS = ("excitation_vpp", "torque_nm")
 
@@ -111,7 +113,8 @@ def exponent_fit(rows: list[dict[str, Any]], method: str = "loop",
     """W by ``method`` against ``against`` as a power law: the fit, or its refusal in
     ``error`` (fewer than 3 distinct amplitudes, no usable W)."""
     p = METHOD_PREFIX[method]
-    out: dict[str, Any] = {"method": method, "quantity": "energy_loss_j", "against": against}
+    out: dict[str, Any] = {"method": method, "quantity": "energy_loss_j", "against": against,
+                           **dict.fromkeys(FIT_FIELDS)}
     used = [r for r in rows if _usable(r, method) and isinstance(r.get(against), (int, float))
             and r[against] > 0]
     ids = {id(r) for r in used}
