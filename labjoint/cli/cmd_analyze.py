@@ -1,5 +1,5 @@
 """`labjoint analyze RUN... [--method loop|stickslip|both] [--friction MU | --friction-run RUN]
-[--data-dir DIR] [--json]`."""
+[--data-dir DIR] [--table] [--json]`."""
 
 from __future__ import annotations
 
@@ -19,8 +19,9 @@ FIELDS = ("run", "frequency_hz", "displacement_amplitude_m", "force_amplitude_n"
 
 def add_analyze_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("runs", nargs="+", metavar="RUN", help="HDF5 run file or CSV file (import format)")
-    p.add_argument("--method", choices=["loop", "stickslip", "both"], default="loop",
-                   help="hysteresis loop (seed 002 Eq. 1), stick-slip boundary (Eqs. 2-9) or both")
+    p.add_argument("--method", choices=["loop", "stickslip", "both"], default=None,
+                   help="hysteresis loop (seed 002 Eq. 1), stick-slip boundary (Eqs. 2-9) or "
+                        "both (default: loop; with --table both when mu is known)")
     p.add_argument("--force", choices=["joint", "reference"], default="joint",
                    help="force sensor: the nanocomposite joint sensor (default) or the reference")
     mu = p.add_mutually_exclusive_group()
@@ -35,6 +36,11 @@ def add_analyze_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--save", action="store_true",
                    help="store results in each run file: processed/loop (methods loop, both) "
                         "and processed/stickslip (stickslip, both)")
+    p.add_argument("--table", action="store_true",
+                   help="the trends of the runs: seed 002 Tables 2-4 (both methods, with "
+                        "uncertainties) and the dissipation exponent W ~ F^n with its 95 %% "
+                        "interval (seed 001); with --json the rows gain the uncertainties "
+                        "and a 'trend' object holds the fits and the table")
 
 
 def loop_row(item: Any, force: str, save: bool) -> dict[str, Any]:
@@ -131,7 +137,48 @@ def _scale(v: Any, k: float) -> Any:
     return None if v is None else float(v) * k
 
 
+def trends_table(args: argparse.Namespace, data_dir: str | None,
+                 errors: list[dict[str, str]]) -> dict[str, Any]:
+    """:func:`labjoint.identify.trends.build_trends` of the runs: both methods when the
+    friction coefficient is given, identified from --friction-run or stored (else the
+    loop alone, said in the notes), the loop alone with --method loop."""
+    from labjoint.identify.identified import load_identified
+    from labjoint.identify.trends import build_trends, trend_rows
+
+    friction: Any = args.friction
+    if args.friction_run is not None:
+        if args.method == "loop":
+            raise InputError("applies to --method stickslip or both", field="--friction-run")
+        from labjoint.cli.cmd_calibrate import friction_from_file
+        friction = friction_from_file(args.friction_run)
+    if friction is None and args.method != "loop" and data_dir is not None:
+        friction = load_identified(data_dir, "friction_coefficient")
+    if args.method == "loop":
+        friction = None
+    elif friction is None and args.method is not None:
+        raise InputError("the stick-slip method needs the friction coefficient: give "
+                         "--friction MU or --friction-run RUN, or identify it first "
+                         "(labjoint friction RUN)", field="--friction")
+    bar = Progress(len(args.runs), "analyze", enabled=not (args.json or args.quiet))
+    rows: list[dict[str, Any]] = []
+    for p in args.runs:
+        try:
+            (item,) = load_runs([p])
+            rows += trend_rows([item], friction, force=args.force)
+        except LabjointError as exc:
+            msg = str(exc)
+            errors.append({"file": str(p), "error": msg[len(f"{p}: "):]
+                           if msg.startswith(f"{p}: ") else msg})
+        bar.advance(note=Path(p).name)
+    for r in rows:
+        r["force_sensor"] = args.force
+    return build_trends(rows)
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.table:
+        return _run_table(args)
+    args.method = args.method or "loop"
     data_dir = args.data_dir
     if args.method != "loop" and data_dir is None:
         from labjoint.config import load_config
@@ -154,4 +201,31 @@ def run(args: argparse.Namespace) -> int:
         from labjoint.identify.methods import MODEL_NOTE, format_table
         print(format_table(rows))
         print("\n" + MODEL_NOTE)
+    return code
+
+
+def _run_table(args: argparse.Namespace) -> int:
+    """``labjoint analyze --table``: the trends table on stdout (or JSON: the design.md
+    ``runs`` rows and a ``trend`` object), errors per file on stderr."""
+    from labjoint.identify.trends import format_trends
+
+    if args.save:
+        raise InputError("stores nothing with --table: run without --table to save",
+                         field="--save")
+    data_dir = args.data_dir
+    if data_dir is None and args.method != "loop":
+        from labjoint.config import load_config
+        data_dir = load_config(args.config).rig.data_dir
+    errors: list[dict[str, str]] = []
+    body = trends_table(args, data_dir, errors)
+    for e in errors:
+        sys.stderr.write(f"labjoint: error: {e['file']}: {e['error']}\n")
+    code = 2 if errors else 0
+    if errors and not body["runs"]:
+        return code
+    if args.json:
+        trend = {k: v for k, v in body.items() if k not in ("runs", "errors")}
+        emit_json({"runs": body["runs"], "errors": errors, "trend": trend})
+    else:
+        print(format_trends(body))
     return code

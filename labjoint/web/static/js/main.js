@@ -6,8 +6,9 @@ import * as live from './views/live.js';
 import * as models from './views/models.js';
 import * as run from './views/run.js';
 import * as runs from './views/runs.js';
+import * as trends from './views/trends.js';
 
-const VIEWS = { runs, run, models, live };
+const VIEWS = { runs, run, models, live, trends };
 let current = null;
 
 export function parseHash(hash) {
