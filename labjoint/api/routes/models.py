@@ -26,8 +26,11 @@ from labjoint.api.routes.analyses import cancel_job, get_job, job_page, runner
 from labjoint.api.schemas import JOB_ID, Job, JobList, ModelRequest, RunName
 from labjoint.compare.api import settings_from
 from labjoint.compare.candidates import candidate_effects
+from labjoint.compare.simulation_api import check_options as check_simulation_options
+from labjoint.compare.simulation_api import simulation_job
 from labjoint.errors import InputError
 from labjoint.models import Model
+from labjoint.models.simulate import check_simulable
 
 router = APIRouter(prefix="/models", tags=["models"])
 OPERATIONS = ("fit", "diagnose", "ladder")
@@ -52,6 +55,11 @@ class FitOptions(BaseModel):
         "auto", description="sine: steady cycles; record: any excitation, along the history")
     warmup: Auto | Annotated[float, Field(ge=0, allow_inf_nan=False)] = Field(
         "auto", description="record kind: seconds left unjudged at the start")
+    error: Literal["equation", "simulation"] = Field(
+        "equation", description="equation: the joint force along the measured history; "
+        "simulation: the displacement simulated from the applied force (a model with inertia)")
+    periodic: bool = Field(False, description="simulation: each record is whole periods of a "
+                                              "steady periodic input")
 
 
 class DiagnoseOptions(FitOptions):
@@ -92,6 +100,10 @@ def check_options(operation: str, options: dict[str, Any]) -> dict[str, Any]:
                              f"(>= {0 if name == 'prime_cycles' else 1}), got {v}",
                              field=f"options.{name}")
     out = {k: v for k, v in opts.model_dump(by_alias=True).items() if k in options}
+    if out.get("error") == "simulation":
+        check_simulation_options(out)
+    elif out.get("periodic"):
+        raise InputError("periodic goes with error = 'simulation'", field="options.periodic")
     if operation != "fit":
         try:
             settings_from(out)
@@ -119,6 +131,9 @@ def _submit(request: Request, operation: str, body: ModelRequest, scope: str) ->
     options = check_options(operation, body.options)
     model = "+".join(p.strip() for p in body.model.split("+"))
     parsed = Model.parse(model)             # an unknown effect is 422 now, not a failed job
+    simulation = options.get("error") == "simulation"
+    if simulation:
+        check_simulable(parsed)
     cands = options.get("candidates")
     if cands is not None:
         try:
@@ -133,6 +148,12 @@ def _submit(request: Request, operation: str, body: ModelRequest, scope: str) ->
     def work(r: dict[str, Any], progress: Callable[[float, str], None]) -> dict[str, Any]:
         progress(0.0, f"{operation} {model}")
         kw = dict(options)
+        if simulation:
+            return simulation_job(operation, [str(p) for p in paths], model, kw,
+                                  max_steps=r["max_steps"],
+                                  progress=lambda message: progress(0.0, str(message)))
+        kw.pop("error", None)
+        kw.pop("periodic", None)
         kw["progress"] = lambda message: progress(0.0, str(message))
         if operation == "ladder":
             kw["max_steps"] = r["max_steps"]
