@@ -153,13 +153,13 @@ class AFG1022(SessionSteps, SignalGenerator):
         self._stale, self._known = False, None
         try:
             device_clear(self._res, self.resource)
-            self.identify()
+            idn = self.identify()
             self._write("*CLS")
             for ch in CHANNELS:
                 self._write(f"SOURce{ch}:VOLTage:UNIT VPP")
             self._opc("connect")
             self._check_errors("connect")
-            self.load_settable = self._probe_load()
+            self.load_settable = self._probe_load(idn)
         except BaseException:
             self.release()
             raise

@@ -16,21 +16,29 @@ from labjoint.hardware.visa_session import probe_query
 log = logging.getLogger("labjoint.hardware.afg1022")
 
 
+#: Probe answers per (VISA library, config dir, resource, channel, *IDN?) in this process:
+#: an instrument and firmware answer the same way every time; reconnects skip the wait.
+_LOAD_PROBES: dict[tuple, bool] = {}
+
+
 class SessionSteps:
     """Mixed into :class:`~labjoint.hardware.afg1022.AFG1022` (uses its ``_query``,
     ``release`` and ``connect``)."""
 
-    def _probe_load(self) -> bool:
-        """Does ``OUTPut<n>:IMPedance?`` answer? Asked once per connect, with a short
-        timeout; unanswered, the configured load stands and is never sent."""
-        answer = probe_query(self._res, f"OUTPut{self.channel}:IMPedance?", self.resource,
-                             self.timeout_ms)
-        self._drain_errors()  # what an unsupported header left in the error queue
-        if answer is None:
+    def _probe_load(self, idn: str) -> bool:
+        """Does ``OUTPut<n>:IMPedance?`` answer? Asked once per instrument and process,
+        with a short timeout; unanswered, the configured load stands and is never sent."""
+        key = (self.visa_library, str(self.config_dir), self.resource, self.channel, idn)
+        if key not in _LOAD_PROBES:
+            answer = probe_query(self._res, f"OUTPut{self.channel}:IMPedance?", self.resource,
+                                 self.timeout_ms)
+            self._drain_errors()  # what an unsupported header left in the error queue
+            _LOAD_PROBES[key] = answer is not None
+        if not _LOAD_PROBES[key]:
             log.warning("%s: OUTPut%d:IMPedance is not supported; the load is the configured "
                         "%s (set the same on the front panel), never sent", self.resource,
                         self.channel, self.load)
-        return answer is not None
+        return _LOAD_PROBES[key]
 
     def _reopen(self) -> None:
         """A fresh VISA session after a hardware error (a dead USB link leaves a stale one)."""
