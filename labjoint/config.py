@@ -51,6 +51,10 @@ class GeneratorConfig(_Strict):
     visa_library: str = ""
     timeout_ms: int = Field(2000, gt=0)
     channel: Literal[1, 2] = 1
+    #: the load the amplitude refers to: "INF" (high-Z amplifier input) or "50" ohm; sent
+    #: to the instrument only where it accepts OUTPut<n>:IMPedance (probed at connect),
+    #: else set the same on the front panel
+    load: Literal["INF", "50"] = "INF"
 
 
 class DAQConfig(_Strict):

@@ -77,7 +77,7 @@ def test_apply_reads_back_what_was_set_twice_and_across_output_toggles(gen, lib)
     assert gen.read_settings() == on
     # an independent session (what the simulated rig's instrument holds) agrees
     assert float(peek(lib, "SOURce1:FREQuency:FIXed?")) == 123.456789
-    assert peek(lib, "OUTPut1:IMPedance?").upper().startswith("INF")
+    assert peek(lib, "SOURce1:VOLTage:UNIT?") == "VPP"
     assert peek(lib, "SOURce1:FUNCtion:SHAPe?").upper().startswith("SIN")
 
 

@@ -121,6 +121,11 @@ class TimingOutGenerator(SignalGenerator):
             raise InstrumentTimeout(f"SIM: no answer to the amplitude command ({amplitude_vpp} Vpp)")
         return self.inner.apply(frequency_hz, amplitude_vpp, offset_v)
 
+    def set_amplitude(self, amplitude_vpp):
+        if amplitude_vpp > self.max_vpp:
+            raise InstrumentTimeout(f"SIM: no answer to the amplitude command ({amplitude_vpp} Vpp)")
+        return self.inner.set_amplitude(amplitude_vpp)
+
     def set_output(self, on):
         self.inner.set_output(on)
 

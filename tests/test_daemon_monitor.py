@@ -68,6 +68,9 @@ class Flaky(SignalGenerator):
         self.s = GeneratorSettings(frequency_hz, amplitude_vpp, offset_v, self.s.output)
         return self.s
 
+    def set_amplitude(self, amplitude_vpp):
+        return self.apply(self.s.frequency_hz, amplitude_vpp, self.s.offset_v)
+
     def set_output(self, on):
         if self.fail:
             raise InstrumentTimeout("no answer")

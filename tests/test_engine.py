@@ -57,6 +57,9 @@ class FakeGenerator(SignalGenerator):
         self.events.append(("apply", self.clock(), amplitude_vpp, self.s.output))
         return self.s
 
+    def set_amplitude(self, amplitude_vpp):
+        return self.apply(self.s.frequency_hz, amplitude_vpp, self.s.offset_v)
+
     def set_output(self, on):
         self.events.append(("output", self.clock(), bool(on), threading.current_thread().name))
         if self.fail and on:

@@ -12,6 +12,11 @@ from labjoint.hardware.afg1022 import AFG1022
 pytest.importorskip("labjoint.hardware.sim.devices")
 
 
+#: the real backend on rig-sim's channels: a module that switches IEPE off per channel
+#: (the NI 9233 would feed the capacitive sensors 2 mA) and drives in its flat band
+REAL = {"rig": {"backend": "real"}, "daq": {"module": "NI 9234", "sample_rate_hz": 51200.0},
+        "limits": {"min_frequency_hz": 5.0}}
+
 def test_sim_backend_with_pyvisa_sim_drives_the_afg1022_driver():
     cfg = load_config()
     with open_rig(cfg) as rig:
@@ -60,13 +65,13 @@ def test_real_backend_opens_afg1022_and_nidaq(monkeypatch):
     import labjoint.hardware.nidaq as nidaq
 
     monkeypatch.setattr(nidaq, "NIDAQ", FakeNIDAQ)
-    cfg = load_config(overrides={"rig": {"backend": "real"}})  # generator still on pyvisa-sim
+    cfg = load_config(overrides=REAL)  # generator still on pyvisa-sim
     rig = open_rig(cfg)
     try:
         assert isinstance(rig, Rig) and rig.sim is None and isinstance(rig.generator, AFG1022)
         assert isinstance(rig.daq, FakeNIDAQ) and rig.generator.read_settings().output is False
         assert seen["device"] == "cDAQ1Mod1"
-        assert seen["configure"] == (["force_ref", "disp_1", "disp_2", "shear_nc"], 50000.0)
+        assert seen["configure"] == (["force_ref", "disp_1", "disp_2", "shear_nc"], 51200.0)
     finally:
         rig.close()
     assert seen["closed"] and not rig.generator.connected
@@ -88,7 +93,7 @@ def test_real_backend_releases_the_generator_when_the_daq_fails(monkeypatch):
         return gen
 
     monkeypatch.setattr(AFG1022, "from_config", classmethod(spy))
-    cfg = load_config(overrides={"rig": {"backend": "real"}})
+    cfg = load_config(overrides=REAL)
     with pytest.raises(HardwareError, match="NI-DAQmx"):
         open_rig(cfg)
     assert len(opened) == 1 and not opened[0].connected  # the generator was released

@@ -49,6 +49,11 @@ class Recorder:
         self.history.append((self.clock(), rb.amplitude_vpp))
         return rb
 
+    def set_amplitude(self, vpp):
+        rb = self.gen.set_amplitude(vpp)
+        self.history.append((self.clock(), rb.amplitude_vpp))
+        return rb
+
 
 def config(**limits):
     over = {"daq": {"sample_rate_hz": FS, "block_samples": 1250}}
@@ -236,7 +241,7 @@ def test_generator_timeout_mid_run_fails_and_output_off_is_attempted(sim, monkey
     assert r.status == "failed" and "InstrumentTimeout" in r.reason
     stop = docs[-1][1]
     assert stop.status == "failed" and stop.n_samples == 2500
-    assert writes[-1] == "OUTPut1:STATe OFF"  # the engine still tried to switch off
+    assert writes[-2:] == ["OUTPut1:STATe OFF", "OUTPut2:STATe OFF"]  # both, still tried
     armed["on"] = False
     assert rig.generator.read_settings().output is False
 

@@ -109,3 +109,60 @@ def test_missing_default_visa_is_reported(no_driver):
                            side_effect=ValueError("Could not locate a VISA implementation.")):
         b = hardware_check()["visa"][0]
     assert not b["available"] and "no usable VISA library" in b["error"]
+
+
+# ---- issue 18 ---------------------------------------------------------------------------
+def test_pyvisa_py_value_error_is_reported_as_not_reachable_and_exit_3(tmp_path, no_driver, monkeypatch,
+                                                                       capsys):
+    import json
+
+    import pyvisa.highlevel
+
+    from labjoint.cli.main import main
+
+    def no_device(self, *args, **kwargs):  # pyvisa-py without libusb, or no device on the bus
+        raise ValueError("No backend available")
+
+    monkeypatch.setattr(pyvisa.highlevel.ResourceManager, "open_resource", no_device)
+    path = tmp_path / "afg1022-sim.yaml"
+    shutil.copy(CONFIG_DIR / "afg1022-sim.yaml", path)
+    cfg = tmp_path / "rig.toml"
+    cfg.write_text((CONFIG_DIR / "rig-real.toml").read_text().replace(
+        'visa_library = ""', f'visa_library = "{path}@sim"'))
+    assert main(["hw", "check", "--config", str(cfg), "--json"]) == 3
+    res = json.loads(capsys.readouterr().out)
+    g = res["generator"]
+    assert not g["reachable"] and "not reachable" in g["error"] and "ValueError" in g["error"]
+    assert res["ok"] is False and len(res["problems"]) == 2  # nothing reachable: both named
+    assert any("generator" in p for p in res["problems"]) and any("DAQ" in p for p in res["problems"])
+
+
+def test_the_load_probe_is_reported(config, no_driver):
+    g = hardware_check(config)["generator"]
+    assert g["reachable"] and g["load_settable"] is False and g["load"] == "INF"
+    assert "set it on the front panel" in format_check(hardware_check(config))
+
+
+def test_a_channel_set_the_module_cannot_take_is_a_problem_on_the_real_rig(tmp_path):
+    system = mock.create_autospec(nidaqmx.system.System, instance=True)
+    system.driver_version = nidaqmx.types.DriverVersion(2024, 1, 0)
+    mod = mock.Mock(product_type="NI 9233", dev_serial_num=0x1A2B)
+    mod.name = "cDAQ1Mod1"
+    system.devices = [mod]
+    path = tmp_path / "afg1022-sim.yaml"
+    shutil.copy(CONFIG_DIR / "afg1022-sim.yaml", path)
+    cfg = load_config(CONFIG_DIR / "rig-real.toml", {
+        "generator": {"visa_library": f"{path}@sim", "resource": RES},
+        "daq": {"module": "NI 9233", "sample_rate_hz": 50000.0}})
+    with mock.patch.object(nidaqmx.system.System, "local", return_value=system):
+        result = hardware_check(cfg)
+    assert result["generator"]["reachable"] and result["daq"]["found"] is True
+    assert result["ok"] is False
+    assert "2 mA IEPE current on every input" in result["daq"]["config_error"]
+    assert "config:" in format_check(result)
+
+
+def test_the_sim_rigs_in_memory_generator_needs_no_visa(no_driver):
+    cfg = load_config(None, {"generator": {"visa_library": ""}})
+    result = hardware_check(cfg)
+    assert result["generator"]["needed"] is False and result["ok"] is True

@@ -113,7 +113,10 @@ class Drive:
         with self.lock:
             return self.generator.identify()
 
-    def _apply(self, f: float, vpp: float, offset: float) -> None:
+    def _apply(self, f: float, vpp: float, offset: float, amplitude_only: bool = False) -> None:
+        """Set the generator (checked against the limits first); ``amplitude_only`` sends
+        just the amplitude (ramp steps: no shape, frequency or load re-sent, issue 18).
+        The target's shape picks a sine or the loaded arbitrary waveform."""
         shape = self.target.shape if self.target is not None else "sine"
         settings = GeneratorSettings(f, vpp, offset, self.output, shape)
         set_it = self.generator.apply_waveform if shape == "user" else self.generator.apply
@@ -121,7 +124,8 @@ class Drive:
             self.abort.check()
             check_settings(settings, self.limits, self.band)
             try:
-                self.readback = set_it(f, vpp, offset)
+                self.readback = (self.generator.set_amplitude(vpp) if amplitude_only
+                                 else set_it(f, vpp, offset))
             except BaseException:
                 self.fault = True
                 raise
@@ -167,7 +171,7 @@ class Drive:
                     raise HardwareError("ramp stalled: the engine's clock does not advance")
                 continue
             v = target if abs(target - v) <= dv else v + math.copysign(dv, target - v)
-            self._apply(t.frequency_hz, v, t.offset_v)
+            self._apply(t.frequency_hz, v, t.offset_v, amplitude_only=True)
             t_prev = self.clock()
 
     def configure(self, f: float, vpp: float, offset: float) -> GeneratorSettings | None:

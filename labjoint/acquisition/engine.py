@@ -48,7 +48,7 @@ from labjoint.acquisition.messages import (Checkpoint, Configure, LoadWaveform, 
                                            SetTorque, SteadyResult, WaitSteady)
 from labjoint.acquisition.recorder import Recorder, utc_now
 from labjoint.acquisition.roles import engine_roles
-from labjoint.acquisition.sampling import Sampler
+from labjoint.acquisition.sampling import Sampler, run_clock
 from labjoint.config import LimitsConfig, RigConfig
 from labjoint.errors import HardwareError, InputError, LimitExceeded
 from labjoint.documents import Marker
@@ -155,6 +155,7 @@ class RunEngine:
             self._thread = threading.get_ident()
         self._roles = roles
         self.sampler.relative = list(roles["displacement_channels"])
+        self.sampler.reference = roles["reference_force_channel"]
         self._abort.clear()
         self._plan_name = getattr(plan, "__name__", "plan")
         if not hasattr(plan, "send"):  # a plain list of messages
@@ -267,7 +268,7 @@ class RunEngine:
 
     def _forget_steady(self) -> None:
         """A generator change: a steady state found before it no longer holds."""
-        self.sampler.steady = None
+        self.sampler.forget()
 
     def _output_off(self) -> None:
         self.drive.off()
@@ -322,7 +323,7 @@ class RunEngine:
         if steady is not None:
             self.recorder.emit("marker", Marker(uid, "steady", 0, steady.to_dict()))
         self.sampler.consume(n_total, f)
-        return self.recorder.close("complete", "")
+        return self.recorder.close("complete", "", self.sampler.drive_frequency())
 
     def _metadata(self, msg: Record, steady: SteadyResult | None) -> dict[str, Any]:
         rb, t, on = self.drive.readback, self.drive.target, self.drive.output
@@ -338,7 +339,7 @@ class RunEngine:
             "sample_rate_hz": float(self.daq.sample_rate_hz),
             "generator": {**(asdict(rb) if rb else {}), "output": on,
                           "requested_vpp": float(t.amplitude_vpp), "idn": self._idn},
-            "start_time": utc_now(),
+            **run_clock(self.daq), **self.sampler.drive_frequency(),
             "software_version": __version__,
             **self._roles,
             "steady": None if steady is None else steady.to_dict(),

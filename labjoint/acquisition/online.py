@@ -97,3 +97,54 @@ class CycleAmplitudes:
         with np.errstate(divide="ignore", invalid="ignore"):
             rel = np.where(mean > 0, np.abs(slope) * (window - 1) / mean, np.inf)
         return float(rel.max())
+
+
+class FrequencyTracker:
+    """The drive frequency on the DAQ's clock, from one channel fed block by block.
+
+    The generator's and the DAQ's clocks differ by tens of ppm (a USB cDAQ timebase is
+    specified to +-50 ppm), so over a long record the set frequency drifts away from the
+    one in the samples. Each block's phase at the nominal frequency ``f0`` (referred to
+    the task's sample 0) advances by 2 pi (f - f0) per second; the slope of a weighted
+    least-squares line through the unwrapped phases gives f and its standard error.
+
+    >>> fs, f = 10000.0, 400.0 * (1 + 50e-6)
+    >>> tr = FrequencyTracker(400.0, fs)
+    >>> for first in range(0, 50000, 1000):
+    ...     k = first + np.arange(1000)
+    ...     tr.feed(np.cos(2 * np.pi * f * k / fs + 0.3), first)
+    >>> round(tr.estimate()[0], 5)
+    400.02
+    """
+
+    def __init__(self, nominal_hz: float, sample_rate_hz: float) -> None:
+        self.f0, self.fs = float(nominal_hz), float(sample_rate_hz)
+        self.t: list[float] = []
+        self.phase: list[float] = []
+        self.weight: list[float] = []
+
+    def feed(self, x: np.ndarray, first_sample: int) -> None:
+        """One block of the channel (volts) starting at the task's sample ``first_sample``."""
+        n = int(np.size(x))
+        if n * self.f0 / self.fs < 2.0:  # under two cycles: its phase says little
+            return
+        X = fundamental(np.asarray(x)[None, :], self.fs, self.f0, first_sample)[0]
+        if abs(X) > 0:
+            self.t.append((first_sample + 0.5 * (n - 1)) / self.fs)
+            self.phase.append(float(np.angle(X)))
+            self.weight.append(float(abs(X)) ** 2 * n)
+
+    def estimate(self) -> tuple[float, float] | None:
+        """(frequency_hz, its standard error) from three blocks on, else None."""
+        if len(self.t) < 3:
+            return None
+        t, w = np.array(self.t), np.array(self.weight)
+        phi = np.unwrap(np.array(self.phase))
+        tm = np.average(t, weights=w)
+        sxx = float(np.sum(w * (t - tm) ** 2))
+        if not sxx > 0:
+            return None
+        slope = float(np.sum(w * (t - tm) * (phi - np.average(phi, weights=w))) / sxx)
+        resid = phi - np.average(phi, weights=w) - slope * (t - tm)
+        var = float(np.sum(w * resid ** 2)) / ((len(t) - 2) * sxx)  # slope variance
+        return self.f0 + slope / (2 * np.pi), float(np.sqrt(max(var, 0.0))) / (2 * np.pi)

@@ -68,12 +68,13 @@ class Recorder:
         if run is not None:
             self.emit("marker", Marker(run.uid, name, max(0, sample_abs - run.start_abs), data))
 
-    def close(self, status: str, reason: str) -> RecordResult:
-        """End the open run; after a fault every callback gets the stop, whatever the others do."""
+    def close(self, status: str, reason: str, metadata: dict[str, Any] | None = None) -> RecordResult:
+        """End the open run (``metadata`` joins the stop document's); after a fault every
+        callback gets the stop, whatever the others do."""
         run, self.open_run = self.open_run, None
         assert run is not None
         end = utc_now()
-        doc = RunStop(run.uid, status, reason, end, run.n, {"end_time": end})
+        doc = RunStop(run.uid, status, reason, end, run.n, {"end_time": end, **(metadata or {})})
         result = RecordResult(run.uid, run.name, status, run.n)
         self.runs.append(result)
         if status == "complete":

@@ -99,8 +99,11 @@ def _open_sim(config: RigConfig) -> Rig:
 
 def _open_real(config: RigConfig) -> Rig:
     from labjoint.hardware.afg1022 import AFG1022
-    from labjoint.hardware.nidaq import NIDAQ
+    from labjoint.hardware.nidaq import NIDAQ, check_channels, check_drive_band
 
+    d, lim = config.daq, config.limits  # refused before any instrument is touched
+    check_channels(d.module, d.specs())
+    check_drive_band(d.module, d.specs(), d.sample_rate_hz, lim.min_frequency_hz, lim.max_frequency_hz)
     generator = AFG1022.from_config(config.generator, _config_dir(config))
     try:
         daq = NIDAQ.from_config(config.daq)

@@ -1,17 +1,19 @@
 """DAQ side of the run engine: blocks (emitted into the open run, limit-checked), the
-steady-state wait and the fundamental measurement."""
+steady-state wait, the fundamental measurement, the drive frequency measured on the
+reference channel, and when sample 0 of a run was taken."""
 
 from __future__ import annotations
 
 import logging
 import math
+from datetime import datetime, timezone
 from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 
 from labjoint.acquisition.drive import AbortSignal
 from labjoint.acquisition.messages import Measure, Measurement, SteadyResult, WaitSteady
-from labjoint.acquisition.online import CycleAmplitudes, fundamental
+from labjoint.acquisition.online import CycleAmplitudes, FrequencyTracker, fundamental
 from labjoint.acquisition.safety import check_block
 from labjoint.config import LimitsConfig
 from labjoint.errors import HardwareError, InputError, LimitExceeded
@@ -34,6 +36,29 @@ class Sampler:
         self.running = False
         self.steady: SteadyResult | None = None
         self.relative: list[str] = []
+        self.reference: str | None = None  # the channel the drive frequency is measured on
+        self.tracker: FrequencyTracker | None = None
+
+    def forget(self) -> None:
+        """The generator changed: a steady state or frequency measured before no longer holds."""
+        self.steady, self.tracker = None, None
+
+    def drive_frequency(self) -> dict[str, Any]:
+        """The drive frequency on the DAQ's clock, from the reference channel since the last
+        generator change (metadata fields; empty until three blocks were seen)."""
+        est = self.tracker.estimate() if self.tracker is not None else None
+        if est is None:
+            return {}
+        return {"frequency_measured_hz": est[0], "frequency_measured_uncertainty_hz": est[1],
+                "frequency_measured_on": self.reference}
+
+    def _track(self, first: int, volts: np.ndarray, f: float) -> None:
+        names = [c.name for c in self.daq.channels]
+        if self.reference not in names:
+            return
+        if self.tracker is None or self.tracker.f0 != f:
+            self.tracker = FrequencyTracker(f, self.daq.sample_rate_hz)
+        self.tracker.feed(volts[names.index(self.reference)], first)
 
     def start(self) -> None:
         if not self.running:
@@ -43,7 +68,7 @@ class Sampler:
     def stop(self) -> None:
         if self.running:
             self.running = False
-            self.steady = None
+            self.forget()  # the sample counter restarts with the next start
             self.daq.stop()
 
     def blocks(self, n_total: int | None, f: float) -> Iterator[tuple[int, np.ndarray]]:
@@ -66,6 +91,7 @@ class Sampler:
                 self.marker("limit", first + (getattr(trip, "index", 0) or 0),
                             trip.to_dict() if hasattr(trip, "to_dict") else {"reason": str(trip)})
                 raise
+            self._track(first, volts, f)
             self.abort.check()
             done += volts.shape[1]
             yield first, volts
@@ -128,3 +154,22 @@ class Sampler:
             phase[spec.name] = float(np.angle(x * np.sign(s)))
             peak[spec.name] = float(p / spec.range_v)
         return Measurement(f, amp, phase, reference, self.limits.max_vpp, peak)
+
+
+def run_clock(daq: DAQ) -> dict[str, Any]:
+    """When the next run's sample 0 (the DAQ's sample ``samples_read``) was taken: host
+    time at the task's start plus its index over the rate (``start_time``, UTC ISO 8601),
+    with the stamp's uncertainty; the wall clock now where the DAQ gives no start time.
+    ``announced_time`` is when the run was announced (what ``start_time`` used to be)."""
+    now = datetime.now(timezone.utc)
+    first = int(daq.samples_read)
+    t0 = getattr(daq, "started_at", None)
+    out: dict[str, Any] = {"start_time": now.isoformat(), "announced_time": now.isoformat(),
+                           "first_sample_index": first, "daq_started_at": None,
+                           "start_time_uncertainty_s": None}
+    if t0 is not None and daq.sample_rate_hz > 0:
+        at = t0 + first / float(daq.sample_rate_hz)
+        out.update(start_time=datetime.fromtimestamp(at, timezone.utc).isoformat(),
+                   daq_started_at=datetime.fromtimestamp(t0, timezone.utc).isoformat(),
+                   start_time_uncertainty_s=getattr(daq, "started_at_uncertainty_s", None))
+    return out

@@ -86,8 +86,8 @@ def cancel_job(job_id: str, queue_db: str | Path | None = None, *,
 
 
 def output_off(config_path: str | Path | None = None) -> dict[str, Any]:
-    """Switch the generator output OFF from outside the daemon (systemd ExecStopPost,
-    after a crash). The simulated generator lives inside the daemon process and died
+    """Switch both generator outputs OFF from outside the daemon (systemd ExecStopPost,
+    after a crash; the antiphase drive can use CH2) and read them back. The simulated generator lives inside the daemon process and died
     with it, so there is nothing to switch on the simulated rig."""
     config = _config(config_path)
     if config.rig.backend != "real":
@@ -103,7 +103,8 @@ def output_off(config_path: str | Path | None = None) -> dict[str, Any]:
         gen.close()
     if settings.output:
         raise HardwareError(f"{config.generator.resource}: output still reads ON after OFF")
-    return {"backend": "real", "output": False, "resource": config.generator.resource}
+    return {"backend": "real", "output": False, "channels_off": [1, 2],
+            "resource": config.generator.resource}
 
 
 def _user() -> str:

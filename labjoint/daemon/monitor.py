@@ -53,6 +53,11 @@ class WatchedGenerator(SignalGenerator):
             self.settings = rb
             return rb
 
+    def set_amplitude(self, amplitude_vpp: float) -> GeneratorSettings:
+        with self._lock:
+            self.settings = self._call(self.inner.set_amplitude, amplitude_vpp)
+            return self.settings
+
     def set_output(self, on: bool) -> None:
         with self._lock:
             try:

@@ -4,13 +4,18 @@ The same class drives the real instrument (default VISA backend) and its simulat
 (``configs/afg1022-sim.yaml`` through pyvisa-sim, ``visa_library='afg1022-sim.yaml@sim'``).
 Commands are sent in one fixed long form, since pyvisa-sim matches them literally.
 
-Load: the shaker amplifiers' inputs are high impedance, so the output is set to
-``OUTPut<n>:IMPedance INFinity``: the Vpp set is then the open-circuit Vpp the amplifier
-sees (AFG1000 range 2 mVpp to 20 Vpp, offset window +-10 V).
+Load ``"INF"`` (amplifier inputs are high impedance: 2 mVpp..20 Vpp, |offset| + Vpp/2
+<= 10 V) or ``"50"`` (halved). ``OUTPut<n>:IMPedance`` is probed once at connect and, where
+the instrument does not answer it, never sent: the configured load stands (logged).
+Connect: device clear, ``*IDN?`` (retried once if empty), ``*CLS``, amplitude unit pinned
+to Vpp on both channels, load probe. Groups of writes end with ``*OPC?``; ``apply()``
+sends only what changed since the last verified state; ramps use ``set_amplitude``.
+OFF means both outputs OFF. Why each step: docs/bench-bringup.md (issue 18).
 
-Any VISA failure (timeout, unplugged cable, closed session) raises
-:class:`~labjoint.errors.InstrumentTimeout` or :class:`~labjoint.errors.HardwareError`
-naming the resource and the command, after an attempt to switch the output OFF.
+Any VISA failure raises :class:`~labjoint.errors.InstrumentTimeout` or
+:class:`~labjoint.errors.HardwareError` naming the resource and the command, after a
+device clear (timeouts) and an attempt to switch both outputs OFF; the session is
+reopened before the next command.
 """
 
 from __future__ import annotations
@@ -19,21 +24,22 @@ import functools
 import logging
 import math
 import threading
+from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
 import pyvisa
 import pyvisa.constants
 import pyvisa.errors
 
-from labjoint.errors import ConfigError, HardwareError, InputError, InstrumentTimeout
+from labjoint.errors import HardwareError, InputError, InstrumentTimeout
+from labjoint.hardware.afg1022_arb import ArbitraryWaveforms, codes_14bit, shape_name  # noqa: F401
+from labjoint.hardware.afg1022_session import SessionSteps
 from labjoint.hardware.interfaces import GeneratorSettings, SignalGenerator
+from labjoint.hardware.visa_session import (CONFIG_DIR, VISA_FAILURES, device_clear,  # noqa: F401
+                                            open_session, probe_query, resolve_visa_library)
 
 log = logging.getLogger(__name__)
 
-#: The repository's configs folder, the same folder as ``labjoint.config.CONFIG_DIR``
-#: (the hardware layer sits below config, so it cannot import it).
-CONFIG_DIR = Path(__file__).resolve().parents[2] / "configs"
 
 MODEL = "AFG1022"
 #: Instrument limits for a sine into a high-impedance load (AFG1000 specifications).
@@ -48,7 +54,10 @@ FREQ_RESOLUTION_HZ = 1e-6
 VPP_RESOLUTION = 1e-4  # 0.1 mVpp, or 4 significant digits for large amplitudes
 OFFSET_RESOLUTION_V = 1e-3
 HIGHZ_OHM = 9.9e37  # SCPI encoding of INFinity
-_VISA_FAILURES = (pyvisa.errors.VisaIOError, pyvisa.errors.InvalidSession, OSError)
+#: Per load: (min Vpp, max Vpp, max |offset| + Vpp/2) (AFG1000 specifications).
+LOADS = {"INF": (MIN_VPP_HIGHZ, MAX_VPP_HIGHZ, MAX_ENVELOPE_V_HIGHZ), "50": (1e-3, 10.0, 5.0)}
+CHANNELS = (1, 2)
+_VISA_FAILURES = VISA_FAILURES
 
 
 def _locked(method):
@@ -61,30 +70,8 @@ def _locked(method):
     return wrapper
 
 
-def resolve_visa_library(visa_library: str, config_dir: str | Path | None = None) -> str:
-    """Turn a config's ``visa_library`` into what :class:`pyvisa.ResourceManager` takes.
 
-    ``''`` is the default backend, ``'@sim'`` pyvisa-sim's bundled instruments, and
-    ``'file.yaml@sim'`` a definition file, relative paths taken from the configs folder.
-
-    >>> resolve_visa_library('')
-    ''
-    >>> resolve_visa_library('afg1022-sim.yaml@sim').endswith('configs/afg1022-sim.yaml@sim')
-    True
-    """
-    lib = (visa_library or "").strip()
-    if not lib.endswith("@sim") or lib == "@sim":
-        return lib
-    path = Path(lib[: -len("@sim")])
-    if not path.is_absolute():
-        path = Path(config_dir or CONFIG_DIR) / path
-    if not path.is_file():
-        raise ConfigError(f"pyvisa-sim instrument definition not found: {path}",
-                          field="generator.visa_library")
-    return f"{path}@sim"
-
-
-class AFG1022(SignalGenerator):
+class AFG1022(SessionSteps, ArbitraryWaveforms, SignalGenerator):
     """One channel of a Tektronix AFG1022 producing a sine into a high-impedance load.
 
     Use :meth:`open` (or ``with AFG1022(...) as gen``) to connect; ``close()`` switches
@@ -92,27 +79,33 @@ class AFG1022(SignalGenerator):
     """
 
     def __init__(self, resource: str, visa_library: str = "", timeout_ms: int = 2000,
-                 channel: int = 1, config_dir: str | Path | None = None) -> None:
+                 channel: int = 1, config_dir: str | Path | None = None, load: str = "INF") -> None:
         self.resource = resource
         self.visa_library = visa_library
         self.timeout_ms = timeout_ms
         self.channel = channel
         self.config_dir = config_dir
+        self.load = load
+        #: Whether OUTPut<n>:IMPedance answered at connect (None before connecting).
+        self.load_settable: bool | None = None
         self._res = None
+        self._known: GeneratorSettings | None = None  # last state set and read back
+        self._stale = False  # a VISA failure happened: reopen before the next command
         self._lock = threading.RLock()
 
     # ---- connection -------------------------------------------------------------
     @classmethod
     def open(cls, resource: str, visa_library: str = "", timeout_ms: int = 2000,
-             channel: int = 1, config_dir: str | Path | None = None) -> "AFG1022":
+             channel: int = 1, config_dir: str | Path | None = None, load: str = "INF") -> "AFG1022":
         """Connect, check the instrument is an AFG1022, and return the driver."""
-        return cls(resource, visa_library, timeout_ms, channel, config_dir).connect()
+        return cls(resource, visa_library, timeout_ms, channel, config_dir, load).connect()
 
     @classmethod
     def from_config(cls, generator_config, config_dir: str | Path | None = None) -> "AFG1022":
         """Connect as a config's ``[generator]`` table says (resource, visa_library, ...)."""
         g = generator_config
-        return cls.open(g.resource, g.visa_library, g.timeout_ms, g.channel, config_dir)
+        return cls.open(g.resource, g.visa_library, g.timeout_ms, g.channel, config_dir,
+                        getattr(g, "load", "INF"))
 
     @property
     def connected(self) -> bool:
@@ -129,28 +122,24 @@ class AFG1022(SignalGenerator):
         if not (isinstance(self.timeout_ms, int) and self.timeout_ms > 0):
             raise InputError(f"timeout must be a positive integer (ms), got {self.timeout_ms!r}",
                              field="generator.timeout_ms")
+        if self.load not in LOADS:
+            raise InputError(f"load must be one of {sorted(LOADS)}, got {self.load!r}",
+                             field="generator.load")
         lib = resolve_visa_library(self.visa_library, self.config_dir)
         if lib.endswith("@sim"):   # the twin: teach pyvisa-sim the waveform block
             from labjoint.hardware import visa_twin
             visa_twin.install()
+        self._res = open_session(self.resource, lib, self.timeout_ms)
+        self._stale, self._known = False, None
         try:
-            rm = pyvisa.ResourceManager(lib)
-        except (ValueError, OSError) as exc:
-            raise HardwareError(f"cannot load VISA library {lib or '(default)'!r} for "
-                                f"{self.resource}: {exc}") from exc
-        try:
-            self._res = rm.open_resource(self.resource, read_termination="\n",
-                                         write_termination="\n", timeout=self.timeout_ms)
-        except _VISA_FAILURES as exc:
-            raise HardwareError(f"cannot open {self.resource} with VISA library "
-                                f"{lib or '(default)'!r}: {exc}") from exc
-        if not self._res.session:  # VI_NULL: pyvisa-sim reports an unknown resource this way
-            self._res = None
-            raise HardwareError(f"cannot open {self.resource} with VISA library "
-                                f"{lib or '(default)'!r}: resource not found")
-        try:
-            self.identify()
+            device_clear(self._res, self.resource)
+            idn = self.identify()
             self._write("*CLS")
+            for ch in CHANNELS:
+                self._write(f"SOURce{ch}:VOLTage:UNIT VPP")
+            self._opc("connect")
+            self._check_errors("connect")
+            self.load_settable = self._probe_load(idn)
         except BaseException:
             self.release()
             raise
@@ -162,7 +151,7 @@ class AFG1022(SignalGenerator):
     @_locked
     def release(self) -> None:
         """Close the VISA session without touching the output (used by ``hw check``)."""
-        res, self._res = self._res, None
+        res, self._res, self._known = self._res, None, None
         if res is None:
             return
         try:
@@ -172,7 +161,14 @@ class AFG1022(SignalGenerator):
 
     @_locked
     def close(self) -> None:
-        """Switch the output OFF (logged, never raised, if the link is dead), then release."""
+        """Switch both outputs OFF (logged, never raised, if the link is dead; through a
+        fresh session after a hardware error), then release."""
+        if self._stale:
+            try:
+                self._reopen()
+            except Exception as exc:
+                log.error("%s: could not switch the outputs OFF: %s", self.resource, exc)
+        self._stale = False
         if self._res is None:
             return
         self._safe_off()
@@ -181,7 +177,7 @@ class AFG1022(SignalGenerator):
     # ---- SignalGenerator ----------------------------------------------------------
     @_locked
     def identify(self) -> str:
-        idn = self._query("*IDN?")
+        idn = self._query("*IDN?") or self._query("*IDN?")  # the first can be empty (USB)
         if MODEL not in idn.upper():
             raise HardwareError(f"{self.resource} answered *IDN? with {idn!r}, "
                                 f"which is not a Tektronix {MODEL}")
@@ -194,44 +190,61 @@ class AFG1022(SignalGenerator):
         Values outside the instrument's range raise InputError before anything is sent;
         an instrument error or a read-back mismatch raises HardwareError.
         """
-        f, vpp, off = check_sine(frequency_hz, amplitude_vpp, offset_v)
-        ch = self.channel
-        self._write(f"OUTPut{ch}:IMPedance INFinity")
-        self._write(f"SOURce{ch}:FUNCtion:SHAPe SINusoid")
-        self._write(f"SOURce{ch}:FREQuency:FIXed {f:.12E}")
+        return self._apply_shape("SINusoid", "sine", frequency_hz, amplitude_vpp, offset_v)
+
+    def _apply_shape(self, shape_cmd: str, shape: str, frequency_hz: float, amplitude_vpp: float,
+                     offset_v: float) -> GeneratorSettings:
+        f, vpp, off = check_sine(frequency_hz, amplitude_vpp, offset_v, self.load)
+        ch, known, self._known = self.channel, self._known, None
+        if known is not None and known.shape != shape:
+            known = None                    # another shape: the full path
+        if known is None:  # first apply of this session: everything; later only what changed
+            if self.load_settable:
+                self._write(f"OUTPut{ch}:IMPedance {'INFinity' if self.load == 'INF' else '50'}")
+            self._write(f"SOURce{ch}:FUNCtion:SHAPe {shape_cmd}")
+        if known is None or known.frequency_hz != f:
+            self._write(f"SOURce{ch}:FREQuency:FIXed {f:.12E}")
         amp_cmd = f"SOURce{ch}:VOLTage:LEVel:IMMediate:AMPLitude {vpp:.12E}VPP"
         off_cmd = f"SOURce{ch}:VOLTage:LEVel:IMMediate:OFFSet {off:.12E}"
         # Keep every intermediate state inside the +-10 V window: shrink first.
-        current_off = self._query_float(f"SOURce{ch}:VOLTage:LEVel:IMMediate:OFFSet?")
-        if vpp / 2 + abs(current_off) > MAX_ENVELOPE_V_HIGHZ:
-            self._write(off_cmd)
-            self._write(amp_cmd)
-        else:
-            self._write(amp_cmd)
-            self._write(off_cmd)
+        current_off = (known.offset_v if known is not None else
+                       self._query_float(f"SOURce{ch}:VOLTage:LEVel:IMMediate:OFFSet?"))
+        writes = [c for c, same in ((amp_cmd, known and known.amplitude_vpp == vpp),
+                                    (off_cmd, known and known.offset_v == off)) if not same]
+        for cmd in writes[::-1] if vpp / 2 + abs(current_off) > LOADS[self.load][2] else writes:
+            self._write(cmd)
+        self._opc("apply")
         self._check_errors("apply")
-        shape = self._query(f"SOURce{ch}:FUNCtion:SHAPe?")
-        if not shape.upper().startswith("SIN"):
-            raise HardwareError(f"{self.resource}: shape read back as {shape!r}, not a sine")
-        load = self._query(f"OUTPut{ch}:IMPedance?")
-        if not _is_high_z(load):
-            raise HardwareError(f"{self.resource}: load read back as {load!r}, not INFinity")
+        if self.load_settable:
+            load = self._query(f"OUTPut{ch}:IMPedance?")
+            if _is_high_z(load) != (self.load == "INF"):
+                raise HardwareError(f"{self.resource}: load read back as {load!r}, not {self.load}")
         got = self.read_settings()
+        if got.shape != shape:
+            raise HardwareError(f"{self.resource}: shape read back as {got.shape!r}, not {shape_cmd}")
         for name, want, have, res in (("frequency_hz", f, got.frequency_hz, FREQ_RESOLUTION_HZ),
                                       ("amplitude_vpp", vpp, got.amplitude_vpp, _vpp_resolution(vpp)),
                                       ("offset_v", off, got.offset_v, OFFSET_RESOLUTION_V)):
             if abs(have - want) > max(REL_TOL * abs(want), res):
                 raise HardwareError(f"{self.resource}: {name} set to {want!r} but read back "
                                     f"{have!r} (tolerance {max(REL_TOL * abs(want), res):g})")
+        self._known = got
         return got
 
     @_locked
     def set_output(self, on: bool) -> None:
-        self._write(f"OUTPut{self.channel}:STATe {'ON' if on else 'OFF'}")
-        state = self._output_state()
-        if state != bool(on):
-            raise HardwareError(f"{self.resource}: output set {'ON' if on else 'OFF'} but read "
-                                f"back {'ON' if state else 'OFF'}")
+        """ON switches this channel on; OFF switches both channels off (each read back)."""
+        for ch in (self.channel,) if on else CHANNELS:
+            self._write(f"OUTPut{ch}:STATe {'ON' if on else 'OFF'}")
+        if not on:
+            self._opc("output OFF")
+        for ch in (self.channel,) if on else CHANNELS:
+            state = self._output_state(ch)
+            if state != bool(on):
+                raise HardwareError(f"{self.resource}: output {ch} set {'ON' if on else 'OFF'} "
+                                    f"but read back {'ON' if state else 'OFF'}")
+        if self._known is not None:
+            self._known = replace(self._known, output=bool(on))
 
     @_locked
     def read_settings(self) -> GeneratorSettings:
@@ -241,11 +254,33 @@ class AFG1022(SignalGenerator):
             amplitude_vpp=self._query_float(f"SOURce{ch}:VOLTage:LEVel:IMMediate:AMPLitude?"),
             offset_v=self._query_float(f"SOURce{ch}:VOLTage:LEVel:IMMediate:OFFSet?"),
             output=self._output_state(),
-            shape=_shape_name(self._query(f"SOURce{ch}:FUNCtion:SHAPe?")),
+            shape=shape_name(self._query(f"SOURce{ch}:FUNCtion:SHAPe?")),
         )
+
+    @_locked
+    def set_amplitude(self, amplitude_vpp: float) -> GeneratorSettings:
+        """Change only the amplitude (ramps): one write, ``*OPC?``, the error queue and the
+        amplitude read back; the rest is the last verified state."""
+        known, self._known = self._known, None
+        if known is None:  # nothing verified in this session yet: the full path
+            s = self.read_settings()
+            set_it = self.apply_waveform if s.shape == "user" else self.apply
+            return set_it(s.frequency_hz, amplitude_vpp, s.offset_v)
+        _, vpp, _ = check_sine(known.frequency_hz, amplitude_vpp, known.offset_v, self.load)
+        self._write(f"SOURce{self.channel}:VOLTage:LEVel:IMMediate:AMPLitude {vpp:.12E}VPP")
+        self._opc("set_amplitude")
+        self._check_errors("set_amplitude")
+        have = self._query_float(f"SOURce{self.channel}:VOLTage:LEVel:IMMediate:AMPLitude?")
+        if abs(have - vpp) > (tol := max(REL_TOL * vpp, _vpp_resolution(vpp))):
+            raise HardwareError(f"{self.resource}: amplitude_vpp set to {vpp!r} but read back "
+                                f"{have!r} (tolerance {tol:g})")
+        self._known = replace(known, amplitude_vpp=have)
+        return self._known
 
     # ---- SCPI plumbing ------------------------------------------------------------
     def _write(self, cmd: str) -> None:
+        if self._stale:
+            self._reopen()
         if self._res is None:
             raise HardwareError(f"{self.resource}: not connected (sending {cmd!r})")
         try:
@@ -254,6 +289,8 @@ class AFG1022(SignalGenerator):
             raise self._failure(cmd, exc) from exc
 
     def _query(self, cmd: str) -> str:
+        if self._stale:
+            self._reopen()
         if self._res is None:
             raise HardwareError(f"{self.resource}: not connected (sending {cmd!r})")
         try:
@@ -269,8 +306,8 @@ class AFG1022(SignalGenerator):
             raise HardwareError(f"{self.resource}: {cmd!r} answered {text!r}, not a number") from None
         return value
 
-    def _output_state(self) -> bool:
-        cmd = f"OUTPut{self.channel}:STATe?"
+    def _output_state(self, channel: int | None = None) -> bool:
+        cmd = f"OUTPut{channel or self.channel}:STATe?"
         text = self._query(cmd).upper()
         if text in ("1", "ON"):
             return True
@@ -280,13 +317,7 @@ class AFG1022(SignalGenerator):
 
     def _check_errors(self, during: str) -> None:
         """Drain ``SYSTem:ERRor?``; raise with the instrument's messages if any."""
-        errors = []
-        for _ in range(32):
-            text = self._query("SYSTem:ERRor?")
-            code = text.split(",", 1)[0].strip()
-            if code in ("0", "+0"):
-                break
-            errors.append(text)
+        errors = self._drain_errors()
         if errors:
             raise HardwareError(f"{self.resource}: instrument reported during {during}: "
                                 + "; ".join(errors))
@@ -295,99 +326,48 @@ class AFG1022(SignalGenerator):
         """Map a VISA failure to a labjoint error, after trying to leave the output OFF."""
         timed_out = (isinstance(exc, pyvisa.errors.VisaIOError)
                      and exc.error_code == pyvisa.constants.StatusCode.error_timeout)
+        if timed_out and self._res is not None:  # drop a half-read answer before OFF
+            device_clear(self._res, self.resource)
         off = self._safe_off()
-        state = "output switched OFF" if off else "could not switch the output OFF"
+        self._stale, self._known = True, None
+        state = "output switched OFF (both channels)" if off else "could not switch the output OFF"
         if timed_out:
             return InstrumentTimeout(f"{self.resource}: no answer to {cmd!r} within "
                                      f"{self.timeout_ms} ms ({state})")
         return HardwareError(f"{self.resource}: {cmd!r} failed: {exc} ({state})")
 
     def _safe_off(self) -> bool:
-        """Try ``OUTPut<n>:STATe OFF``; True if sent, False (logged) if the link is dead."""
+        """Try ``OUTPut<n>:STATe OFF`` on both channels; True if sent, False (logged) if
+        the link is dead."""
         res = self._res
         if res is None:
             return False
         try:
-            res.write(f"OUTPut{self.channel}:STATe OFF")
+            for ch in CHANNELS:
+                res.write(f"OUTPut{ch}:STATe OFF")
             return True
         except Exception as exc:  # the safe state must never raise
             log.error("%s: could not switch the output OFF: %s", self.resource, exc)
             return False
 
 
-    # ---- arbitrary waveforms ------------------------------------------------------
-    @_locked
-    def load_waveform(self, points) -> int:
-        """Load one period into edit memory as 14-bit codes (``DATA:DATA EMEMory`` with an
-        IEEE 488.2 block of big-endian uint16), copy it to ``USER<channel>``, and check the
-        point count the instrument reports; the points are normalised to a peak of 1
-        (:func:`codes_14bit`), so the amplitude setting is the waveform's peak."""
-        codes = codes_14bit(points)
-        if self._res is None:
-            raise HardwareError(f"{self.resource}: not connected (loading a waveform)")
-        cmd = "DATA:DATA EMEMory,"
-        try:
-            self._res.write_binary_values(cmd, codes.tolist(), datatype="H", is_big_endian=True)
-        except _VISA_FAILURES as exc:
-            raise self._failure(cmd + "<block>", exc) from exc
-        self._write(f"DATA:COPY USER{self.channel},EMEMory")
-        self._check_errors("waveform load")
-        n = self._query_float("DATA:POINts? EMEMory")
-        if n != codes.size:
-            raise HardwareError(f"{self.resource}: loaded {codes.size} waveform points but the "
-                                f"instrument holds {n:g}")
-        wave = (codes.astype(float) - CODE_ZERO) / CODE_ZERO
-        wave.setflags(write=False)
-        self._wave = wave
-        return int(codes.size)
-
-    def waveform(self):
-        return getattr(self, "_wave", None)
-
-    @_locked
-    def apply_waveform(self, frequency_hz: float, amplitude_vpp: float,
-                       offset_v: float = 0.0) -> GeneratorSettings:
-        """Select ``USER<channel>`` repeated ``frequency_hz`` times per second at
-        ``amplitude_vpp``; read every setting back and compare, as :meth:`apply`."""
-        if self.waveform() is None:
-            raise HardwareError(f"{self.resource}: no arbitrary waveform loaded (load_waveform first)")
-        f, vpp, off = check_sine(frequency_hz, amplitude_vpp, offset_v)
-        ch = self.channel
-        self._write(f"SOURce{ch}:FUNCtion:SHAPe USER{ch}")
-        self._write(f"SOURce{ch}:FREQuency:FIXed {f:.12E}")
-        amp_cmd = f"SOURce{ch}:VOLTage:LEVel:IMMediate:AMPLitude {vpp:.12E}VPP"
-        off_cmd = f"SOURce{ch}:VOLTage:LEVel:IMMediate:OFFSet {off:.12E}"
-        current_off = self._query_float(f"SOURce{ch}:VOLTage:LEVel:IMMediate:OFFSet?")
-        for cmd in ((off_cmd, amp_cmd) if vpp / 2 + abs(current_off) > MAX_ENVELOPE_V_HIGHZ
-                    else (amp_cmd, off_cmd)):
-            self._write(cmd)
-        self._check_errors("apply_waveform")
-        got = self.read_settings()
-        if got.shape != "user":
-            raise HardwareError(f"{self.resource}: shape read back as {got.shape!r}, not USER{ch}")
-        for name, want, have, res in (("frequency_hz", f, got.frequency_hz, FREQ_RESOLUTION_HZ),
-                                      ("amplitude_vpp", vpp, got.amplitude_vpp, _vpp_resolution(vpp)),
-                                      ("offset_v", off, got.offset_v, OFFSET_RESOLUTION_V)):
-            if abs(have - want) > max(REL_TOL * abs(want), res):
-                raise HardwareError(f"{self.resource}: {name} set to {want!r} but read back "
-                                    f"{have!r} (tolerance {max(REL_TOL * abs(want), res):g})")
-        return got
-
-def check_sine(frequency_hz: float, amplitude_vpp: float, offset_v: float) -> tuple[float, float, float]:
-    """Refuse a sine outside the AFG1022's high-Z range (InputError names the parameter).
+def check_sine(frequency_hz: float, amplitude_vpp: float, offset_v: float,
+               load: str = "INF") -> tuple[float, float, float]:
+    """Refuse a sine outside the AFG1022's range for ``load`` (InputError names the parameter).
 
     >>> check_sine(400, 20, 0)
     (400.0, 20.0, 0.0)
     """
     f, vpp, off = float(frequency_hz), float(amplitude_vpp), float(offset_v)
+    min_vpp, max_vpp, envelope = LOADS[load]
     if not (math.isfinite(f) and MIN_FREQUENCY_HZ <= f <= MAX_FREQUENCY_HZ):
         raise InputError(f"sine frequency must be within {MIN_FREQUENCY_HZ:g}..{MAX_FREQUENCY_HZ:g} Hz "
                          f"on the {MODEL}, got {frequency_hz!r}", field="frequency_hz")
-    if not (math.isfinite(vpp) and MIN_VPP_HIGHZ <= vpp <= MAX_VPP_HIGHZ):
-        raise InputError(f"amplitude must be within {MIN_VPP_HIGHZ:g}..{MAX_VPP_HIGHZ:g} Vpp "
-                         f"(high-Z load) on the {MODEL}, got {amplitude_vpp!r}", field="amplitude_vpp")
-    if not (math.isfinite(off) and abs(off) + vpp / 2 <= MAX_ENVELOPE_V_HIGHZ):
-        raise InputError(f"|offset| + Vpp/2 must not exceed {MAX_ENVELOPE_V_HIGHZ:g} V (high-Z load) "
+    if not (math.isfinite(vpp) and min_vpp <= vpp <= max_vpp):
+        raise InputError(f"amplitude must be within {min_vpp:g}..{max_vpp:g} Vpp "
+                         f"({load} ohm load) on the {MODEL}, got {amplitude_vpp!r}", field="amplitude_vpp")
+    if not (math.isfinite(off) and abs(off) + vpp / 2 <= envelope):
+        raise InputError(f"|offset| + Vpp/2 must not exceed {envelope:g} V ({load} ohm load) "
                          f"on the {MODEL}, got offset {offset_v!r} with {vpp:g} Vpp", field="offset_v")
     return f, vpp, off
 
@@ -406,35 +386,3 @@ def _is_high_z(text: str) -> bool:
     except ValueError:
         return False
 
-
-#: 14-bit waveform codes: 0 is the waveform's -peak, 16382 its +peak, 8191 zero.
-CODE_ZERO = 8191
-MIN_POINTS, MAX_POINTS = 2, 8192
-
-
-def codes_14bit(points) -> "np.ndarray":
-    """Points as 14-bit codes, normalised to a peak of 1 (InputError names what is wrong).
-
-    >>> codes_14bit([-2.0, 0.0, 1.0, 2.0]).tolist()
-    [0, 8191, 12286, 16382]
-    """
-    x = np.asarray(points, dtype=float).ravel()
-    if not MIN_POINTS <= x.size <= MAX_POINTS:
-        raise InputError(f"the {MODEL} stores {MIN_POINTS}..{MAX_POINTS} waveform points, "
-                         f"got {x.size}", field="points")
-    if not np.all(np.isfinite(x)):
-        raise InputError("waveform points must be finite", field="points")
-    peak = float(np.max(np.abs(x)))
-    if peak == 0:
-        raise InputError("the waveform is constant zero", field="points")
-    return np.round(CODE_ZERO + CODE_ZERO * (x / peak)).astype(np.uint16)
-
-
-def _shape_name(text: str) -> str:
-    """'sine' or 'user' (an arbitrary waveform) or the instrument's word, lower case."""
-    t = text.strip().upper()
-    if t.startswith("SIN"):
-        return "sine"
-    if t.startswith("USER") or t.startswith("EMEM"):
-        return "user"
-    return t.lower()

@@ -129,6 +129,11 @@ class SignalGenerator(abc.ABC):
         """Set a sine, read the settings back, compare, and return what was read."""
 
     @abc.abstractmethod
+    def set_amplitude(self, amplitude_vpp: float) -> GeneratorSettings:
+        """Change only the amplitude (frequency, offset, shape untouched: ramps), read it
+        back, compare, and return the settings."""
+
+    @abc.abstractmethod
     def set_output(self, on: bool) -> None:
         """Switch the output on or off (and confirm by read-back)."""
 
@@ -209,3 +214,9 @@ class DAQ(abc.ABC):
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+    #: Host clock (POSIX seconds) when the acquisition started, i.e. at sample 0 of the
+    #: sample counter, and how long the start call took (its uncertainty); None if the
+    #: backend does not know. Sample k was taken at about ``started_at + k / rate``.
+    started_at: float | None = None
+    started_at_uncertainty_s: float | None = None

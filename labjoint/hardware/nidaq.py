@@ -3,7 +3,15 @@
 Every channel is a voltage channel (raw volts are kept; calibration turns them into
 newtons or metres later). IEPE sensors get the module's 2 mA internal current
 excitation; coupling is set per channel and checked against what the module offers
-(the NI 9233 is AC-coupled only). Samples are read with nidaqmx's
+(the NI 9233 is AC-coupled only). Where excitation switches per channel (NI 9234 user
+guide: "IEPE excitation current on or off in AC-coupled mode (in software)") non-IEPE
+channels get ``ExcitationSource.NONE``; a module sourcing 2 mA on every input (NI 9233,
+no per-channel switch) refuses ``iepe = false`` channels: capacitive-sensor and
+nanocomposite outputs must not be fed 2 mA. :func:`check_drive_band` keeps the drive
+frequencies where the AC-coupled inputs are flat. ``configure()`` commits the task
+(``TaskMode.TASK_COMMIT``), so configuration errors surface before any output is on.
+A lost device (USB cDAQ: -50405, -201003, -200045) raises :class:`DeviceLost`; the task
+is closed and configured again at the next :meth:`NIDAQ.start`. Samples are read with nidaqmx's
 ``AnalogMultiChannelReader.read_many_sample`` into a preallocated float64 array of
 shape (n_channels, n). A lost-samples error from DAQmx raises
 :class:`~labjoint.errors.BufferOverrun` carrying the sample counter.
@@ -15,7 +23,9 @@ using it without the library raises HardwareError saying so.
 from __future__ import annotations
 
 import logging
+import time
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -38,6 +48,13 @@ OVERRUN_ERRORS = (
     "DATA_OVERWRITTEN_IN_DEVICE_MEMORY",                        # -200004
 )
 TIMEOUT_ERRORS = ("SAMPLES_NOT_YET_AVAILABLE", "TIMEOUT_EXCEEDED")  # -200284, -200221
+#: DAQmx codes meaning the device went away (USB cDAQ unplugged, power, hub reset); no
+#: recovery without a new task (ni/nidaqmx-python issues 640 and 893: -50405 on USB).
+LOST_ERRORS = (-50405, -201003, -200045)  # PAL_TRANSFER_ABORTED, DEV_CANNOT_BE_ACCESSED, DEVICE_REMOVED
+
+
+class DeviceLost(HardwareError):
+    """The DAQ device is gone; the task was closed and is configured again at the next start."""
 
 
 @dataclass(frozen=True)
@@ -54,6 +71,10 @@ class ModuleSpec:
     range_v: float
     rate_base_hz: float
     max_divider: int
+    #: IEPE excitation switchable per channel (else every input gets it)
+    iepe_switchable: bool = False
+    #: AC coupling: above this frequency the response is within 0.1 dB (datasheet)
+    ac_flat_from_hz: float = 0.0
 
     def rates(self) -> np.ndarray:
         """Offered rates, ascending (empty for modules with a continuous rate range)."""
@@ -63,8 +84,10 @@ class ModuleSpec:
 
 
 MODULES = {
-    "NI 9233": ModuleSpec(("AC",), True, 5.0, 50_000.0, 25),
-    "NI 9234": ModuleSpec(("AC", "DC"), True, 5.0, 51_200.0, 31),
+    # AC cutoff (NI 9233/9234 specifications): -3 dB 0.5 Hz, -0.1 dB 4.6 Hz max; the
+    # passband is flat to 0.45 fs (the response depends on frequency and sample rate).
+    "NI 9233": ModuleSpec(("AC",), True, 5.0, 50_000.0, 25, False, 4.6),
+    "NI 9234": ModuleSpec(("AC", "DC"), True, 5.0, 51_200.0, 31, True, 4.6),
     "NI 9239": ModuleSpec(("DC",), False, 10.0, 50_000.0, 31),
     "NI 9215": ModuleSpec(("DC",), False, 10.0, 100_000.0, 0),
 }
@@ -118,6 +141,12 @@ def check_channels(module: str, channels: list[ChannelSpec]) -> None:
         if ch.iepe and not spec.iepe:
             raise ConfigError(f"{module} has no IEPE excitation; channel {ch.name!r} asks for it",
                               field=f"{where}.iepe")
+        if spec.iepe and not spec.iepe_switchable and not ch.iepe:
+            raise ConfigError(f"{module} sources 2 mA IEPE current on every input (not "
+                              f"switchable); channel {ch.name!r} ({ch.sensor}) has iepe = false "
+                              "and must not be fed it: wire it to a module that switches "
+                              "excitation off (NI 9234) or has none (NI 9239, NI 9215)",
+                              field=f"{where}.iepe")
         if ch.iepe and ch.coupling != "AC":
             raise ConfigError(f"IEPE needs AC coupling; channel {ch.name!r} is {ch.coupling}",
                               field=f"{where}.coupling")
@@ -129,6 +158,23 @@ def check_channels(module: str, channels: list[ChannelSpec]) -> None:
             raise ConfigError(f"channels {seen[phys]!r} and {ch.name!r} share {phys}",
                               field=f"{where}.physical_channel")
         seen[phys] = ch.name
+
+
+def check_drive_band(module: str, channels: list[ChannelSpec], sample_rate_hz: float,
+                     min_frequency_hz: float, max_frequency_hz: float) -> None:
+    """Refuse drive limits outside where the module's response is flat: above its AC
+    coupling's -0.1 dB corner (if any channel is AC-coupled) and below 0.45 fs."""
+    spec = module_spec(module)
+    corner = spec.ac_flat_from_hz if any(c.coupling == "AC" for c in channels) else 0.0
+    if min_frequency_hz < corner:
+        raise ConfigError(f"{module} AC-coupled inputs are flat (within 0.1 dB) only above "
+                          f"{corner:g} Hz; limits.min_frequency_hz is {min_frequency_hz:g} Hz "
+                          "(raise it; static displacement is not measured on AC inputs)",
+                          field="limits.min_frequency_hz")
+    if max_frequency_hz > 0.45 * sample_rate_hz:
+        raise ConfigError(f"{module} at {sample_rate_hz:g} S/s is flat up to "
+                          f"{0.45 * sample_rate_hz:g} Hz (0.45 fs); limits.max_frequency_hz is "
+                          f"{max_frequency_hz:g} Hz", field="limits.max_frequency_hz")
 
 
 def _nidaqmx():
@@ -146,15 +192,19 @@ class NIDAQ(DAQ):
     """An NI C Series analog input module (default NI 9233) read continuously.
 
     ``buffer_s`` sizes the DAQmx input buffer in seconds of samples (at least four
-    reads); ``read_timeout_s`` bounds each block read.
+    reads); ``read_timeout_s`` bounds each block read. ``wall_clock`` (POSIX seconds)
+    stamps the task start (:attr:`started_at`); ``lost`` says the device went away.
     """
 
     def __init__(self, device: str = "cDAQ1Mod1", module: str = "NI 9233",
-                 read_timeout_s: float = 10.0, buffer_s: float = 10.0) -> None:
+                 read_timeout_s: float = 10.0, buffer_s: float = 10.0,
+                 wall_clock: Callable[[], float] = time.time) -> None:
         self.device = device
         self.module = module
         self.read_timeout_s = read_timeout_s
         self.buffer_s = buffer_s
+        self.wall_clock = wall_clock
+        self.lost = False
         self._task = None
         self._reader = None
         self._channels: list[ChannelSpec] = []
@@ -173,7 +223,7 @@ class NIDAQ(DAQ):
         rate = offered_rate(self.module, sample_rate_hz)
         nidaqmx = _nidaqmx()
         from nidaqmx.constants import (AcquisitionType, Coupling, ExcitationSource,
-                                       OverwriteMode, VoltageUnits)
+                                       OverwriteMode, TaskMode, VoltageUnits)
         from nidaqmx.stream_readers import AnalogMultiChannelReader
 
         self.close()
@@ -197,17 +247,27 @@ class NIDAQ(DAQ):
                 if ch.iepe:
                     chan.ai_excit_src = ExcitationSource.INTERNAL
                     chan.ai_excit_val = IEPE_CURRENT_A
+                elif module_spec(self.module).iepe_switchable:
+                    chan.ai_excit_src = ExcitationSource.NONE  # never the 2 mA by default
             buf = int(max(self.buffer_s * rate, 1000.0))
             task.timing.cfg_samp_clk_timing(rate, sample_mode=AcquisitionType.CONTINUOUS,
                                             samps_per_chan=buf)
             task.in_stream.input_buf_size = buf
             task.in_stream.overwrite = OverwriteMode.DO_NOT_OVERWRITE_UNREAD_SAMPLES
+            # Verify and reserve now: a bad channel, rate or a missing device fails here,
+            # not at start() with the generator already driving the shakers.
+            task.control(TaskMode.TASK_COMMIT)
             actual = float(task.timing.samp_clk_rate)
             self._reader = AnalogMultiChannelReader(task.in_stream)
         except nidaqmx.errors.DaqError as exc:
             self.close()
+            if getattr(exc, "error_code", None) in LOST_ERRORS:
+                self.lost = True
+                raise DeviceLost(f"{self.device} ({self.module}) lost (DAQmx {exc.error_code}): "
+                                 f"{exc}") from exc
             raise HardwareError(f"{self.device} ({self.module}): configuring the task failed: "
                                 f"{exc}") from exc
+        self.lost = False
         if abs(actual - rate) > 1e-6 * rate:
             log.warning("%s: asked for %g S/s, module runs at %g S/s", self.device, rate, actual)
         self._channels = list(channels)
@@ -227,14 +287,23 @@ class NIDAQ(DAQ):
         return self._samples_read
 
     def start(self) -> None:
+        """Start the task (configured again first if the device was lost); stamp
+        :attr:`started_at` with the host clock around ``task.start()``."""
+        if self._task is None and self.lost and self._channels:
+            log.warning("%s: device was lost; configuring a new task", self.device)
+            self.configure(self._channels, self._rate)
         if self._task is None:
             raise HardwareError(f"{self.device}: configure() before start()")
         errors = _nidaqmx().errors
         self._samples_read = 0
+        before = self.wall_clock()
         try:
             self._task.start()
         except errors.DaqError as exc:
-            raise HardwareError(f"{self.device}: starting acquisition failed: {exc}") from exc
+            raise self._lost_or(exc, HardwareError(f"{self.device}: starting acquisition "
+                                                   f"failed: {exc}")) from exc
+        after = self.wall_clock()
+        self.started_at, self.started_at_uncertainty_s = 0.5 * (before + after), after - before
         self._running = True
 
     def read(self, n_samples: int, out: np.ndarray | None = None) -> np.ndarray:
@@ -256,7 +325,7 @@ class NIDAQ(DAQ):
             got = self._reader.read_many_sample(out, number_of_samples_per_channel=n,
                                                 timeout=self.read_timeout_s)
         except errors.DaqError as exc:
-            raise self._read_error(exc) from exc
+            raise self._lost_or(exc, self._read_error(exc)) from exc
         if got != n:
             raise HardwareError(f"{self.device}: asked for {n} samples per channel, got {got}")
         self._samples_read += n
@@ -270,7 +339,8 @@ class NIDAQ(DAQ):
         try:
             self._task.stop()
         except errors.DaqError as exc:
-            raise HardwareError(f"{self.device}: stopping acquisition failed: {exc}") from exc
+            raise self._lost_or(exc, HardwareError(f"{self.device}: stopping acquisition "
+                                                   f"failed: {exc}")) from exc
 
     def close(self) -> None:
         """Stop, then release the task; errors on a dead device are logged, not raised."""
@@ -281,6 +351,8 @@ class NIDAQ(DAQ):
             self.stop()
         except HardwareError as exc:
             log.error("%s", exc)
+        if self._task is None:  # closed already: the device was lost
+            return
         self._task = None
         self._reader = None
         try:
@@ -289,6 +361,25 @@ class NIDAQ(DAQ):
             log.error("%s: closing the DAQmx task failed: %s", self.device, exc)
 
     # ---- helpers -------------------------------------------------------------------
+    def _lost_or(self, exc, other: HardwareError) -> HardwareError:
+        """:class:`DeviceLost` (task closed, configured again at the next start) for the
+        device-lost codes, else ``other``."""
+        if getattr(exc, "error_code", None) not in LOST_ERRORS:
+            return other
+        self._running, self.lost = False, True
+        task, self._task, self._reader = self._task, None, None
+        try:
+            if task is not None:
+                task.close()
+        except Exception as close_exc:  # the device is gone: closing may fail too
+            log.error("%s: closing the lost task failed: %s", self.device, close_exc)
+        err = DeviceLost(f"{self.device} ({self.module}) lost (DAQmx {exc.error_code}) after "
+                         f"{self._samples_read} samples: {exc}; the task is closed and will "
+                         "be configured again before the next start")
+        err.samples_read, err.error_code = self._samples_read, exc.error_code
+        err.partial_samples = int(getattr(exc, "samps_per_chan_read", 0) or 0)
+        return err
+
     def _read_error(self, exc) -> HardwareError:
         name = getattr(getattr(exc, "error_type", None), "name", "")
         partial = int(getattr(exc, "samps_per_chan_read", 0) or 0)

@@ -84,6 +84,10 @@ class MemoryGenerator(SignalGenerator):
             self._settings = GeneratorSettings(f, a, o, self._settings.output, shape)
             return self._settings
 
+    def set_amplitude(self, amplitude_vpp: float) -> GeneratorSettings:
+        s = self.read_settings()
+        return self._set(s.frequency_hz, amplitude_vpp, s.offset_v, s.shape)
+
     def set_output(self, on: bool) -> None:
         with self._lock:
             self._check_open()
@@ -140,6 +144,7 @@ class SimDAQ(DAQ):
         self._faulted = False
         self._count = 0
         self._t0 = time.monotonic()
+        self.started_at, self.started_at_uncertainty_s = time.time(), 0.0
 
     def inject_overrun(self, at_sample: int) -> None:
         """Fault injection: the read that reaches sample ``at_sample`` (counted from start) overruns."""
