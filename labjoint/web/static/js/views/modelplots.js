@@ -9,6 +9,7 @@ import { heatMap } from '../plot/heatmap.js';
 import { plotXY } from '../plot/plot.js';
 import { color } from '../plot/svg.js';
 import { fmt, nrmse, paramDisplay, pct } from '../units.js';
+import { onPage } from '../words.js';
 
 // NRMSE is shown in % everywhere on the page (the server's verdicts say % too).
 const P = (v) => (v == null || !Number.isFinite(v) ? null : 100 * v);
@@ -36,9 +37,9 @@ export function summary(fit, diag) {
   return h('div', {}, h('p', {}, h('strong', {}, fit?.model || diag?.model || ''), ' · NRMSE ',
     h('strong', { id: 'nrmse' }, nrmse(nr)), ' · noise floor ', nrmse(floor),
     floor ? ` (×${fmt(nr / floor, 3)})` : '', ' · ', verdict),
-  diag?.verdict ? h('p', { class: 'caption' }, diag.verdict) : null,
+  diag?.verdict ? h('p', { class: 'caption', id: 'verdict-text' }, onPage(diag.verdict)) : null,
   diag?.fit_runs ? h('p', { class: 'caption' }, `Fitted on ${diag.fit_runs.length} run(s), validated on `
-    + `${(diag.validation_runs || []).length}${diag.split ? ` (${diag.split})` : ''}.`) : null);
+    + `${(diag.validation_runs || []).length}${diag.split ? ` (${onPage(diag.split)})` : ''}.`) : null);
 }
 
 export function parameters(fit) {
@@ -159,7 +160,7 @@ export function residualMaps(maps, failures, kind) {
       values: P1(maps.by_quadrant.nrmse), ylabel: 'NRMSE part (%)', format: fmtP(2),
     })));
   }
-  const fails = (failures || []).map((f) => h('li', {}, h('strong', {}, f.where), ': ', f.text));
+  const fails = (failures || []).map((f) => h('li', {}, h('strong', {}, f.where), ': ', onPage(f.text)));
   if (!parts.length && !fails.length) return h('p', { class: 'note' }, 'The diagnosis carries no residual maps.');
   return h('div', {}, fails.length ? h('ul', { class: 'failures', id: 'failures' }, fails) : null,
     h('div', { class: 'grid2' }, parts));

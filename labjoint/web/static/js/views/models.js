@@ -8,6 +8,7 @@ import { h, note, section } from '../dom.js';
 import { when } from '../units.js';
 import { selectedRuns, setSelectedRuns } from './runs.js';
 import * as draw from './modelplots.js';
+import { onPage } from '../words.js';
 
 // Kept while the tab lives, so leaving the view and coming back shows the same work.
 const state = { model: 'linear_stiffness+viscous', fit: null, diag: null, ladder: [], noiseFloor: null, busy: false };
@@ -37,7 +38,7 @@ function savedView(list, runs, onUse) {
     class: 'saved-ladder', 'data-key': l.key },
   h('h3', {}, `${l.start} → ${l.final_model}`),
   h('p', { class: 'caption' }, `${l.exact ? 'These runs' : `${l.runs.length} run(s): ${l.runs.join(', ')}`} · `
-    + `${l.adequate ? 'adequate' : 'not adequate'}${l.stop_reason ? ` (${l.stop_reason})` : ''} · saved ${when(l.saved_at)}`),
+    + `${l.adequate ? 'adequate' : 'not adequate'}${l.stop_reason ? ` (${onPage(l.stop_reason)})` : ''} · saved ${when(l.saved_at)}`),
   ladderChart(l, i),
   h('button', { type: 'button', class: 'small secondary use-ladder', onclick: () => onUse(l) },
     'Continue from this ladder'))));
@@ -178,7 +179,7 @@ export async function show(el) {
       await fn((job) => note(msg, `${label}… ${Math.round(100 * (job.progress || 0))} % ${job.message || ''}`, 'busy'));
       note(msg, '');
     } catch (err) {
-      note(msg, err.message, 'error');
+      note(msg, onPage(err.message), 'error');
     } finally {
       state.busy = false;
       state.render();

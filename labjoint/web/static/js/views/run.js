@@ -7,6 +7,7 @@ import { plotXY } from '../plot/plot.js';
 import { display, fmt, pct, when } from '../units.js';
 import { lastCycles, loopPlot, steadyLoops } from './loops.js';
 import { identificationTable } from './table2.js';
+import { onPage } from '../words.js';
 
 const SCREEN_POINTS = 1500;
 
@@ -134,7 +135,7 @@ function identifySection(name) {
       render({ row, method, finished: new Date().toISOString() });
       note(msg, '');
     } catch (err) {
-      note(msg, err.message, 'error');
+      note(msg, onPage(err.message), 'error');
     }
   }
   const bothBtn = h('button', { id: 'identify-both', onclick: () => start('both') }, 'Identify: both methods');
