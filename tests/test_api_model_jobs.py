@@ -99,3 +99,27 @@ def test_a_running_job_stops_at_its_next_progress_call(tmp_path):
         assert runner.wait(job.id, timeout=10).status == "cancelled"
     finally:
         runner.shutdown()
+
+
+def test_a_diagnosis_reports_progress_that_moves(http):
+    """Issue 17 item 10: the job's progress grows while it works (it stayed at 0 until
+    the end), never goes back, and is 1 when it is complete."""
+    r = http.post("/models/diagnose", json={"runs": ["lin_0", "lin_1", "lin_2", "lin_3"],
+                                            "model": "linear_stiffness",
+                                            "options": {"warm": False, "n_jobs": 1,
+                                                        "candidates": ["viscous", "coulomb",
+                                                                       "cubic_stiffness"]}})
+    assert r.status_code == 202, r.text
+    jid, seen = r.json()["id"], []
+
+    def poll() -> dict:
+        j = http.get(f"/models/jobs/{jid}").json()
+        seen.append((j["status"], j["progress"], j["message"]))
+        return j
+    job = wait_for(poll, lambda j: j["status"] not in ("queued", "running"), timeout=180,
+                   poll=0.01)
+    assert job["status"] == "complete", job["error"]
+    running = [p for s, p, _ in seen if s == "running"]
+    assert any(0 < p < 1 for p in running), seen[-5:]
+    assert running == sorted(running)
+    assert job["progress"] == 1.0

@@ -52,6 +52,18 @@ def test_pages_cover_every_run_once_in_order(served):
     assert names == [f"sweep_{i:02d}" for i in reversed(range(len(VPPS)))]
 
 
+def test_search_by_part_of_the_name_and_total_over_every_page(served):
+    """The run pickers page through a big catalog: a name search (case-insensitive,
+    wildcards taken literally) and the count of every match."""
+    http, _, _ = served
+    page = http.get("/runs", params={"search": "EEP_0", "limit": 2, "vpp_min": 3}).json()
+    assert page["total"] == 4 and len(page["items"]) == 2 and page["next_offset"] == 2
+    assert all("sweep_0" in r["name"] for r in page["items"])
+    assert http.get("/runs", params={"search": "sweep_03"}).json()["total"] == 1
+    assert http.get("/runs", params={"search": "%"}).json()["total"] == 0   # no wildcard
+    assert http.get("/runs", params={"search": "_0"}).json()["total"] == len(VPPS)
+
+
 def test_run_metadata_and_errors(served):
     http, _, _ = served
     r = http.get("/runs/sweep_02").json()

@@ -27,6 +27,10 @@ def test_missing_viscous_ranks_first_and_brings_the_model_to_the_noise_floor(vis
     assert "quadrature" in best.evidence and "%" in best.evidence
     assert best.explanation.startswith("Rate-dependent loss")
     assert d.verdict.startswith("add viscous")
+    # amplitudes in the words the page shows are written in µm, never "um"
+    import re
+    words = json.dumps(d.to_dict(), ensure_ascii=False)
+    assert "µm" in words and not re.search(r"\d um\b", words)
     # judged on the held-out highest frequency, as the split rule says
     assert all("800Hz" in n for n in d.validation_runs)
 
@@ -42,7 +46,21 @@ def test_true_model_is_adequate_and_nothing_is_significant(viscous_runs):
 def test_structure_no_candidate_explains_is_said_so(viscous_runs):
     d = diagnose_report(viscous_runs, "linear_stiffness", candidates="offset,inertia", n_jobs=1)
     assert not d.adequate and d.best is None
-    assert "structure remains that no known effect explains" in d.verdict
+    # only two of the registered candidates were tried: no claim about the others
+    assert "not among the 2 tried (offset, inertia;" in d.verdict
+    assert "no known effect" not in d.verdict
+
+
+def test_no_known_effect_is_claimed_only_after_every_applicable_candidate():
+    from labjoint.compare.candidates import candidate_effects
+    from labjoint.compare.diagnosis import unexplained
+    from labjoint.models import Model
+    m = Model.parse("linear_stiffness+coulomb")
+    every = candidate_effects(m)[0]
+    assert "wear" in every                        # a modifier applies beside coulomb
+    assert unexplained(m, every) == "structure remains that no known effect explains"
+    some = unexplained(m, every[:-1])
+    assert f"not among the {len(every) - 1} tried" in some and "1 registered effects not tried" in some
 
 
 def test_delay_and_viscous_tie_at_one_frequency_and_separate_at_several():

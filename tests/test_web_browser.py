@@ -243,10 +243,11 @@ def test_models_page_shows_a_saved_ladder_without_recomputing(web):
              lambda t: t and t[0].startswith("These runs"), timeout=20)   # saved on exactly these
     sel = f"{card} svg[data-plot^=saved-ladder-]"
     values = wait_attr(page, sel, "data-values", lambda v: v != "", 20).split(",")
-    assert [float(v) for v in values] == pytest.approx([st["nrmse"] for st in steps], rel=1e-9)
+    # NRMSE in % on the page
+    assert [float(v) for v in values] == pytest.approx([100 * st["nrmse"] for st in steps], rel=1e-9)
     label = page.locator(sel).locator("text.hline-label").text_content()   # the floor drawn
-    assert label.startswith("noise floor")
-    assert float(label.split()[-1]) == pytest.approx(job["result"]["noise_floor"], rel=5e-3)
+    assert label.startswith("noise floor") and label.endswith(" %")
+    assert float(label.split()[-2]) == pytest.approx(100 * job["result"]["noise_floor"], rel=5e-3)
     page.locator(f"{card} button.use-ladder").click()
     main = wait_attr(page, "svg[data-plot=ladder]", "data-values", lambda v: v != "", 10)
     assert main == ",".join(values)

@@ -83,3 +83,23 @@ def test_every_module_import_resolves_to_a_shipped_file():
         for spec in IMPORT.findall(m.read_text()):
             assert spec.startswith("."), f"{m.name} imports a bare specifier {spec!r}"
             assert (m.parent / spec).resolve().is_file(), f"{m.name}: {spec} is missing"
+
+
+def test_scripts_styles_and_json_are_gzipped_for_clients_that_accept_it(client):
+    """Issue 17 item 12: compressed when asked (and much smaller), identical once
+    decoded, plain for a client that does not accept gzip."""
+    import gzip
+    for path, kind in (("/static/js/views/models.js", "text/javascript"),
+                       ("/static/css/app.css", "text/css"), ("/", "text/html"),
+                       ("/web/effects.json", "application/json"),
+                       ("/openapi.json", "application/json")):
+        plain = client.get(path, headers={"Accept-Encoding": "identity"})
+        assert plain.status_code == 200 and "content-encoding" not in plain.headers, path
+        raw = client.stream("GET", path, headers={"Accept-Encoding": "gzip"})
+        with raw as r:
+            body = b"".join(r.iter_raw())          # the bytes on the wire
+            assert r.headers.get("content-encoding") == "gzip", path
+            assert r.headers["content-type"].startswith(kind), path
+            assert "Accept-Encoding" in r.headers.get("vary", ""), path
+        assert gzip.decompress(body) == plain.content, path
+        assert len(body) < 0.6 * len(plain.content), (path, len(body), len(plain.content))

@@ -182,6 +182,7 @@ class RunList(BaseModel):
     limit: int
     offset: int
     next_offset: int | None = Field(description="offset of the next page, null on the last")
+    total: int = Field(description="runs matching the filters, over every page")
 
 
 class ChannelInfo(BaseModel):

@@ -29,7 +29,7 @@ def pct_text(x: float) -> str:
 
 
 def _um(x: float) -> str:
-    return f"{x * 1e6:.3g} um"
+    return f"{x * 1e6:.3g} µm"
 
 
 def _nanmean(x: np.ndarray) -> float:
@@ -74,7 +74,7 @@ def _groups(curves: PhysicsCurves, err: np.ndarray) -> list[tuple[np.ndarray, np
     if order.size >= 2:
         thirds = [p for p in np.array_split(order, min(3, order.size)) if p.size]
         out.append((np.array([_nanmean(err[p]) for p in thirds]),
-                    np.array([np.median(U[p]) * 1e6 for p in thirds]), "amplitude", "um"))
+                    np.array([np.median(U[p]) * 1e6 for p in thirds]), "amplitude", "µm"))
     return out
 
 

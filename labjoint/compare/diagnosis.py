@@ -19,7 +19,8 @@
    runs (and within the factor overall), no candidate is fitted: on data it was not
    fitted on, nothing can do better than the noise, so the model is adequate and the
    diagnosis says so at the cost of one fit. Otherwise the verdict names the best significant candidate, or says that
-   structure remains that no known effect explains.
+   structure remains that no known effect explains (only when every registered candidate
+   that applies was tried; else that the missing effect is not among the N tried).
 """
 
 from __future__ import annotations
@@ -45,6 +46,24 @@ from labjoint.models.effects import get_effect
 
 DEFAULT_FACTOR = 1.5
 CONTENDER_RATIO = 1.5
+
+
+def unexplained(model: Model, tried: Sequence[str]) -> str:
+    """What a diagnosis that found no significant candidate may claim: that no known
+    effect explains the residual only once every registered candidate that applies to
+    ``model`` was tried; otherwise only that the missing effect is not among those tried.
+
+    >>> m = Model.parse("linear_stiffness")
+    >>> unexplained(m, ["offset", "inertia"])
+    'structure remains: the missing effect is not among the 2 tried (offset, inertia; 9 registered effects not tried)'
+    >>> unexplained(m, candidate_effects(m)[0])
+    'structure remains that no known effect explains'
+    """
+    missing = [n for n in candidate_effects(model)[0] if n not in set(tried)]
+    if not missing:
+        return "structure remains that no known effect explains"
+    return (f"structure remains: the missing effect is not among the {len(tried)} tried "
+            f"({', '.join(tried) or 'none'}; {len(missing)} registered effects not tried)")
 
 
 @dataclass(frozen=True)
@@ -334,9 +353,8 @@ def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
         verdict = (f"add {best.effect}: validation NRMSE {100 * ev.nrmse(val_names):.3g} % -> "
                    f"{100 * best.nrmse_after_validation:.3g} %{tie}")
     else:
-        verdict = (f"structure remains that no known effect explains: NRMSE "
-                   f"{100 * ev.nrmse():.3g} % is {ratio:.3g}x the noise floor and no candidate "
-                   "improves it significantly")
+        verdict = (f"{unexplained(model, names)}: NRMSE {100 * ev.nrmse():.3g} % is "
+                   f"{ratio:.3g}x the noise floor and no candidate improves it significantly")
     t3 = time.perf_counter()
     return Diagnosis(model, base_fit, ev, noise, floor_val, fit_names, val_names, rule, maps,
                      curves, found, cands, skipped, adequate, verdict, settings,

@@ -75,7 +75,7 @@ def added_force_character(base: Evaluation, cand: Evaluation) -> str:
         extra.append(f"even harmonics: {100 * even:.0f} %")
     if 0.05 < const <= 0.5:
         extra.append(f"constant: {100 * const:.0f} %")
-    where = f"{run.frequency_hz:g} Hz, {run.amplitude_m * 1e6:.3g} um"
+    where = f"{run.frequency_hz:g} Hz, {run.amplitude_m * 1e6:.3g} µm"
     return f"added force is {kind}" + (f" ({', '.join(extra)} of its power)" if extra else "") \
         + f" [largest at {where}]"
 
@@ -97,7 +97,7 @@ def trend(base: Evaluation, cand: Evaluation) -> str:
             if part.size:
                 groups.append((f"{np.median([runs[i].amplitude_m for i in part]) * 1e6:.3g}",
                                [runs[i].name for i in part]))
-        label, unit = "amplitude", "um"
+        label, unit = "amplitude", "µm"
     before = "/".join(_p(base.nrmse(g)) for _, g in groups)
     after = "/".join(_p(cand.nrmse(g)) for _, g in groups)
     keys = "/".join(k for k, _ in groups)

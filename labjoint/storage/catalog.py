@@ -217,16 +217,52 @@ class Catalog:
               frequency_hz: Any = None, normal_force_n: Any = None, sample_rate_hz: Any = None,
               n_samples: Any = None, plan_step: Any = None, status: Any = None,
               plan: Any = None, source: Any = None, name: Any = None,
-              since: Any = None, until: Any = None, limit: int | None = None,
-              offset: int = 0, order: str = "start_time") -> list[RunRecord]:
+              since: Any = None, until: Any = None, search: str | None = None,
+              limit: int | None = None, offset: int = 0,
+              order: str = "start_time") -> list[RunRecord]:
         """Runs matching every filter given, in one SQL query.
 
         Numeric filters take a value (matched to 1e-9 relative) or an inclusive range
         ``(lo, hi)`` with None for an open end; ``vpp`` is ``excitation_vpp``. Text
-        filters take a value or a list of values. ``since``/``until`` bound the start
-        time (ISO 8601, datetime or epoch seconds). ``order`` is a column name, with a
-        leading "-" for descending.
+        filters take a value or a list of values; ``search`` is a case-insensitive part
+        of the name. ``since``/``until`` bound the start time (ISO 8601, datetime or
+        epoch seconds). ``order`` is a column name, with a leading "-" for descending.
         """
+        where, args = self._where(torque_nm=torque_nm, vpp=vpp, excitation_vpp=excitation_vpp,
+                                  frequency_hz=frequency_hz, normal_force_n=normal_force_n,
+                                  sample_rate_hz=sample_rate_hz, n_samples=n_samples,
+                                  plan_step=plan_step, status=status, plan=plan, source=source,
+                                  name=name, since=since, until=until, search=search)
+        sql = "SELECT * FROM runs" + (" WHERE " + " AND ".join(where) if where else "")
+        desc = order.startswith("-")
+        col = order.lstrip("-")
+        if col not in _COLUMNS or col == "extra":
+            raise InputError(f"cannot order by {order!r}; columns: {list(_COLUMNS)[:-1]}", field="order")
+        sql += f" ORDER BY {col} {'DESC' if desc else 'ASC'}, name ASC"
+        if limit is not None:
+            if int(limit) < 0 or int(offset) < 0:
+                raise InputError("limit and offset must be >= 0", field="limit")
+            sql += " LIMIT ? OFFSET ?"
+            args += [int(limit), int(offset)]
+        elif offset:
+            sql += " LIMIT -1 OFFSET ?"
+            args.append(int(offset))
+        return self._select(sql, args)
+
+    def count(self, **filters: Any) -> int:
+        """How many runs match ``filters`` (those of :meth:`query`)."""
+        where, args = self._where(**filters)
+        sql = "SELECT COUNT(*) FROM runs" + (" WHERE " + " AND ".join(where) if where else "")
+        with closing(self._connect()) as con:
+            return int(con.execute(sql, args).fetchone()[0])
+
+    @staticmethod
+    def _where(*, torque_nm: Any = None, vpp: Any = None, excitation_vpp: Any = None,
+               frequency_hz: Any = None, normal_force_n: Any = None, sample_rate_hz: Any = None,
+               n_samples: Any = None, plan_step: Any = None, status: Any = None,
+               plan: Any = None, source: Any = None, name: Any = None, since: Any = None,
+               until: Any = None, search: str | None = None) -> tuple[list[str], list[Any]]:
+        """The WHERE terms and their arguments of :meth:`query`'s filters."""
         if vpp is not None and excitation_vpp is not None:
             raise InputError("give vpp or excitation_vpp, not both", field="vpp")
         where: list[str] = []
@@ -249,21 +285,11 @@ class Catalog:
         if until is not None:
             where.append("start_ts <= ?")
             args.append(_timestamp(until, field="until"))
-        sql = "SELECT * FROM runs" + (" WHERE " + " AND ".join(where) if where else "")
-        desc = order.startswith("-")
-        col = order.lstrip("-")
-        if col not in _COLUMNS or col == "extra":
-            raise InputError(f"cannot order by {order!r}; columns: {list(_COLUMNS)[:-1]}", field="order")
-        sql += f" ORDER BY {col} {'DESC' if desc else 'ASC'}, name ASC"
-        if limit is not None:
-            if int(limit) < 0 or int(offset) < 0:
-                raise InputError("limit and offset must be >= 0", field="limit")
-            sql += " LIMIT ? OFFSET ?"
-            args += [int(limit), int(offset)]
-        elif offset:
-            sql += " LIMIT -1 OFFSET ?"
-            args.append(int(offset))
-        return self._select(sql, args)
+        if search:
+            pattern = str(search).replace("\\", "\\\\").replace("%", "\\%").replace("_", "\\_")
+            where.append("name LIKE ? ESCAPE '\\'")       # LIKE ignores ASCII case
+            args.append(f"%{pattern}%")
+        return where, args
 
     def __len__(self) -> int:
         with closing(self._connect()) as con:

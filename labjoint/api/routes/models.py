@@ -22,6 +22,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 import labjoint.compare as compare
 from labjoint.api.auth import require_control, require_read, token_label
 from labjoint.api.errors import errors_doc
+from labjoint.api.progress import ModelProgress
 from labjoint.api.routes.analyses import cancel_job, get_job, job_page, runner
 from labjoint.api.schemas import JOB_ID, Job, JobList, ModelRequest, RunName
 from labjoint.compare.api import settings_from
@@ -135,9 +136,11 @@ def _submit(request: Request, operation: str, body: ModelRequest, scope: str) ->
     if simulation:
         check_simulable(parsed)
     cands = options.get("candidates")
+    only = None
     if cands is not None:
         try:
-            candidate_effects(parsed, settings_from({"candidates": cands}).candidates)
+            only = settings_from({"candidates": cands}).candidates
+            candidate_effects(parsed, only)
         except InputError as exc:
             raise InputError(exc.message, field="options.candidates") from None
     if options.get("validate"):      # names -> files inside the data directory
@@ -145,16 +148,19 @@ def _submit(request: Request, operation: str, body: ModelRequest, scope: str) ->
     req = {"operation": operation, "runs": names, "model": model,
            "max_steps": body.max_steps, "options": body.options}
 
+    tracker = ModelProgress(operation, model, only, body.max_steps)
+
     def work(r: dict[str, Any], progress: Callable[[float, str], None]) -> dict[str, Any]:
         progress(0.0, f"{operation} {model}")
         kw = dict(options)
         if simulation:
             return simulation_job(operation, [str(p) for p in paths], model, kw,
                                   max_steps=r["max_steps"],
-                                  progress=lambda message: progress(0.0, str(message)))
+                                  progress=lambda message: progress(tracker.update(message),
+                                                                    str(message)))
         kw.pop("error", None)
         kw.pop("periodic", None)
-        kw["progress"] = lambda message: progress(0.0, str(message))
+        kw["progress"] = lambda message: progress(tracker.update(message), str(message))
         if operation == "ladder":
             kw["max_steps"] = r["max_steps"]
         fn = getattr(compare, operation)

@@ -61,18 +61,22 @@ def list_runs(
                               description="started at or after (ISO 8601; naive = UTC)"),
     until: str | None = Query(None, pattern=ISO_TIME,
                               description="started at or before (ISO 8601; naive = UTC)"),
+    search: str | None = Query(None, max_length=100,
+                               description="part of the run name (case-insensitive)"),
     order: Literal[ORDERS] = Query("start_time"),  # type: ignore[valid-type]
     limit: int = Query(100, ge=1, le=1000),
     offset: int = Query(0, ge=0, le=MAX_OFFSET),
 ) -> dict[str, Any]:
-    """Runs matching every filter given, one page at a time (``next_offset`` pages on)."""
+    """Runs matching every filter given, one page at a time (``next_offset`` pages on;
+    ``total`` counts every match)."""
     vpp = None if vpp_min is None and vpp_max is None else (vpp_min, vpp_max)
-    recs = resolver(request).catalog.query(
-        torque_nm=torque_nm, vpp=vpp, frequency_hz=frequency_hz, status=status, plan=plan,
-        since=since, until=until, order=order, limit=limit + 1, offset=offset)
+    filters = dict(torque_nm=torque_nm, vpp=vpp, frequency_hz=frequency_hz, status=status,
+                   plan=plan, since=since, until=until, search=search)
+    catalog = resolver(request).catalog
+    recs = catalog.query(**filters, order=order, limit=limit + 1, offset=offset)
     more = len(recs) > limit
     return {"items": [summary(r) for r in recs[:limit]], "limit": limit, "offset": offset,
-            "next_offset": offset + limit if more else None}
+            "next_offset": offset + limit if more else None, "total": catalog.count(**filters)}
 
 
 @router.get("/{name}", response_model=RunSummary, responses=errors_doc(), summary="Run metadata")

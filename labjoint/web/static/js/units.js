@@ -1,4 +1,4 @@
-// Units at the display edge: SI inside, um / N / mJ / MN/m / Ns/m on the screen.
+// Units at the display edge: SI inside, µm / N / mJ / MN/m / Ns/m on the screen.
 
 const DISPLAY = {
   m: { unit: 'µm', k: 1e6 },
@@ -37,6 +37,11 @@ export function fmt(v, digits = 4) {
 
 export function pct(v) {
   return v == null || !Number.isFinite(v) ? '–' : `${v.toFixed(1)} %`;
+}
+
+// An NRMSE (a fraction inside) as the page shows every NRMSE: in %.
+export function nrmse(v, digits = 3) {
+  return v == null || !Number.isFinite(v) ? '–' : `${fmt(100 * v, digits)} %`;
 }
 
 export function when(iso) {

@@ -19,11 +19,20 @@ export function colormap(t) {
 
 const label = (v) => (typeof v === 'number' ? fmtTick(v) : String(v));
 
+// Width of a tick label's character at the plots' 11 px font (generous: digits and dashes).
+const CHAR_PX = 6.6;
+const SLANT = 40;   // degrees the column labels turn when they would not fit side by side
+
 export function heatMap(o) {
   const W = o.width || 640;
-  const H = o.height || 320;
-  const f = { x0: 80, x1: W - 90, y0: o.title ? 30 : 12, y1: H - 46 };
   const xs = o.x || [];
+  // column labels side by side when each fits its cell, else slanted (room made below)
+  const cell = (W - 170) / Math.max(xs.length, 1);
+  const widest = Math.max(0, ...xs.map((v) => label(v).length * CHAR_PX));
+  const slant = widest > cell - 6;
+  const drop = slant ? Math.ceil(widest * Math.sin(SLANT * Math.PI / 180)) + 4 : 0;
+  const H = (o.height || 320) + drop;
+  const f = { x0: 80, x1: W - 90, y0: o.title ? 30 : 12, y1: H - 46 - drop };
   const ys = o.y || [];
   const z = o.z || [];
   const flat = z.flat().filter((v) => v != null && Number.isFinite(v));
@@ -50,12 +59,16 @@ export function heatMap(o) {
       cells += 1;
     });
   });
-  xs.forEach((xv, i) => root.append(s('text', { x: f.x0 + (i + 0.5) * cw, y: f.y1 + 16, class: 'tick',
-    'text-anchor': 'middle' }, label(xv))));
+  xs.forEach((xv, i) => {
+    const x = f.x0 + (i + 0.5) * cw;
+    root.append(s('text', slant
+      ? { x, y: f.y1 + 14, class: 'tick col-label', 'text-anchor': 'end', transform: `rotate(-${SLANT} ${x} ${f.y1 + 14})` }
+      : { x, y: f.y1 + 16, class: 'tick col-label', 'text-anchor': 'middle' }, label(xv)));
+  });
   ys.forEach((yv, j) => root.append(s('text', { x: f.x0 - 6, y: f.y1 - (j + 0.5) * ch + 4, class: 'tick',
     'text-anchor': 'end' }, label(yv))));
   root.append(s('rect', { x: f.x0, y: f.y0, width: f.x1 - f.x0, height: f.y1 - f.y0, class: 'plot-border' }));
-  root.append(s('text', { x: (f.x0 + f.x1) / 2, y: f.y1 + 36, class: 'axis-label', 'text-anchor': 'middle' }, o.xlabel || ''));
+  root.append(s('text', { x: (f.x0 + f.x1) / 2, y: f.y1 + 36 + drop, class: 'axis-label', 'text-anchor': 'middle' }, o.xlabel || ''));
   const cy = (f.y0 + f.y1) / 2;
   root.append(s('text', { x: 14, y: cy, class: 'axis-label', 'text-anchor': 'middle',
     transform: `rotate(-90 14 ${cy})` }, o.ylabel || ''));

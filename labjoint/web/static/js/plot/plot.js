@@ -36,6 +36,18 @@ function pathOf(sr, xa, ya, xlog, ylog) {
   return [d, n];
 }
 
+// Screen positions of a series' points that fall inside the frame (what the eye sees).
+function inside(sr, xa, ya, f, xlog, ylog) {
+  const pts = [];
+  for (let i = 0; i < sr.x.length; i += 1) {
+    if (!ok(sr.x[i], xlog) || !ok(sr.y[i], ylog)) continue;
+    const px = xa.map(sr.x[i]);
+    const py = ya.map(sr.y[i]);
+    if (px >= f.x0 - 0.5 && px <= f.x1 + 0.5 && py >= f.y0 - 0.5 && py <= f.y1 + 0.5) pts.push([px, py]);
+  }
+  return pts;
+}
+
 export function plotXY(o) {
   const W = o.width || 640;
   const H = o.height || 320;
@@ -58,16 +70,21 @@ export function plotXY(o) {
   const body = s('g', { 'clip-path': `url(#${clip})` });
   root.append(body);
   let total = 0;
+  const screen = [];   // every point drawn inside the frame, to keep the legend off them
   for (const sr of series) {
     const attrs = { stroke: sr.color, 'stroke-opacity': sr.opacity ?? 1 };
+    const seen = inside(sr, xa, ya, f, o.xlog, o.ylog);
+    sr.drawn = seen.length;
+    for (const p of seen) screen.push(p);
     if (sr.mode === 'line' || sr.mode === 'both') {
       const [d, n] = pathOf(sr, xa, ya, o.xlog, o.ylog);
       total += n;
       body.append(s('path', { ...attrs, d, class: 'series', 'stroke-width': sr.width || 1.5,
-        'stroke-dasharray': sr.dash || null, 'data-name': sr.name || '' }));
+        'stroke-dasharray': sr.dash || null, 'data-name': sr.name || '', 'data-drawn': sr.drawn }));
     }
     if (sr.mode === 'points' || sr.mode === 'both') {
-      const g = s('g', { fill: sr.color, 'fill-opacity': sr.opacity ?? 1, 'data-name': sr.name || '' });
+      const g = s('g', { fill: sr.color, 'fill-opacity': sr.opacity ?? 1, 'data-name': sr.name || '',
+        'data-drawn': sr.drawn });
       let n = 0;
       for (let i = 0; i < sr.x.length; i += 1) {
         if (!ok(sr.x[i], o.xlog) || !ok(sr.y[i], o.ylog)) continue;
@@ -84,7 +101,8 @@ export function plotXY(o) {
     body.append(s('line', { x1: f.x0, x2: f.x1, y1: y, y2: y, class: 'hline', stroke: l.color || '#555' }));
     body.append(s('text', { x: f.x1 - 4, y: y - 4, class: 'hline-label', 'text-anchor': 'end' }, l.label || ''));
   }
-  legend(root, series.filter((sr) => sr.legend && sr.name), f, o.legendAt);
+  // the legend names only what is drawn (a model at zero has no place on a log axis)
+  legend(root, series.filter((sr) => sr.legend && sr.name && sr.drawn > 0), f, o.legendAt, screen);
   if (!total) {
     root.append(s('text', { x: (f.x0 + f.x1) / 2, y: (f.y0 + f.y1) / 2, class: 'empty',
       'text-anchor': 'middle' }, o.empty || 'no data'));
@@ -97,14 +115,37 @@ export function plotXY(o) {
   return root;
 }
 
-// Legend box in a corner of the frame: at = 'tr' (default), 'tl', 'br' or 'bl'.
-export function legend(root, items, f, at = 'tr') {
+// Where a w x hgt box sits in corner `at` of frame f.
+function corner(at, f, w, hgt) {
+  return [at[1] === 'l' ? f.x0 + 6 : f.x1 - w - 6, at[0] === 'b' ? f.y1 - hgt - 6 : f.y0 + 6];
+}
+
+// The corner (tr, tl, br, bl) whose box covers the fewest of the drawn points `pts`.
+export function freeCorner(f, w, hgt, pts, prefer = ['tr', 'tl', 'br', 'bl']) {
+  const pad = 3;
+  let best = prefer[0];
+  let fewest = Infinity;
+  for (const at of prefer) {
+    const [x0, y0] = corner(at, f, w, hgt);
+    let n = 0;
+    for (const [x, y] of pts) {
+      if (x >= x0 - pad && x <= x0 + w + pad && y >= y0 - pad && y <= y0 + hgt + pad) n += 1;
+    }
+    if (n < fewest) { fewest = n; best = at; }
+  }
+  return best;
+}
+
+// Legend box in a corner of the frame: at = 'auto' (default: the corner over the fewest
+// of the drawn points `pts`), 'tr', 'tl', 'br' or 'bl'.
+export function legend(root, items, f, at = 'auto', pts = []) {
   if (!items.length) return;
   const g = s('g', { class: 'legend' });
   const w = Math.min(260, 26 + 6.5 * Math.max(...items.map((i) => i.name.length)));
   const hgt = 8 + 16 * items.length;
-  const x0 = at[1] === 'l' ? f.x0 + 6 : f.x1 - w - 6;
-  const y0 = at[0] === 'b' ? f.y1 - hgt - 6 : f.y0 + 6;
+  const where = !at || at === 'auto' ? freeCorner(f, w, hgt, pts) : at;
+  const [x0, y0] = corner(where, f, w, hgt);
+  g.dataset.corner = where;
   g.append(s('rect', { x: x0, y: y0, width: w, height: hgt, class: 'legend-bg' }));
   items.forEach((it, i) => {
     const y = y0 + 12 + 16 * i;

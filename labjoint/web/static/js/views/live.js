@@ -60,7 +60,7 @@ function rigTable(rig) {
   ], { class: 'kv', id: 'rig-state' });
 }
 
-function jobView(job, onTorque, onResume) {
+function jobView(job, onTorque, onResume, onCancel) {
   if (!job) return h('p', { class: 'note' }, 'No plan yet.');
   const pc = Math.round(100 * (job.progress || 0));
   const bar = h('div');
@@ -76,7 +76,8 @@ function jobView(job, onTorque, onResume) {
   }
   if (job.status === 'held') {
     parts.push(h('p', { class: 'note busy' }, 'Held by an emergency stop: it starts only when you resume it. ',
-      h('button', { class: 'small', id: 'plan-resume', onclick: () => onResume(job.id) }, 'Resume')));
+      h('button', { class: 'small', id: 'plan-resume', onclick: () => onResume(job.id) }, 'Resume'), ' ',
+      h('button', { class: 'small secondary', id: 'plan-cancel', onclick: () => onCancel(job.id) }, 'Cancel')));
   }
   if (job.error) parts.push(h('p', { class: 'note error' }, job.error));
   if (job.runs && job.runs.length) {
@@ -112,6 +113,14 @@ export async function show(el) {
     try {
       needToken();
       await api(`/plans/${id}/resume`, { method: 'POST' });
+    } catch (err) {
+      note(msg, err.message, 'error');
+    }
+  }
+  async function onCancel(id) {
+    try {
+      needToken();
+      await api(`/plans/${id}/cancel`, { method: 'POST' });
     } catch (err) {
       note(msg, err.message, 'error');
     }
@@ -156,7 +165,7 @@ export async function show(el) {
       rigBox.replaceChildren(rigTable(rig));
       if (rig.mode !== 'none') {
         const job = d.job ? await api(`/plans/${d.job}`) : (await api('/plans', { query: { limit: 1 } })).items[0];
-        jobBox.replaceChildren(jobView(job, onTorque, onResume));
+        jobBox.replaceChildren(jobView(job, onTorque, onResume, onCancel));
       } else {
         jobBox.replaceChildren(h('p', { class: 'note' }, 'This service runs without a daemon: nothing to watch.'));
       }

@@ -8,7 +8,13 @@ import { barChart } from '../plot/bars.js';
 import { heatMap } from '../plot/heatmap.js';
 import { plotXY } from '../plot/plot.js';
 import { color } from '../plot/svg.js';
-import { fmt, paramDisplay, pct } from '../units.js';
+import { fmt, nrmse, paramDisplay, pct } from '../units.js';
+import { onPage } from '../words.js';
+
+// NRMSE is shown in % everywhere on the page (the server's verdicts say % too).
+const P = (v) => (v == null || !Number.isFinite(v) ? null : 100 * v);
+const P1 = (xs) => (xs || []).map(P);
+const fmtP = (d) => (v) => `${fmt(v, d)} %`;
 
 const scale = (xs, k) => (xs || []).map((v) => (v == null ? null : v * k));
 
@@ -29,11 +35,11 @@ export function summary(fit, diag) {
   const verdict = diag ? h('span', { class: `verdict ${diag.adequate ? 'good' : 'bad'}`, id: 'verdict' },
     diag.adequate ? 'adequate' : 'not adequate') : null;
   return h('div', {}, h('p', {}, h('strong', {}, fit?.model || diag?.model || ''), ' · NRMSE ',
-    h('strong', { id: 'nrmse' }, fmt(nr, 3)), ' · noise floor ', fmt(floor, 3),
+    h('strong', { id: 'nrmse' }, nrmse(nr)), ' · noise floor ', nrmse(floor),
     floor ? ` (×${fmt(nr / floor, 3)})` : '', ' · ', verdict),
-  diag?.verdict ? h('p', { class: 'caption' }, diag.verdict) : null,
+  diag?.verdict ? h('p', { class: 'caption', id: 'verdict-text' }, onPage(diag.verdict)) : null,
   diag?.fit_runs ? h('p', { class: 'caption' }, `Fitted on ${diag.fit_runs.length} run(s), validated on `
-    + `${(diag.validation_runs || []).length}${diag.split ? ` (${diag.split})` : ''}.`) : null);
+    + `${(diag.validation_runs || []).length}${diag.split ? ` (${onPage(diag.split)})` : ''}.`) : null);
 }
 
 export function parameters(fit) {
@@ -46,7 +52,7 @@ export function parameters(fit) {
 }
 
 export function perRun(fit) {
-  const rows = (fit.runs || []).map((r) => [r.run, fmt(r.nrmse, 3), pct(r.energy_loss_error_pct),
+  const rows = (fit.runs || []).map((r) => [r.run, nrmse(r.nrmse), pct(r.energy_loss_error_pct),
     pct(r.stiffness_error_pct)]);
   return table(['Run', 'NRMSE', 'Energy-loss error', 'Stiffness error'], rows, { class: 'per-run' });
 }
@@ -57,7 +63,7 @@ function traces(byRun, names) {
     const lp = byRun[name];
     return h('figure', { class: 'small' }, plotXY({
       id: `overlay-${i}`, title: name, height: 300, xlabel: 'time (s)', ylabel: 'joint force (N)',
-      legendAt: 'tl', series: [
+      series: [
         { name: 'measured', x: lp.time_s, y: lp.force_measured_n, color: color(0), width: 2 },
         { name: 'model', x: lp.time_s, y: lp.force_model_n, color: color(1), dash: '6 3', width: 1.5 },
       ],
@@ -80,7 +86,7 @@ export function loops(fit) {
     const x = close(scale(lp.displacement_m, 1e6));
     return h('figure', { class: 'small' }, plotXY({
       id: `overlay-${i}`, title: name, height: 300, xlabel: 'relative displacement (µm)', ylabel: 'joint force (N)',
-      legendAt: 'tl', series: [
+      series: [
         { name: 'measured', x, y: close(lp.force_measured_n), color: color(0), width: 2.5 },
         { name: 'model', x, y: close(lp.force_model_n), color: color(1), dash: '6 3', width: 2 },
       ],
@@ -103,8 +109,8 @@ function gridMap(g) {
     labels.push(!col.length ? '–' : hi - lo <= 0.1 * hi ? fmt((lo + hi) / 2, 3) : `${fmt(lo, 2)}–${fmt(hi, 2)}`);
   }
   return heatMap({ id: 'residual-grid', x: labels,
-    y: freqs.map((f) => parseFloat(f.toPrecision(4))), z: g.nrmse, xlabel: 'displacement amplitude (µm)',
-    ylabel: 'frequency (Hz)', zlabel: 'NRMSE', height: 60 + 56 * Math.max(freqs.length, 2),
+    y: freqs.map((f) => parseFloat(f.toPrecision(4))), z: (g.nrmse || []).map(P1), xlabel: 'displacement amplitude (µm)',
+    ylabel: 'frequency (Hz)', zlabel: 'NRMSE (%)', height: 60 + 56 * Math.max(freqs.length, 2),
     format: (v) => fmt(v, 2) });
 }
 
@@ -115,20 +121,20 @@ function recordMaps(maps) {
   const r = maps.by_run || {};
   parts.push(h('figure', {}, h('h3', {}, 'By run'), barChart({
     id: 'residual-runs', height: 260, labels: (r.runs || []).map((n, i) => `${n}\n${(r.excitation || [])[i] || ''}`),
-    values: r.nrmse, ylabel: 'NRMSE', format: (v) => fmt(v, 2),
-    hlines: (r.noise_floor || []).length ? [{ y: Math.max(...r.noise_floor.filter((v) => v != null)), label: 'noise floor' }] : [],
+    values: P1(r.nrmse), ylabel: 'NRMSE (%)', format: fmtP(2),
+    hlines: (r.noise_floor || []).length ? [{ y: P(Math.max(...r.noise_floor.filter((v) => v != null))), label: 'noise floor' }] : [],
   })));
   const b = maps.by_band || {};
   const e = b.edges_hz || [];
   parts.push(h('figure', {}, h('h3', {}, 'By frequency band (octaves, by centre)'), barChart({
     id: 'residual-bands', height: 260, labels: e.slice(0, -1).map((a, i) => `${fmt(Math.sqrt(a * e[i + 1]), 2)} Hz`),
-    values: b.nrmse, ylabel: 'NRMSE share', format: (v) => fmt(v, 1),
+    values: P1(b.nrmse), ylabel: 'NRMSE share (%)', format: fmtP(2),
   })));
   if (maps.by_line) {
     const keys = ['excited', 'not_excited', 'constant', 'aperiodic'];
     parts.push(h('figure', {}, h('h3', {}, 'By DFT line of the period'), barChart({
       id: 'residual-lines', height: 260, labels: ['excited', 'not excited', 'constant', 'aperiodic'],
-      values: keys.map((k) => maps.by_line[k]), ylabel: 'NRMSE share', format: (v) => fmt(v, 2),
+      values: keys.map((k) => P(maps.by_line[k])), ylabel: 'NRMSE share (%)', format: fmtP(2),
     }), h('p', { class: 'caption' }, 'Error on lines the excitation does not excite is '
       + 'nonlinear distortion the model does not reproduce.')));
   }
@@ -142,19 +148,19 @@ export function residualMaps(maps, failures, kind) {
     const e = maps.by_phase.edges || [];
     const mid = e.slice(0, -1).map((a, i) => 180 * (a + e[i + 1]));
     parts.push(h('figure', {}, h('h3', {}, 'Against phase within the cycle'), plotXY({
-      id: 'residual-phase', height: 280, xlabel: 'phase from the upward centre crossing (°)', ylabel: 'residual / rms(F)',
-      xdomain: [0, 360], xticks: [0, 45, 90, 135, 180, 225, 270, 315, 360], legendAt: 'bl', series: [
-        { name: 'rms', x: mid, y: maps.by_phase.rms, mode: 'both', color: color(1) },
-        { name: 'mean (signed)', x: mid, y: maps.by_phase.mean, mode: 'both', color: color(0) }],
+      id: 'residual-phase', height: 280, xlabel: 'phase from the upward centre crossing (°)', ylabel: 'residual (% of rms F)',
+      xdomain: [0, 360], xticks: [0, 45, 90, 135, 180, 225, 270, 315, 360], series: [
+        { name: 'rms', x: mid, y: P1(maps.by_phase.rms), mode: 'both', color: color(1) },
+        { name: 'mean (signed)', x: mid, y: P1(maps.by_phase.mean), mode: 'both', color: color(0) }],
     }), h('p', { class: 'caption' }, '90° and 270° are the reversals (largest |u|).')));
   }
   if (maps?.by_quadrant) {
     parts.push(h('figure', {}, h('h3', {}, 'By quadrant of (displacement, velocity)'), barChart({
       id: 'quadrants', height: 260, labels: (maps.by_quadrant.labels || []).map((l) => l.replace(' (', '\n(')),
-      values: maps.by_quadrant.nrmse, ylabel: 'NRMSE share', format: (v) => fmt(v, 2),
+      values: P1(maps.by_quadrant.nrmse), ylabel: 'NRMSE part (%)', format: fmtP(2),
     })));
   }
-  const fails = (failures || []).map((f) => h('li', {}, h('strong', {}, f.where), ': ', f.text));
+  const fails = (failures || []).map((f) => h('li', {}, h('strong', {}, f.where), ': ', onPage(f.text)));
   if (!parts.length && !fails.length) return h('p', { class: 'note' }, 'The diagnosis carries no residual maps.');
   return h('div', {}, fails.length ? h('ul', { class: 'failures', id: 'failures' }, fails) : null,
     h('div', { class: 'grid2' }, parts));
@@ -194,11 +200,27 @@ export function physics(fit) {
   };
   const energy = mk('energy_loss', 1e3);
   const stiff = mk('stiffness', 1e-6);
+  const figure = (id, ylabel, series, what) => {
+    const svg = plotXY({ id, xlog: true, ylog: true, height: 300, xlabel: 'displacement amplitude (µm)',
+      ylabel, series, ydomain: domain(series) });
+    return h('figure', {}, svg, offScale(svg, series, what));
+  };
   return h('div', { class: 'grid2' },
-    h('figure', {}, plotXY({ id: 'dissipation', xlog: true, ylog: true, height: 300, legendAt: 'tl', xlabel: 'displacement amplitude (µm)',
-      ylabel: 'energy loss per cycle (mJ)', series: energy, ydomain: domain(energy) })),
-    h('figure', {}, plotXY({ id: 'stiffness', xlog: true, ylog: true, height: 300, legendAt: 'bl', xlabel: 'displacement amplitude (µm)',
-      ylabel: 'loop stiffness (MN/m)', series: stiff, ydomain: domain(stiff) })));
+    figure('dissipation', 'energy loss per cycle (mJ)', energy, 'energy loss'),
+    figure('stiffness', 'loop stiffness (MN/m)', stiff, 'stiffness'));
+}
+
+// Says which series the plot could not draw and why (plotXY leaves them out of the legend).
+function offScale(svg, series, what) {
+  const drawn = new Map([...svg.querySelectorAll('[data-name]')].map((e) => [e.dataset.name, Number(e.dataset.drawn)]));
+  const lost = series.filter((sr) => sr.name && !(drawn.get(sr.name) > 0));
+  if (!lost.length) return null;
+  return h('p', { class: 'caption off-scale' }, lost.map((sr) => {
+    const pos = sr.y.filter((v) => v != null && Number.isFinite(v) && v > 0);
+    const why = !pos.length ? `its ${what} is zero (no place on a log axis)`
+      : `its ${what} (down to ${fmt(Math.min(...pos), 2)}) is far below the measured values`;
+    return `${sr.name}: not drawn, ${why}.`;
+  }).join(' '));
 }
 
 const firstSentence = (t) => (t.match(/^.*?[.!?](\s|$)/) || [t])[0];
@@ -210,8 +232,8 @@ export function candidates(diag, onAdd, busy) {
     class: c.significant ? 'significant' : '', 'data-effect': c.effect },
   h('div', { class: 'cand-head' }, h('strong', {}, c.effect),
     h('span', { class: `status ${c.significant ? 'done' : ''}` }, c.significant ? 'significant' : 'not significant'),
-    `NRMSE after ${fmt(c.nrmse_after, 3)}`,
-    c.nrmse_after_validation != null ? ` · on validation runs ${fmt(c.nrmse_after_validation, 3)}` : null,
+    `NRMSE after ${nrmse(c.nrmse_after)}`,
+    c.nrmse_after_validation != null ? ` · on validation runs ${nrmse(c.nrmse_after_validation)}` : null,
     h('button', { class: 'small add-effect', 'data-effect': c.effect, disabled: busy, onclick: () => onAdd(c.effect) },
       `Add ${c.effect} and refit`)),
   c.explanation ? h('p', { class: 'cand-why' }, firstSentence(c.explanation)) : null,
@@ -223,12 +245,14 @@ export function candidates(diag, onAdd, busy) {
 }
 
 export function ladderChart(steps, noiseFloor, id = 'ladder') {
+  const v = steps.map((s) => P(s.nrmse));
+  const fl = P(noiseFloor);
   return h('figure', {}, barChart({
     id, labels: steps.map((s, i) => (i === 0 || !s.added ? `${i}: ${s.model}` : `${i}: +${s.added}`)),
-    values: steps.map((s) => s.nrmse), ylabel: 'NRMSE', ylog: steps.some((s) => s.nrmse > 0)
-      && Math.max(...steps.map((s) => s.nrmse), noiseFloor || 0) / Math.min(...steps.map((s) => s.nrmse), noiseFloor || Infinity) > 8,
-    hlines: noiseFloor ? [{ y: noiseFloor, label: `noise floor ${fmt(noiseFloor, 3)}`, color: '#b3261e' }] : [],
-    format: (v) => fmt(v, 3),
-  }), table(['Step', 'Model', 'Added', 'NRMSE'], steps.map((s, i) => [String(i), s.model, s.added || '–', fmt(s.nrmse, 3)]),
+    values: v, ylabel: 'NRMSE (%)', ylog: v.some((x) => x > 0)
+      && Math.max(...v, fl || 0) / Math.min(...v, fl || Infinity) > 8,
+    hlines: fl ? [{ y: fl, label: `noise floor ${nrmse(noiseFloor)}`, color: '#b3261e' }] : [],
+    format: fmtP(3),
+  }), table(['Step', 'Model', 'Added', 'NRMSE'], steps.map((s, i) => [String(i), s.model, s.added || '–', nrmse(s.nrmse)]),
     { class: 'ladder-steps' }));
 }

@@ -8,6 +8,7 @@ import { h, note, section } from '../dom.js';
 import { when } from '../units.js';
 import { selectedRuns, setSelectedRuns } from './runs.js';
 import * as draw from './modelplots.js';
+import { onPage } from '../words.js';
 
 // Kept while the tab lives, so leaving the view and coming back shows the same work.
 const state = { model: 'linear_stiffness+viscous', fit: null, diag: null, ladder: [], noiseFloor: null, busy: false };
@@ -37,7 +38,7 @@ function savedView(list, runs, onUse) {
     class: 'saved-ladder', 'data-key': l.key },
   h('h3', {}, `${l.start} → ${l.final_model}`),
   h('p', { class: 'caption' }, `${l.exact ? 'These runs' : `${l.runs.length} run(s): ${l.runs.join(', ')}`} · `
-    + `${l.adequate ? 'adequate' : 'not adequate'}${l.stop_reason ? ` (${l.stop_reason})` : ''} · saved ${when(l.saved_at)}`),
+    + `${l.adequate ? 'adequate' : 'not adequate'}${l.stop_reason ? ` (${onPage(l.stop_reason)})` : ''} · saved ${when(l.saved_at)}`),
   ladderChart(l, i),
   h('button', { type: 'button', class: 'small secondary use-ladder', onclick: () => onUse(l) },
     'Continue from this ladder'))));
@@ -47,33 +48,84 @@ function ladderChart(l, i) {
   return draw.ladderChart(l.steps, l.noise_floor, `saved-ladder-${i}`);
 }
 
-function runPicker(runs, ticked, onChange) {
-  const box = h('div', { class: 'run-pick', id: 'run-pick' });
-  for (const r of runs) {
-    const cb = h('input', { type: 'checkbox', value: r.name, checked: ticked.has(r.name) });
-    cb.addEventListener('change', () => { setSelectedRuns(picked(box)); onChange(); });
-    box.append(h('label', {}, cb, `${r.name}`, h('span', { class: 'count' },
-      ` ${r.frequency_hz ?? '–'} Hz · ${r.excitation_vpp ?? '–'} Vpp · ${r.torque_nm ?? '–'} N m`)));
+const PICK_PAGE = 50;
+
+// The complete runs a page at a time, searchable by name; ticks are kept across pages
+// and searches (the selection lives in sessionStorage).
+function runPicker(onChange) {
+  const list = h('div', { class: 'run-pick', id: 'run-pick' });
+  const search = h('input', { type: 'search', id: 'run-search', placeholder: 'search run names',
+    'aria-label': 'search run names', size: 22 });
+  const prev = h('button', { type: 'button', class: 'small secondary', id: 'run-prev' }, '‹ Newer');
+  const next = h('button', { type: 'button', class: 'small secondary', id: 'run-next' }, 'Older ›');
+  const where = h('span', { class: 'count', id: 'run-page' });
+  const tickedN = h('span', { class: 'count', id: 'run-ticked' });
+  let offset = 0;
+  let asked = 0;
+  let items = [];
+  const showTicked = () => { tickedN.textContent = `${selectedRuns().length} ticked`; };
+  async function load() {
+    const ask = ++asked;
+    const page = await api('/runs', { query: { status: 'complete', order: '-start_time', limit: PICK_PAGE,
+      offset, search: search.value.trim() } });
+    if (ask !== asked) return;
+    items = page.items;
+    const sel = new Set(selectedRuns());
+    list.replaceChildren(...items.map((r) => {
+      const cb = h('input', { type: 'checkbox', value: r.name, checked: sel.has(r.name) });
+      cb.addEventListener('change', () => {
+        const cur = new Set(selectedRuns());
+        if (cb.checked) cur.add(r.name); else cur.delete(r.name);
+        setSelectedRuns([...cur]);
+        showTicked();
+        onChange();
+      });
+      return h('label', {}, cb, `${r.name}`, h('span', { class: 'count' },
+        ` ${r.frequency_hz ?? '–'} Hz · ${r.excitation_vpp ?? '–'} Vpp · ${r.torque_nm ?? '–'} N m`));
+    }));
+    if (!items.length) list.append(h('p', { class: 'note' }, search.value.trim() ? 'No complete run matches.' : 'No complete run yet.'));
+    where.textContent = page.total ? `${offset + 1}–${offset + items.length} of ${page.total}` : '';
+    prev.disabled = offset === 0;
+    next.disabled = page.next_offset == null;
   }
-  if (!runs.length) box.append(h('p', { class: 'note' }, 'No complete run yet.'));
-  return box;
+  let typing = null;
+  search.addEventListener('input', () => {
+    clearTimeout(typing);
+    typing = setTimeout(() => { offset = 0; load(); }, 200);
+  });
+  prev.addEventListener('click', () => { offset = Math.max(0, offset - PICK_PAGE); load(); });
+  next.addEventListener('click', () => { offset += PICK_PAGE; load(); });
+  const tickPage = h('button', { type: 'button', class: 'secondary small', id: 'tick-page', onclick: () => {
+    setSelectedRuns([...selectedRuns(), ...items.map((r) => r.name)]);
+    list.querySelectorAll('input').forEach((c) => { c.checked = true; });
+    showTicked();
+    onChange();
+  } }, 'Tick this page');
+  const untick = h('button', { type: 'button', class: 'secondary small', id: 'untick-all', onclick: () => {
+    setSelectedRuns([]);
+    list.querySelectorAll('input').forEach((c) => { c.checked = false; });
+    showTicked();
+    onChange();
+  } }, 'Untick all');
+  showTicked();
+  const box = h('div', {}, search, list, h('div', { class: 'toolbar' }, prev, where, next),
+    h('div', { class: 'toolbar' }, tickPage, untick, tickedN));
+  return { box, load };
 }
 
-function picked(box) {
-  return [...box.querySelectorAll('input[type=checkbox]:checked')].map((x) => x.value);
+// The ticked runs (on every page of the picker).
+function picked() {
+  return selectedRuns();
 }
 
 export async function show(el) {
-  const [runList, vocab] = await Promise.all([
-    api('/runs', { query: { status: 'complete', order: '-start_time', limit: 500 } }), effects()]);
-  const known = new Set(runList.items.map((r) => r.name));
-  const ticked = new Set(selectedRuns().filter((n) => known.has(n)));
+  const vocab = await effects();
   const saved = h('div', { id: 'saved-ladders' });
   let savedAsked = 0;
   // the ladders saved in the ticked runs' files; the latest answer wins
   async function refreshSaved() {
     const ask = ++savedAsked;
-    const runs = picked(pick);
+    const runs = picked();
     try {
       const list = runs.length ? await savedLadders(runs) : [];
       if (ask === savedAsked) saved.replaceChildren(savedView(list, runs, useLadder));
@@ -81,7 +133,8 @@ export async function show(el) {
       if (ask === savedAsked) saved.replaceChildren(h('p', { class: 'note error' }, err.message));
     }
   }
-  const pick = runPicker(runList.items, ticked, () => refreshSaved());
+  const picker = runPicker(() => refreshSaved());
+  await picker.load();
   const expr = h('input', { id: 'model-expr', type: 'text', value: state.model, size: 50, spellcheck: 'false',
     'aria-label': 'model expression' });
   const chips = h('div', { class: 'chips' }, vocab.map((e) => h('button', { type: 'button', class: 'chip',
@@ -126,7 +179,7 @@ export async function show(el) {
       await fn((job) => note(msg, `${label}… ${Math.round(100 * (job.progress || 0))} % ${job.message || ''}`, 'busy'));
       note(msg, '');
     } catch (err) {
-      note(msg, err.message, 'error');
+      note(msg, onPage(err.message), 'error');
     } finally {
       state.busy = false;
       state.render();
@@ -142,7 +195,7 @@ export async function show(el) {
 
   // Fit and diagnose `model` on the ticked runs; a new ladder, or one more step.
   function fitDiagnose(model, added) {
-    const runs = picked(pick);
+    const runs = picked();
     return work(`Fitting ${model} and trying the candidates`, async (progress) => {
       if (!runs.length) throw new Error('tick at least one run');
       const diag = await runJob('/models/diagnose', '/models/jobs', { runs, model, options: options() }, progress);
@@ -178,7 +231,7 @@ export async function show(el) {
 
   fitBtn.addEventListener('click', () => fitDiagnose(expr.value.replace(/\s+/g, '')));
   ladderBtn.addEventListener('click', () => work('Automatic ladder', async (progress) => {
-    const runs = picked(pick);
+    const runs = picked();
     if (!runs.length) throw new Error('tick at least one run');
     const res = await runJob('/models/ladder', '/models/jobs', { runs, model: expr.value.replace(/\s+/g, ''),
       options: options() }, progress);
@@ -207,12 +260,7 @@ export async function show(el) {
     h('div', { class: 'grid2' }, section('Parameters', out.params), section('Per run', out.perRun))];
   el.append(h('h1', {}, 'Models'),
     section('Runs and model', h('div', { class: 'models-form' },
-      h('div', {}, h('h3', {}, 'Runs'), pick, h('div', { class: 'toolbar' },
-        h('button', { type: 'button', class: 'secondary small', onclick: () => {
-          pick.querySelectorAll('input').forEach((c) => { c.checked = true; });
-          setSelectedRuns(picked(pick));
-          refreshSaved();
-        } }, 'Tick all'))),
+      h('div', {}, h('h3', {}, 'Runs'), picker.box),
       h('div', {}, h('h3', {}, 'Model: effects joined by +'), expr, chips,
         limit, h('div', { class: 'toolbar' }, fitBtn, ladderBtn), msg, out.summary))),
     ...results,

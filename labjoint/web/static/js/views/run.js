@@ -7,6 +7,7 @@ import { plotXY } from '../plot/plot.js';
 import { display, fmt, pct, when } from '../units.js';
 import { lastCycles, loopPlot, steadyLoops } from './loops.js';
 import { identificationTable } from './table2.js';
+import { onPage } from '../words.js';
 
 const SCREEN_POINTS = 1500;
 
@@ -29,19 +30,77 @@ function conditions(r, ch) {
   return table(['', ''], rows, { class: 'kv' });
 }
 
-async function rawSignals(name, into) {
-  const data = await api(`/runs/${encodeURIComponent(name)}/data`, { query: { max_points: SCREEN_POINTS } });
-  const plots = data.series.map((sr, i) => {
-    const d = display(sr.unit);
-    return h('figure', { class: 'small' }, plotXY({
-      id: `raw-${sr.name}`, height: 220, xlabel: 'time (ms)', ylabel: `${sr.name} (${d.unit})`,
-      series: [{ x: sr.time_s.map((t) => (t == null ? null : t * 1e3)),
-        y: sr.values.map((v) => (v == null ? null : v * d.k)), name: sr.name, legend: false, color: `hsl(${210 + 40 * i} 55% 38%)` }],
+// The raw signals over a time window [t0, t1] (s) of the run, fetched at screen
+// resolution for that window: zoom (buttons or the mouse wheel) and pan (buttons or a
+// drag) ask the server again, so a long run shows its cycles, not a solid band.
+function rawSignals(name, into, duration) {
+  const whole = [0, duration];
+  let win = whole.slice();
+  let asked = 0;
+  const plots = h('div', { class: 'grid3', id: 'raw-plots' });
+  const caption = h('p', { class: 'caption', id: 'raw-caption' });
+  const span = h('span', { class: 'count', id: 'raw-window' });
+  const set = (a, b) => {
+    const w = Math.min(Math.max(b - a, Math.min(duration, 2e-3)), duration);
+    a = Math.min(Math.max(a, 0), duration - w);
+    win = [a, a + w];
+    draw();
+  };
+  const zoom = (k, at = (win[0] + win[1]) / 2) => set(at - (at - win[0]) * k, at + (win[1] - at) * k);
+  const pan = (k) => set(win[0] + k * (win[1] - win[0]), win[1] + k * (win[1] - win[0]));
+  const btn = (id, label, title, fn) => h('button', { type: 'button', class: 'small secondary', id, title, onclick: fn }, label);
+  const tools = h('div', { class: 'toolbar' },
+    btn('raw-zoom-in', 'Zoom in', 'show half the time span', () => zoom(0.5)),
+    btn('raw-zoom-out', 'Zoom out', 'show twice the time span', () => zoom(2)),
+    btn('raw-left', '◀', 'earlier', () => pan(-0.5)), btn('raw-right', '▶', 'later', () => pan(0.5)),
+    btn('raw-all', 'Whole run', 'the whole run', () => set(...whole)), span,
+    h('span', { class: 'count' }, 'wheel: zoom at the pointer · drag: pan'));
+  async function draw() {
+    const ask = ++asked;
+    const [a, b] = win;
+    span.textContent = `${fmt(a, 4)}–${fmt(b, 4)} s of ${fmt(duration, 4)} s`;
+    const data = await api(`/runs/${encodeURIComponent(name)}/data`,
+      { query: { start: a, stop: b, max_points: SCREEN_POINTS } });
+    if (ask !== asked) return;
+    const ms = b - a < 2 ? 1e3 : 1;
+    const t0 = (data.series[0]?.time_s || []).find((t) => t != null);
+    const off = t0 == null ? 0 : t0 - data.start_sample / data.sample_rate_hz;   // the run's time origin
+    plots.replaceChildren(...data.series.map((sr, i) => {
+      const d = display(sr.unit);
+      const svg = plotXY({
+        id: `raw-${sr.name}`, height: 220, xlabel: ms > 1 ? 'time (ms)' : 'time (s)', ylabel: `${sr.name} (${d.unit})`,
+        xdomain: [(a + off) * ms, (b + off) * ms],
+        series: [{ x: sr.time_s.map((t) => (t == null ? null : t * ms)),
+          y: sr.values.map((v) => (v == null ? null : v * d.k)), name: sr.name, legend: false, color: `hsl(${210 + 40 * i} 55% 38%)` }],
+      });
+      svg.dataset.window = `${a},${b}`;
+      interact(svg, a, b);
+      return h('figure', { class: 'small' }, svg);
     }));
-  });
-  into.replaceChildren(h('div', { class: 'grid3' }, plots), h('p', { class: 'caption' }, data.decimated
-    ? `Min/max decimated for the screen: ${data.bucket} samples per bucket, every peak kept.`
-    : 'Every sample shown.'));
+    caption.textContent = data.decimated
+      ? `Min/max decimated for the screen: ${data.bucket} samples per bucket, every peak kept. Zoom in to see every sample.`
+      : 'Every sample of this span shown.';
+  }
+  // wheel zooms about the pointer, a drag pans (the frame spans 70 px to width - 14 px)
+  function interact(svg, a, b) {
+    const at = (ev) => {
+      const r = svg.getBoundingClientRect();
+      const W = svg.viewBox.baseVal.width;
+      const px = ((ev.clientX - r.left) / r.width) * W;
+      return a + ((px - 70) / (W - 84)) * (b - a);
+    };
+    svg.addEventListener('wheel', (ev) => { ev.preventDefault(); zoom(ev.deltaY < 0 ? 0.5 : 2, at(ev)); }, { passive: false });
+    let from = null;
+    svg.addEventListener('pointerdown', (ev) => { from = at(ev); });
+    svg.addEventListener('pointerup', (ev) => {
+      if (from == null) return;
+      const d = from - at(ev);
+      from = null;
+      if (Math.abs(d) > (b - a) * 0.01) set(a + d, b + d);
+    });
+  }
+  into.replaceChildren(tools, plots, caption);
+  return draw();
 }
 
 async function latestAnalysis(name) {
@@ -76,7 +135,7 @@ function identifySection(name) {
       render({ row, method, finished: new Date().toISOString() });
       note(msg, '');
     } catch (err) {
-      note(msg, err.message, 'error');
+      note(msg, onPage(err.message), 'error');
     }
   }
   const bothBtn = h('button', { id: 'identify-both', onclick: () => start('both') }, 'Identify: both methods');
@@ -91,7 +150,31 @@ const LOOP_CYCLES = 8;
 
 // A finished run: its last steady cycles as the loop pipeline found them, and their
 // energy loss and stiffness.
-async function steadyLoopsSection(name) {
+// How the run ended, in words, when it did not end as planned (null when it did).
+export function stateNote(rec, ch) {
+  const upTo = `${ch.n_samples} samples (${fmt(ch.duration_s, 3)} s)`;
+  if (rec.status === 'aborted') {
+    return `Aborted: the recording was stopped before its plan ended (emergency stop, a limit or a cancel); it holds the first ${upTo}, everything recorded until then.`;
+  }
+  if (rec.status === 'limit') return `Stopped by a safety limit after ${upTo}: everything recorded until then.`;
+  if (rec.status === 'incomplete') {
+    return `Incomplete: the recording ended without being closed (the recording process stopped); it was closed afterwards with the ${upTo} on disk.`;
+  }
+  if (rec.status === 'failed') return `Failed after ${upTo}: what was recorded is shown.`;
+  return null;
+}
+
+// The cycles the run holds (duration x frequency) and the whole ones the loop pipeline
+// cuts between upward zero crossings of the displacement's fundamental.
+function cycleCount(body, ch) {
+  const f = body.frequency_hz;
+  const recorded = f && ch.duration_s ? ch.duration_s * f : null;
+  const rec = recorded == null ? '' : `${fmt(recorded, 4)} cycles recorded (${fmt(ch.duration_s, 3)} s at ${fmt(f)} Hz); `;
+  return `${rec}${body.n_cycles} whole cycles between upward zero crossings of the displacement `
+    + `(a recording that starts and ends mid-cycle has one fewer whole cycle than it holds)`;
+}
+
+async function steadyLoopsSection(name, ch) {
   const body = await steadyLoops(name, LOOP_CYCLES);
   const n = body.cycles.length;
   if (!n) {
@@ -111,8 +194,8 @@ async function steadyLoopsSection(name) {
     : `energy loss ${pm('energy_loss_j', 1e3)} mJ (uncertainty of the mean `
       + `${fmt(sc(sm.energy_loss_j_uncertainty, 1e3), 2)} mJ)`;
   return [loopPlot(body, { id: 'loop' }),
-    h('p', { class: 'caption' }, `The last ${n} of ${body.n_steady} steady cycles `
-      + `(cycles ${body.steady_start}–${body.steady_stop - 1} of ${body.n_cycles} are steady), `
+    h('p', { class: 'caption', id: 'loop-caption' }, `${cycleCount(body, ch)}. Drawn: the last ${n} of the ${body.n_steady} steady ones `
+      + `(cycles ${body.steady_start}–${body.steady_stop - 1}, counting from 0), `
       + `low-passed at ${fmt(body.cutoff_hz)} Hz as the loop pipeline does; darker is later. `
       + `Over every steady cycle: ${wText}, `
       + `stiffness ${pm('stiffness_n_per_m', 1e-6)} MN/m.`),
@@ -136,14 +219,15 @@ export async function show(el, routeInfo) {
     api(`/runs/${encodeURIComponent(name)}/channels`)]);
   const raw = h('div', { id: 'raw' }, h('p', { class: 'note busy' }, 'Loading signals…'));
   const loops = h('div', { id: 'loops' }, h('p', { class: 'note busy' }, 'Finding the steady cycles…'));
-  el.append(h('h1', {}, name),
+  const state = stateNote(rec, ch);
+  el.append(h('h1', {}, name), ...(state ? [h('p', { class: 'note error', id: 'run-state' }, state)] : []),
     h('div', { class: 'grid2' }, section('Conditions', conditions(rec, ch),
       rec.status !== 'running' ? h('p', {}, h('a', { href: `/api/v1/runs/${encodeURIComponent(name)}/file`, download: `${name}.h5` }, 'Download the HDF5 run file')) : null),
     section('Hysteresis loops of the steady cycles', loops)),
     identifySection(name),
     section('Raw signals', raw));
-  rawSignals(name, raw).catch((err) => raw.replaceChildren(h('p', { class: 'note error' }, err.message)));
-  const pending = rec.status === 'running' ? recordedLoops(name, rec, ch) : steadyLoopsSection(name);
+  rawSignals(name, raw, ch.duration_s).catch((err) => raw.replaceChildren(h('p', { class: 'note error' }, err.message)));
+  const pending = rec.status === 'running' ? recordedLoops(name, rec, ch) : steadyLoopsSection(name, ch);
   pending.then((parts) => loops.replaceChildren(...parts.filter(Boolean)))
     .catch((err) => loops.replaceChildren(h('p', { class: 'note error' }, err.message)));
   return null;

@@ -28,6 +28,7 @@ function field(label, input) {
 function filtersForm(query, plans, onSubmit) {
   const v = (k) => query.get(k) || '';
   const form = h('form', { class: 'filters', id: 'run-filters' },
+    field('Name contains', h('input', { name: 'search', type: 'search', value: v('search'), size: 16 })),
     field('Plan', h('select', { name: 'plan' }, h('option', { value: '' }, 'any'),
       plans.map((p) => h('option', { value: p, selected: v('plan') === p }, p)))),
     field('Frequency (Hz)', h('input', { name: 'frequency_hz', type: 'number', step: 'any', min: 0, value: v('frequency_hz') })),

@@ -1,0 +1,93 @@
+"""Page speed in the real browser: the first page (the runs list) and a run page.
+
+The service runs in-process as ``labjoint serve`` mounts it (uvicorn on loopback) over a
+data directory with 200 imported runs and a run of the simulated rig (50 kS/s, 4
+channels); Debian's Chromium, driven by Playwright as the browser tests do, opens each
+page in a fresh context (empty cache) and the time is taken from navigation start until
+the page shows its data: the runs table filled (first page), the loop and all raw
+signal plots drawn (run page). Each page is loaded ``--repeat`` times; the median and
+the worst are printed, with their ratios to the targets (issue 17 item 12: first page
+under 300 ms, run page under 500 ms; a ratio below 1 meets it), and the bytes the page
+transferred with gzip against without it.
+
+Usage: ``.venv/bin/python benchmarks/bench_web.py [--repeat 7]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent / "tests"))
+
+TARGET_FIRST_S = 0.300
+TARGET_RUN_S = 0.500
+CHROMIUM = "/usr/bin/chromium"
+
+
+def _load(browser, url: str, ready: list[str], gzip: bool = True) -> tuple[float, int]:
+    """(seconds from navigation start until every ``ready`` selector is there, bytes)."""
+    ctx = browser.new_context(viewport={"width": 1400, "height": 1000},
+                              extra_http_headers={} if gzip else {"Accept-Encoding": "identity"})
+    page = ctx.new_page()
+    cdp = ctx.new_cdp_session(page)
+    cdp.send("Network.enable")
+    got = []
+    cdp.on("Network.loadingFinished", lambda e: got.append(e["encodedDataLength"]))
+    t0 = time.perf_counter()
+    page.goto(url)
+    for sel in ready:
+        page.wait_for_selector(sel, state="attached", timeout=30000)
+    dt = time.perf_counter() - t0
+    ctx.close()
+    return dt, int(sum(got))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--repeat", type=int, default=7)
+    args = ap.parse_args()
+    from playwright.sync_api import sync_playwright
+
+    from labjoint.api import ApiSettings, create_app
+    from labjoint.storage import Catalog
+    from test_api_helpers import live_server, write_sim_run
+    from web_catalog import make_lab
+
+    with tempfile.TemporaryDirectory() as tmp:
+        data, csv = Path(tmp) / "data", Path(tmp) / "csv"
+        csv.mkdir()
+        make_lab(data, csv, bulk=200)
+        run = write_sim_run(data, Catalog(data / "catalog.sqlite"), "bench_run", seconds=0.25,
+                            settle_s=0.2).stem
+        app = create_app(ApiSettings(data_dir=data))
+        with live_server(app) as url, sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=CHROMIUM,
+                                        args=["--headless=new", "--no-sandbox", "--disable-gpu"])
+            pages = {
+                "first page (runs list)": (f"{url}/#/runs", ["tr[data-run]"], TARGET_FIRST_S),
+                "run page (loop + raw signals)": (
+                    f"{url}/#/run/{run}",
+                    ["svg[data-plot=loop][data-cycles]:not([data-cycles='0'])",
+                     "svg[data-plot=raw-shear_nc][data-points]", "svg[data-plot=raw-disp_1][data-points]"],
+                    TARGET_RUN_S),
+            }
+            for label, (u, ready, target) in pages.items():
+                _load(browser, u, ready)                     # warm the server's caches
+                times, sizes = zip(*[_load(browser, u, ready) for _ in range(args.repeat)])
+                _, plain = _load(browser, u, ready, gzip=False)
+                med, worst = statistics.median(times), max(times)
+                print(f"{label}: median {1e3 * med:.0f} ms, worst {1e3 * worst:.0f} ms "
+                      f"(target {1e3 * target:.0f} ms: median/target {med / target:.2f}, "
+                      f"worst/target {worst / target:.2f}); transferred {sizes[0] / 1e3:.0f} kB "
+                      f"gzipped vs {plain / 1e3:.0f} kB plain (ratio {sizes[0] / plain:.2f})")
+            browser.close()
+
+
+if __name__ == "__main__":
+    main()
