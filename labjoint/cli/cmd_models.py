@@ -138,6 +138,8 @@ def _fit_simulation(args: argparse.Namespace) -> int:
           f"{_pct(res['nrmse'])}, noise floor {_pct(res['noise_floor'])}")
     print(table(["parameter", "value", "stderr", "unit"],
                 [[k, v["value"], v["stderr"], v["unit"]] for k, v in res["parameters"].items()]))
+    for w in res["warnings"]:
+        print(f"warning: {w}")
     if args.out:
         print(f"saved to {args.out}")
     return 0

@@ -36,6 +36,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from labjoint.compare.api import fit_report
+from labjoint.compare.identifiability import band_warnings
 from labjoint.compare.kinds import prepare
 from labjoint.compare.kinds.record import RecordMeasurement
 from labjoint.compare.measurement import Measurement
@@ -132,6 +133,7 @@ class SimulationFit:
     substeps: int = DEFAULT_SUBSTEPS
     n_evals: int = 0
     message: str = ""
+    warnings: list[str] = field(default_factory=list)
 
     def nrmse(self, which: str = "fit") -> float:
         ps = self.fit if which == "fit" else self.validation
@@ -157,7 +159,8 @@ class SimulationFit:
                  runs=[p.to_dict() for p in self.fit],
                  validation_runs=[p.to_dict() for p in self.validation],
                  nrmse_validation=self.nrmse("validation") if self.validation else None,
-                 start=self.start, n_evals=self.n_evals, message=self.message)
+                 start=self.start, n_evals=self.n_evals, message=self.message,
+                 warnings=list(self.warnings))
         return d
 
 
@@ -274,8 +277,11 @@ def fit_prepared(fit_recs: list[RecordMeasurement], model: Model, *,
     stderr = _stderr(sc, sol, vals, scales, targets)
     preds = [predict_record(model, out, m, periodic=periodic, substeps=substeps) for m in fit_recs]
     vpreds = [predict_record(model, out, m, periodic=periodic, substeps=substeps) for m in val_recs]
+    warn = band_warnings([m.data.force for m in fit_recs], [m.fs for m in fit_recs],
+                         {k: float(p.value) for k, p in out.items()})
     return SimulationFit(model, out, stderr, {k: float(v.value) for k, v in start.items()},
-                         preds, vpreds, periodic, int(substeps), n_evals[0], str(sol.message))
+                         preds, vpreds, periodic, int(substeps), n_evals[0], str(sol.message),
+                         warn)
 
 
 def _stderr(sc: _Scaled, sol: Any, vals: dict[str, float], scales: list[float],

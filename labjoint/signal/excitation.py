@@ -233,9 +233,9 @@ def _sine_or_sweep(core: np.ndarray, fs: float) -> Excitation | None:
 def _narrow(core: np.ndarray, quarters: list[np.ndarray], fs: float) -> bool:
     """A sweep's quarters each hold a narrow part of its band; a broadband signal's
     dominant line wanders by chance, but each quarter spans the whole band."""
-    core_w = np.subtract(*_band90(core, fs)[::-1])
+    core_w = np.subtract(*power_band(core, fs)[::-1])
     q_res = fs / quarters[0].size            # a quarter's bin: bands below ~8 unresolved
-    q_w = float(np.median([np.subtract(*_band90(q, fs)[::-1]) for q in quarters]))
+    q_w = float(np.median([np.subtract(*power_band(q, fs)[::-1]) for q in quarters]))
     return bool(core_w <= 8 * q_res or q_w < SWEEP_QUARTER_BAND * core_w)
 
 
@@ -287,7 +287,7 @@ def _periodic(core: np.ndarray, fs: float) -> Excitation | None:
                                 f"stand 100x above the lines between them over {m} periods"))
 
 
-def _band90(x: np.ndarray, fs: float) -> tuple[float, float]:
+def power_band(x: np.ndarray, fs: float) -> tuple[float, float]:
     """The band holding the middle 90 % of the power of ``x`` (Hz)."""
     freqs, p = _spectrum(x, fs)
     c = np.cumsum(p) / max(float(p.sum()), 1e-300)
@@ -296,7 +296,7 @@ def _band90(x: np.ndarray, fs: float) -> tuple[float, float]:
 
 
 def _random(core: np.ndarray, fs: float) -> Excitation:
-    lo, hi = _band90(core, fs)
+    lo, hi = power_band(core, fs)
     return Excitation("random", band_hz=(lo, hi), evidence=(
         "no single line, no drift of one line, and no repetition: broadband"))
 
