@@ -1,6 +1,7 @@
 """Pseudo-arc-length continuation of harmonic-balance solutions in frequency.
 
-Unknowns y = (x / x_ref, w / w_ref) (scaled so both parts are of order one). From a
+Unknowns y = (x / x_ref, w / w_ref), x_ref the largest linearised response in the band
+and w_ref the band's start (so both parts are of order one along the whole curve). From a
 converged point the predictor steps ``ds`` along the unit tangent t (null vector of
 [dR/dx, dR/dw], oriented like the previous one, so the path turns at folds and
 follows the jump branches of a softening joint, seed 000 Fig. 7); the corrector solves
@@ -47,7 +48,7 @@ class Curve:
 
 
 def continuation(hbm: HarmonicBalance, force_n: float, f_start_hz: float, f_end_hz: float,
-                 ds: float = 0.02, ds_min: float = 1e-7, ds_max: float = 0.1,
+                 ds: float = 0.01, ds_min: float = 1e-7, ds_max: float = 0.05,
                  max_points: int = 5000) -> Curve:
     """The response curve from ``f_start_hz`` to ``f_end_hz`` at force amplitude ``force_n``."""
     if not (np.isfinite(f_start_hz) and np.isfinite(f_end_hz) and 0 < f_start_hz < f_end_hz):
@@ -56,7 +57,8 @@ def continuation(hbm: HarmonicBalance, force_n: float, f_start_hz: float, f_end_
         raise InputError(f"force amplitude must be > 0 N, got {force_n}", field="force_n")
     w0, w1 = 2 * np.pi * f_start_hz, 2 * np.pi * f_end_hz
     x = hbm.solve(w0, force_n)
-    xr = max(np.linalg.norm(x), 1e-300)
+    probe = np.linspace(w0, w1, 64)
+    xr = max(max(np.linalg.norm(hbm.linear_solution(w, force_n)) for w in probe), 1e-300)
     wr = w0
     scale = max(np.linalg.norm(hbm.external(force_n)), 1e-300)
 
