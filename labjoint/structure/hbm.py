@@ -105,7 +105,7 @@ class HarmonicBalance:
             if not jacobian:
                 G = self._forces(e, Q, w)[0]
             else:
-                h = FD_REL * max(np.linalg.norm(Q), 1e-9 * max(1.0, 1.0 / max(self.sys.elements[e].stiffness(), 1e-30)))
+                h = FD_REL * max(np.linalg.norm(Q), 1e-12)
                 batch = np.vstack([Q, Q + h * np.eye(self.m)])
                 Gb = self._forces(e, batch, w)
                 G = Gb[0]
