@@ -1,0 +1,123 @@
+"""`labjoint structure modes|update|frf STRUCTURE.toml`: the assembled-structure model (seed 000).
+
+- modes: natural frequencies (Hz) and mode shapes at the sensors of the linear structure;
+- update: stage-1 updating of the joint stiffness from measured natural frequencies;
+- frf: the model's nonlinear FRF at constant force by harmonic balance and continuation.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from labjoint.cli.output import emit_json, table
+from labjoint.errors import InputError
+
+
+def _floats(text: str, field: str, sep: str = ",") -> list[float]:
+    try:
+        return [float(x) for x in text.split(sep) if x.strip()]
+    except ValueError:
+        raise InputError(f"expected numbers separated by '{sep}', got '{text}'", field=field) from None
+
+
+def add_structure_arguments(p: argparse.ArgumentParser) -> None:
+    sub = p.add_subparsers(dest="action", metavar="ACTION")
+    sub.required = True
+    specs = {"modes": "natural frequencies and mode shapes of the linear structure",
+             "update": "stage-1 updating of the joint stiffness from measured natural frequencies",
+             "frf": "model FRF at constant force (harmonic balance + continuation)"}
+    for name, help_ in specs.items():
+        q = sub.add_parser(name, help=help_, description=help_)
+        q.add_argument("structure", metavar="STRUCTURE.toml")
+        q.add_argument("--json", action="store_true", default=argparse.SUPPRESS,
+                       help="print one JSON object on stdout")
+        q.add_argument("--set", action="append", default=[], metavar="PARAM=VALUE",
+                       help="set a joint parameter first (E_e_pa or effect.param), e.g. E_e_pa=2.2e7")
+        if name == "modes":
+            q.add_argument("--count", type=int, default=6, help="number of modes (default 6)")
+        if name == "update":
+            q.add_argument("--measured-hz", required=True, help="measured natural frequencies, e.g. 28.5,177")
+            q.add_argument("--parameter", default=None,
+                           help="joint parameter to update (default E_e_pa for a seed-000 layer)")
+        if name == "frf":
+            q.add_argument("--force-n", type=float, required=True, help="force amplitude (N, peak)")
+            q.add_argument("--band", required=True, help="frequency band START:END in Hz")
+            q.add_argument("--harmonics", type=int, default=3, help="harmonics in the balance (default 3)")
+            q.add_argument("--modes", type=int, default=10,
+                           help="Craig-Bampton kept modes (default 10; -1: unreduced)")
+            q.add_argument("--samples", type=int, default=None, help="AFT samples per period (default 256)")
+
+
+def _load(args: argparse.Namespace):
+    from labjoint.structure import load_structure
+    from labjoint.structure.modal import with_parameter
+
+    s = load_structure(args.structure)
+    for item in args.set:
+        key, sep, val = item.partition("=")
+        if not sep:
+            raise InputError(f"expected PARAM=VALUE, got '{item}'", field="--set")
+        s = with_parameter(s, key.strip(), _floats(val, f"--set {key}")[0])
+    return s
+
+
+def run(args: argparse.Namespace) -> int:
+    return {"modes": _modes, "update": _update, "frf": _frf}[args.action](args)
+
+
+def _modes(args: argparse.Namespace) -> int:
+    from labjoint.structure.modal import modes
+
+    s = _load(args)
+    if args.count < 1:
+        raise InputError(f"must be >= 1, got {args.count}", field="--count")
+    m = modes(s, args.count)
+    shapes = {nm: (s.sensors[i] @ m.shapes).tolist() for i, nm in enumerate(s.sensor_names)}
+    res = {"structure": s.name, "beam": s.theory, "dofs": s.n, "frequencies_hz": m.frequencies_hz.tolist(),
+           "mode_shapes_at_sensors": shapes,
+           "joints": [{"name": j.name, "model": j.law.model.expr,
+                       "rotational_stiffness_nm_per_rad": j.rotational_stiffness(),
+                       "transverse_stiffness_n_per_m": j.transverse_stiffness} for j in s.joints]}
+    if getattr(args, "json", False):
+        emit_json(res)
+        return 0
+    print(table(["mode", "frequency Hz"], [(i + 1, f) for i, f in enumerate(m.frequencies_hz)]))
+    return 0
+
+
+def _update(args: argparse.Namespace) -> int:
+    from labjoint.structure.modal import update_stiffness
+
+    s = _load(args)
+    r = update_stiffness(s, _floats(args.measured_hz, "--measured-hz"), args.parameter)
+    res = {"structure": s.name, **r.to_dict()}
+    if getattr(args, "json", False):
+        emit_json(res)
+        return 0
+    print(f"{r.parameter}: {r.initial:.4g} -> {r.value:.4g} in {len(r.history)} iterations")
+    print(table(["mode", "initial Hz", "updated Hz", "measured Hz"],
+                zip(range(1, r.measured_hz.size + 1), r.initial_hz, r.updated_hz, r.measured_hz)))
+    return 0
+
+
+def _frf(args: argparse.Namespace) -> int:
+    from labjoint.structure.frf import frf
+
+    s = _load(args)
+    band = _floats(args.band, "--band", ":")
+    if len(band) != 2:
+        raise InputError(f"expected START:END in Hz, got '{args.band}'", field="--band")
+    r = frf(s, args.force_n, (band[0], band[1]), harmonics=args.harmonics,
+            modes=None if args.modes < 0 else args.modes, samples=args.samples)
+    res = {"structure": s.name, **r.to_dict()}
+    if getattr(args, "json", False):
+        emit_json(res)
+        return 0
+    name = s.sensor_names[-1]
+    acc = res["sensors"][name]["accelerance_m_s2_per_n"]
+    i = int(np.argmax(acc))
+    print(f"{res['points']} points, {args.force_n:g} N: peak {acc[i]:.4g} m/s^2/N at "
+          f"{res['frequencies_hz'][i]:.4g} Hz ({name}); turning points: {res['turning_points_hz']}")
+    return 0
