@@ -107,17 +107,23 @@ def fit_power_law(x: Sequence[float], y: Sequence[float],
                              field=f"{y_name} uncertainty")
         if np.all(np.isfinite(u) & (u > 0)):
             w, weighted = (ys / u) ** 2, True
-    X = np.column_stack([np.ones_like(xs), np.log(xs)])
-    z = np.log(ys)
-    A = X.T @ (w[:, None] * X)
-    cov = np.linalg.inv(A)
-    beta = cov @ (X.T @ (w * z))
+    if weighted and not np.all(np.isfinite(w)):
+        w, weighted = np.ones_like(ys), False       # an uncertainty of ~0: weights unusable
+    # centred on the weighted mean of ln x, the slope's variance is 1 / sum w (ln x - mean)^2
+    # (the normal equations of ln x and 1 uncoupled: no cancellation, never negative)
+    lx, z = np.log(xs), np.log(ys)
+    mx = float(np.sum(w * lx) / np.sum(w))
+    xc = lx - mx
+    sxx = float(np.sum(w * xc ** 2))
+    if not (np.isfinite(sxx) and sxx > 0):
+        raise InputError("the amplitudes are too close together to fit an exponent", field=x_name)
+    n = float(np.sum(w * xc * z) / sxx)
+    a0 = float(np.sum(w * z) / np.sum(w)) - n * mx
     dof = xs.size - 2
-    chi2_red = float(np.sum(w * (z - X @ beta) ** 2) / dof)
+    chi2_red = float(np.sum(w * (z - a0 - n * lx) ** 2) / dof)
     scale = max(1.0, chi2_red) if weighted else chi2_red
-    se = float(np.sqrt(cov[1, 1] * scale))
+    se = float(np.sqrt(scale / sxx))
     half = float(stats.t.ppf(0.5 + confidence / 2, dof)) * se
-    n = float(beta[1])
     return PowerLawFit(exponent=n, exponent_stderr=se, exponent_ci95=(n - half, n + half),
-                       coefficient=float(np.exp(beta[0])), n_points=int(xs.size),
+                       coefficient=float(np.exp(a0)), n_points=int(xs.size),
                        n_amplitudes=k, dof=int(dof), chi2_reduced=chi2_red, weighted=weighted)
