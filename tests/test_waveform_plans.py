@@ -249,3 +249,17 @@ def test_the_engine_refuses_to_swap_waveforms_under_a_live_output():
 @pytest.mark.parametrize("name", ["multisine", "swept_sine", "random_noise"])
 def test_every_broadband_plan_with_its_defaults_is_admitted_on_the_default_rig(name):
     check_plan({"plan": name}, load_config())
+
+
+def test_simulate_records_a_broadband_plan_and_says_why_it_is_not_loop_analysed(tmp_path, capsys):
+    import json
+
+    from labjoint.cli.main import main
+
+    plan = tmp_path / "ms.toml"
+    plan.write_text('plan = "random_noise"\nf_min_hz = 100\nf_max_hz = 800\nperiod_s = 0.5\n')
+    assert main(["simulate", "--plan", str(plan), "--out", str(tmp_path / "d"), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["status"] == "complete" and out["runs"] == []
+    (skip,) = out["not_analysed"]
+    assert "random" in skip["error"] and "labjoint fit" in skip["error"]

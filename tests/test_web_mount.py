@@ -85,6 +85,13 @@ def test_every_module_import_resolves_to_a_shipped_file():
             assert (m.parent / spec).resolve().is_file(), f"{m.name}: {spec} is missing"
 
 
+def test_the_page_preloads_every_module_it_imports_and_nothing_else():
+    html = (STATIC / "index.html").read_text()
+    preloaded = set(re.findall(r'rel="modulepreload" href="/static/([^"]+)"', html))
+    shipped = {m.relative_to(STATIC).as_posix() for m in (STATIC / "js").rglob("*.js")}
+    assert preloaded == shipped - {"js/main.js"}
+
+
 def test_scripts_styles_and_json_are_gzipped_for_clients_that_accept_it(client):
     """Issue 17 item 12: compressed when asked (and much smaller), identical once
     decoded, plain for a client that does not accept gzip."""

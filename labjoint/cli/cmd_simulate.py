@@ -95,16 +95,20 @@ def run(args: argparse.Namespace) -> int:
         result = rig.engine([writer, progress], calibration_sources=sources).run(plan)
     elapsed = time.perf_counter() - t0
     paths = [str(out / f"{r.name}.h5") for r in result.runs if r.n_samples > 0]
-    rows = analyze_paths(paths, "loop", progress=False) if paths else []
-    for row, r in zip(rows, [r for r in result.runs if r.n_samples > 0]):
-        row["status"] = r.status
+    skipped: list[dict[str, str]] = []   # broadband records: no steady cycles to analyse
+    rows = analyze_paths(paths, "loop", progress=False, errors=skipped) if paths else []
+    status = {r.name: r.status for r in result.runs}
+    for row in rows:
+        row["status"] = status.get(row["run"], "")
     if args.json:
         emit_json({"status": result.status, "reason": result.reason, "data_dir": str(out),
-                   "elapsed_s": elapsed, "runs": rows,
+                   "elapsed_s": elapsed, "runs": rows, "not_analysed": skipped,
                    "calibrations": {c.name: [list(p) for p in c.calibration]
                                     for c in cfg.daq.channels if c.name in sources}})
     else:
         print_loop_table(rows)
+        for e in skipped:
+            print(f"{Path(e['file']).name}: not analysed here ({e['error']})")
         units = {c.name: c.unit for c in cfg.daq.channels}
         for name, pts in sources.items():
             print(f"{name}: stored calibration, " + ", ".join(
