@@ -153,3 +153,13 @@ def test_the_noise_of_a_few_periods_leaves_out_a_decaying_start_up_response():
     # the most settled pair still holds a trace of the ringing (the scatter of all the
     # judged periods about their mean read 15x the noise)
     assert m.noise().displacement_std == pytest.approx(2e-6, rel=0.25)
+
+
+def test_hysteretic_candidates_that_tie_on_a_record_are_reported_as_a_tie():
+    # the tie check compares the force each candidate adds on the judged samples; on a
+    # record (not steady cycles) it had failed with an AttributeError
+    dg = diagnose_report([record()], "linear_stiffness+viscous",
+                         candidates="coulomb,iwan,richard_abbott")
+    d = dg.to_dict()
+    assert d["candidates"][0]["effect"] in ("coulomb", "iwan", "richard_abbott")
+    assert any("cannot be told apart" in c.get("tie", {}).get("reason", "") for c in d["candidates"])

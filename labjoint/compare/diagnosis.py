@@ -224,7 +224,7 @@ def _ties(cands: list[CandidateResult], base_ev: Evaluation, val: list[str], flo
     ssf = sum(r.ssf for r in base_ev.subset(val))
 
     def added(c: CandidateResult) -> np.ndarray:
-        return np.concatenate([(r.model_force - base_f[r.name])[r.run.steady]
+        return np.concatenate([(r.model_force - base_f[r.name])[r.run.data.steady]
                                for r in c.evaluation.subset(val)])
 
     useful = [c for c in cands if c.significant]
