@@ -7,6 +7,7 @@ them, storage and the daemon's live view consume them), so neither imports the o
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from datetime import datetime, timezone
 from typing import Any, Callable, Protocol
 
 import numpy as np
@@ -15,6 +16,11 @@ from labjoint.hardware.interfaces import ChannelSpec
 
 RUN_STATUSES = ("running", "complete", "failed", "aborted", "limit", "incomplete")
 
+
+
+def utc_now() -> str:
+    """The current UTC time, ISO 8601 (every timestamp a run, a job or the daemon stores)."""
+    return datetime.now(timezone.utc).isoformat()
 
 @dataclass
 class RunStart:

@@ -582,7 +582,7 @@ def test_stop_on_signals_turns_sigterm_into_an_emergency_stop():
     import os
     import signal
 
-    from labjoint.acquisition.engine import stop_on_signals
+    from labjoint.acquisition.stop_signals import stop_on_signals
 
     def on_read(col):
         if col.open_blocks() == 2:

@@ -31,13 +31,12 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
-import signal
 import threading
 import time
 import uuid
 from dataclasses import asdict
 from datetime import datetime, timezone
-from typing import Any, Callable, Iterator, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 from labjoint import __version__
 from labjoint.acquisition.calibrations import channel_calibrations
@@ -46,7 +45,8 @@ from labjoint.acquisition.gate import GateCancelled, TorqueGate
 from labjoint.acquisition.messages import (Checkpoint, Configure, LoadWaveform, Measure,
                                            Measurement, Message, Output, Pause, PlanResult, Ramp, Record, RecordResult,
                                            SetTorque, SteadyResult, WaitSteady)
-from labjoint.acquisition.recorder import Recorder, utc_now
+from labjoint.acquisition.recorder import Recorder
+from labjoint.documents import utc_now
 from labjoint.acquisition.roles import engine_roles
 from labjoint.acquisition.sampling import Sampler, run_clock
 from labjoint.config import LimitsConfig, RigConfig
@@ -54,8 +54,7 @@ from labjoint.errors import HardwareError, InputError, LimitExceeded
 from labjoint.documents import Marker
 from labjoint.hardware.interfaces import DAQ, GeneratorSettings, SignalGenerator
 
-__all__ = ["FLOOR_VPP", "PlanResult", "RunEngine", "channel_calibrations", "stop_on_signals",
-           "utc_now"]
+__all__ = ["FLOOR_VPP", "PlanResult", "RunEngine", "channel_calibrations", "utc_now"]
 
 log = logging.getLogger(__name__)
 
@@ -384,20 +383,3 @@ class RunEngine:
         if isinstance(exc, KeyboardInterrupt):
             return "aborted", "interrupted (KeyboardInterrupt)", False, exc
         return "failed", f"{type(exc).__name__}: {exc}", not self.drive.fault, exc
-
-@contextlib.contextmanager
-def stop_on_signals(engine: RunEngine, signals: Sequence[int] = (signal.SIGTERM,)) -> Iterator[None]:
-    """Within the block, the given signals trigger ``engine.emergency_stop`` (main thread
-    only; Ctrl-C already ends a plan through KeyboardInterrupt)."""
-    previous = {}
-
-    def handler(signum: int, frame: Any) -> None:
-        engine.emergency_stop(f"signal {signal.Signals(signum).name}")
-
-    for s in signals:
-        previous[s] = signal.signal(s, handler)
-    try:
-        yield
-    finally:
-        for s, h in previous.items():
-            signal.signal(s, h)

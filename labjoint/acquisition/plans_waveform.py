@@ -13,7 +13,7 @@ factor), which the analysis checks against the signals.
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import Annotated, Literal
 
 from pydantic import Field
 
@@ -41,15 +41,7 @@ def play(wave: wf.Waveform, name: str, plan: str, amplitude_vpp: float, n_period
     yield Output(False)
 
 
-def _multisine_wave(kw: dict[str, Any]) -> wf.Waveform:
-    return wf.multisine(f_min_hz=kw.get("f_min_hz", 50.0), f_max_hz=kw.get("f_max_hz", 1000.0),
-                        resolution_hz=kw.get("resolution_hz", 5.0), lines=kw.get("lines", "all"),
-                        lines_hz=kw.get("lines_hz"), phases=kw.get("phases", "random"),
-                        crest_iterations=kw.get("crest_iterations", 20), seed=kw.get("seed", 0),
-                        n_points=kw.get("n_points", wf.MAX_POINTS))
-
-
-@register(check=lambda **kw: _multisine_wave(kw))
+@register()
 def multisine(*, f_min_hz: Hz = 50.0, f_max_hz: Hz = 1000.0, resolution_hz: Hz = 5.0,
               lines: Literal["all", "odd", "random_odd"] = "all",
               lines_hz: Annotated[list[Hz], Field(min_length=1)] | None = None,
@@ -60,22 +52,17 @@ def multisine(*, f_min_hz: Hz = 50.0, f_max_hz: Hz = 1000.0, resolution_hz: Hz =
               steady_tol: Fraction = 0.02, steady_window: Window = 3) -> Plan:
     """A flat multisine: lines every ``resolution_hz`` in the band (or ``lines_hz``), random
     or Schroeder phases, crest factor lowered by ``crest_iterations``; the period is
-    1 / resolution_hz."""
-    wave = _multisine_wave(dict(f_min_hz=f_min_hz, f_max_hz=f_max_hz, resolution_hz=resolution_hz,
-                                lines=lines, lines_hz=lines_hz, phases=phases,
-                                crest_iterations=crest_iterations, seed=seed, n_points=n_points))
+    1 / resolution_hz. The waveform is built when the plan is called, so a bad
+    parameter is refused then, not when the plan runs."""
+    wave = wf.multisine(f_min_hz=f_min_hz, f_max_hz=f_max_hz, resolution_hz=resolution_hz,
+                        lines=lines, lines_hz=lines_hz, phases=phases,
+                        crest_iterations=crest_iterations, seed=seed, n_points=n_points)
     lo, hi = wave.band_hz
-    yield from play(wave, f"multisine_{tag(lo)}-{tag(hi)}Hz_{tag(amplitude_vpp)}Vpp", "multisine",
+    return play(wave, f"multisine_{tag(lo)}-{tag(hi)}Hz_{tag(amplitude_vpp)}Vpp", "multisine",
                     amplitude_vpp, n_periods, torque_nm, steady_max_periods, steady_tol, steady_window)
 
 
-def _sweep_wave(kw: dict[str, Any]) -> wf.Waveform:
-    return wf.swept_sine(f_start_hz=kw.get("f_start_hz", 50.0), f_stop_hz=kw.get("f_stop_hz", 1000.0),
-                         period_s=kw.get("sweep_s", 1.0), law=kw.get("law", "log"),
-                         n_points=kw.get("n_points", wf.MAX_POINTS))
-
-
-@register(check=lambda **kw: _sweep_wave(kw))
+@register()
 def swept_sine(*, f_start_hz: Hz = 50.0, f_stop_hz: Hz = 1000.0, sweep_s: Seconds = 1.0,
                law: Literal["log", "linear"] = "log", amplitude_vpp: Vpp = 1.0,
                n_periods: Cycles = 1, n_points: Points = wf.MAX_POINTS,
@@ -83,20 +70,14 @@ def swept_sine(*, f_start_hz: Hz = 50.0, f_stop_hz: Hz = 1000.0, sweep_s: Second
                steady_tol: Fraction = 0.02, steady_window: Window = 2) -> Plan:
     """A sine swept from ``f_start_hz`` to ``f_stop_hz`` over ``sweep_s`` (one period),
     repeated; ``n_periods`` sweeps recorded after the transient."""
-    wave = _sweep_wave(dict(f_start_hz=f_start_hz, f_stop_hz=f_stop_hz, sweep_s=sweep_s, law=law,
-                            n_points=n_points))
-    yield from play(wave, f"swept_sine_{tag(f_start_hz)}-{tag(f_stop_hz)}Hz_{tag(amplitude_vpp)}Vpp",
+    wave = wf.swept_sine(f_start_hz=f_start_hz, f_stop_hz=f_stop_hz, period_s=sweep_s, law=law,
+                         n_points=n_points)
+    return play(wave, f"swept_sine_{tag(f_start_hz)}-{tag(f_stop_hz)}Hz_{tag(amplitude_vpp)}Vpp",
                     "swept_sine", amplitude_vpp, n_periods, torque_nm, steady_max_periods,
                     steady_tol, steady_window)
 
 
-def _noise_wave(kw: dict[str, Any]) -> wf.Waveform:
-    return wf.random_noise(f_min_hz=kw.get("f_min_hz", 50.0), f_max_hz=kw.get("f_max_hz", 1000.0),
-                           period_s=kw.get("period_s", 1.0), seed=kw.get("seed", 0),
-                           n_points=kw.get("n_points", wf.MAX_POINTS))
-
-
-@register(check=lambda **kw: _noise_wave(kw))
+@register()
 def random_noise(*, f_min_hz: Hz = 50.0, f_max_hz: Hz = 1000.0, period_s: Seconds = 1.0,
                  seed: Seed = 0, amplitude_vpp: Vpp = 1.0, n_periods: Cycles = 1,
                  n_points: Points = wf.MAX_POINTS, torque_nm: Nm | None = None,
@@ -104,8 +85,8 @@ def random_noise(*, f_min_hz: Hz = 50.0, f_max_hz: Hz = 1000.0, period_s: Second
                  steady_window: Window = 2) -> Plan:
     """Band-limited Gaussian noise of one ``period_s`` long realisation; one period recorded
     is a random record, several are periodic noise."""
-    wave = _noise_wave(dict(f_min_hz=f_min_hz, f_max_hz=f_max_hz, period_s=period_s, seed=seed,
-                            n_points=n_points))
-    yield from play(wave, f"random_noise_{tag(f_min_hz)}-{tag(f_max_hz)}Hz_{tag(amplitude_vpp)}Vpp",
+    wave = wf.random_noise(f_min_hz=f_min_hz, f_max_hz=f_max_hz, period_s=period_s, seed=seed,
+                           n_points=n_points)
+    return play(wave, f"random_noise_{tag(f_min_hz)}-{tag(f_max_hz)}Hz_{tag(amplitude_vpp)}Vpp",
                     "random_noise", amplitude_vpp, n_periods, torque_nm, steady_max_periods,
                     steady_tol, steady_window)

@@ -9,21 +9,15 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from datetime import datetime, timezone
 from typing import Any, Callable, Sequence
 
 import numpy as np
 
 from labjoint.acquisition.messages import RecordResult
-from labjoint.documents import Block, Marker, RunStart, RunStop
+from labjoint.documents import Block, Marker, RunStart, RunStop, utc_now
 from labjoint.hardware.interfaces import ChannelSpec
 
 log = logging.getLogger(__name__)
-
-
-def utc_now() -> str:
-    """The current UTC time, ISO 8601."""
-    return datetime.now(timezone.utc).isoformat()
 
 
 @dataclass

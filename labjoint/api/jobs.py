@@ -23,12 +23,12 @@ import uuid
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import closing
 from dataclasses import asdict, dataclass, field
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable
 
 
 from labjoint.compare.jsonsafe import clean as json_safe
+from labjoint.documents import utc_now
 from labjoint.errors import InputError, LabjointError
 
 log = logging.getLogger(__name__)
@@ -36,9 +36,6 @@ log = logging.getLogger(__name__)
 FINISHED = ("complete", "failed", "cancelled")
 Work = Callable[[dict[str, Any], Callable[[float, str], None]], dict[str, Any]]
 
-
-def _now() -> str:
-    return datetime.now(timezone.utc).isoformat()
 
 
 
@@ -115,7 +112,7 @@ class JobStore:
         with closing(self._connect()) as con, con:
             return con.execute("UPDATE jobs SET status = 'failed', error = ?, finished_at = ? "
                                "WHERE status IN ('queued', 'running')",
-                               (err, _now())).rowcount
+                               (err, utc_now())).rowcount
 
     def _select(self, sql: str, args: list[Any]) -> list[JobRecord]:
         with closing(self._connect()) as con:
@@ -156,7 +153,7 @@ class JobRunner:
                submitted_by: str = "", long: bool = False) -> JobRecord:
         job = JobRecord(id=uuid.uuid4().hex, kind=kind, status="queued",
                         request=json_safe(request), submitted_by=submitted_by,
-                        submitted_at=_now())
+                        submitted_at=utc_now())
         live = _Live(job)
         with self._lock:
             self._live[job.id] = live
@@ -169,7 +166,7 @@ class JobRunner:
         with self._lock:
             if job.status != "queued":
                 return
-            job.status, job.started_at = "running", _now()
+            job.status, job.started_at = "running", utc_now()
         self.store.put(job)
 
         def progress(fraction: float, message: str = "") -> None:
@@ -198,7 +195,7 @@ class JobRunner:
                 error: dict[str, Any] | None = None) -> None:
         job = live.job
         with self._lock:
-            job.status, job.finished_at = status, _now()
+            job.status, job.finished_at = status, utc_now()
             job.result, job.error = result, error
             if status == "complete":
                 job.progress = 1.0

@@ -145,15 +145,18 @@ def _fit_simulation(args: argparse.Namespace) -> int:
     return 0
 
 
-def _simulation_options(args: argparse.Namespace) -> dict[str, Any]:
-    from labjoint.compare.significance import SignificanceSettings
+def _simulation_job(args: argparse.Namespace, operation: str, steps: int) -> dict[str, Any]:
+    """Diagnose or ladder by simulation error through the one option mapping REST uses."""
+    from labjoint.compare.simulation_api import simulation_job
 
     if args.kind == "sine":
         raise InputError("--error simulation judges records (--kind record or auto)", field="kind")
-    return {"validate": args.validate, "periodic": args.periodic, "warmup": args.warmup,
-            "seed": args.seed, "factor": args.factor,
-            "significance": SignificanceSettings(alpha=args.alpha),
-            "candidates": args.candidates}
+    options = {"validate": args.validate, "periodic": args.periodic, "warmup": args.warmup,
+               "seed": args.seed, "factor": args.factor, "alpha": args.alpha,
+               "candidates": args.candidates}
+    return simulation_job(operation, args.runs, args.model, options,
+                          max_steps=getattr(args, "max_steps", None),
+                          progress=_progress(args, operation, steps))
 
 
 def _simulation_only(args: argparse.Namespace) -> None:
@@ -181,10 +184,7 @@ def diagnose(args: argparse.Namespace) -> int:
 
 
 def _diagnose_simulation(args: argparse.Namespace) -> int:
-    from labjoint.compare.simulation_loop import diagnose_simulation
-
-    res = diagnose_simulation(args.runs, args.model, **_simulation_options(args),
-                              progress=_progress(args, "diagnose", 8)).to_dict()
+    res = _simulation_job(args, "diagnose", 8)
     if args.json:
         emit_json(res)
         return 0
@@ -207,11 +207,7 @@ def _print_diagnosis(res: dict[str, Any], how: str) -> None:
 
 
 def _ladder_simulation(args: argparse.Namespace) -> int:
-    from labjoint.compare.simulation_loop import ladder_simulation
-
-    res = ladder_simulation(args.runs, args.model, max_steps=args.max_steps,
-                            progress=_progress(args, "ladder", 8 * (args.max_steps or 3)),
-                            **_simulation_options(args))
+    res = _simulation_job(args, "ladder", 8 * (args.max_steps or 3))
     if args.json:
         emit_json(res)
         return 0

@@ -13,9 +13,9 @@ import json
 import logging
 import sqlite3
 from collections.abc import Mapping
-from datetime import datetime, timezone
 from typing import Any
 
+from labjoint.documents import utc_now
 from labjoint.errors import LabjointError
 
 log = logging.getLogger(__name__)
@@ -24,11 +24,6 @@ HELD_MESSAGE = "held by an emergency stop: resume it or cancel it"
 
 class JobStateError(LabjointError):
     """The job is not in a state that allows the request (e.g. cancelling a finished job)."""
-
-
-def utc_now() -> str:
-    """Current UTC time, ISO 8601."""
-    return datetime.now(timezone.utc).isoformat()
 
 
 class ControlMixin:

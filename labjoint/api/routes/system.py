@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import logging
 import platform
-from datetime import datetime, timezone
 from typing import Any
 
 from fastapi import APIRouter, Depends, Request
@@ -15,6 +14,7 @@ from labjoint.api.errors import ApiError, errors_doc
 from labjoint.api.jobs import json_safe
 from labjoint.api.schemas import EStopRequest, EStopResult, Health, RigStatus, Version
 from labjoint.daemon.liveness import liveness
+from labjoint.documents import utc_now
 
 log = logging.getLogger(__name__)
 router = APIRouter(tags=["system"])
@@ -29,7 +29,7 @@ def mode(request: Request) -> str:
 def health(request: Request) -> dict[str, Any]:
     """Always open (no token): the service answers, its version and daemon mode."""
     return {"status": "ok", "version": __version__, "daemon": mode(request),
-            "time": datetime.now(timezone.utc).isoformat()}
+            "time": utc_now()}
 
 
 @router.get("/version", response_model=Version, responses=errors_doc(), summary="Version",
