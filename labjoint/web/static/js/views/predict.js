@@ -5,7 +5,7 @@
 
 import { api, runJob } from '../api.js';
 import { h, note, section, table } from '../dom.js';
-import { fmt, paramDisplay, pct, um } from '../units.js';
+import { fmt, nrmse, paramDisplay, um } from '../units.js';
 import { plotXY } from '../plot/plot.js';
 import { selectedRuns, setSelectedRuns } from './runs.js';
 
@@ -41,19 +41,22 @@ function seriesPlots(s, label) {
     hlines: Number.isFinite(s.noise_std_m) ? [{ y: um(s.noise_std_m), label: 'noise' }] : [],
   });
   return h('figure', { class: 'prediction', 'data-run': s.run, 'data-role': label },
-    h('p', { class: 'caption' }, `RMSE ${fmt(um(s.rmse), 3)} µm · NRMSE ${pct(s.nrmse)}`), fig, seg);
+    h('p', { class: 'caption' }, `RMSE ${fmt(um(s.rmse), 3)} µm · NRMSE ${nrmse(s.nrmse)}`), fig, seg);
 }
 
 function resultView(res) {
-  const params = Object.entries(res.parameters).map(([k, p]) => [k, fmt(p.value), fmt(p.stderr, 2),
-    paramDisplay(p.unit)]);
+  const params = Object.entries(res.parameters).map(([k, p]) => {
+    const d = paramDisplay(p.unit);
+    return [k, fmt(p.value * d.k), p.stderr == null ? '–' : fmt(p.stderr * d.k, 2), d.unit];
+  });
   return h('div', { id: 'predict-result' },
-    h('p', { id: 'predict-summary' }, `${res.model} by simulation error: NRMSE ${pct(res.nrmse)} on the `
-      + `fitted records (noise floor ${pct(res.noise_floor)})`
-      + (res.nrmse_validation == null ? '' : `, ${pct(res.nrmse_validation)} on the held-out ones`)),
+    h('p', { id: 'predict-summary' }, `${res.model} by simulation error: NRMSE ${nrmse(res.nrmse)} on the `
+      + `fitted records (noise floor ${nrmse(res.noise_floor)})`
+      + (res.nrmse_validation == null ? '' : `, ${nrmse(res.nrmse_validation)} on the held-out ones`)),
+    ...(res.warnings || []).map((w) => h('p', { class: 'note error predict-warning' }, `warning: ${w}`)),
     table(['parameter', 'value', 'stderr', 'unit'], params, { id: 'predict-params' }),
     ...(res.series || []).map((s) => seriesPlots(s, 'fitted')),
-    ...(res.validation_series || []).map((s) => seriesPlots(s, 'held out')));
+    ...(res.validation_series || []).map((s) => seriesPlots(s, 'held-out')));
 }
 
 export async function show(el) {
