@@ -19,14 +19,13 @@ import secrets
 import socket
 import time
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable
 
 import h5py
 import numpy as np
 
-from labjoint.documents import RUN_STATUSES, Block, Marker, RunStart, RunStop
+from labjoint.documents import RUN_STATUSES, Block, Marker, RunStart, RunStop, utc_now
 from labjoint.errors import InputError
 from labjoint.storage import layout
 
@@ -34,11 +33,6 @@ log = logging.getLogger(__name__)
 
 #: Absolute paths of run files this process is writing (recover() refuses them).
 OPEN_FOR_WRITE: set[str] = set()
-
-
-def utc_now() -> str:
-    """Current UTC time, ISO 8601."""
-    return datetime.now(timezone.utc).isoformat()
 
 
 @dataclass
