@@ -1,0 +1,194 @@
+"""Constant-force stepped-sine FRFs of a structure, with their harmonics (seed 000 Sec. 4).
+
+One :class:`FrfSet` holds every step of one or more step-sine sweeps: per step the drive
+frequency f, the force level aimed at, the sweep direction, the achieved force phasor at
+f, the generator voltage phasor (for labs without a force sensor, responses per volt),
+and per sensor the response phasors at h f for h = 1..H (acceleration, m/s^2), each with
+the standard deviation of its estimate (the noise floor of the comparison).
+
+Phasor convention: a signal a cos(h w t + phi) has phasor a exp(i phi) at harmonic h
+(amplitude, not RMS). The accelerance at step k, sensor s is
+``response[k, s, 0] / force[k]``.
+
+>>> s = FrfSet(frequencies_hz=[27.0, 28.0], level_n=[16.5, 16.5], direction=["up", "up"],
+...            force=[16.4 + 0j, 16.6 + 0j], sensors=("tip",),
+...            response=np.ones((2, 1, 3), complex), response_std=np.full((2, 1, 3), 0.01))
+>>> s.harmonics, [k for k, _ in s.groups()]
+(3, [(16.5, 'up')])
+>>> FrfSet.from_dict(s.to_dict()) == s
+True
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any, Iterator
+
+import numpy as np
+
+from labjoint.errors import InputError
+
+FORMAT = "labjoint.frfset/1"
+QUANTITIES = ("acceleration", "velocity", "displacement")
+
+
+def _complex(a: Any, name: str) -> np.ndarray:
+    try:
+        return np.asarray(a, dtype=complex)
+    except (TypeError, ValueError):
+        raise InputError("must be complex numbers", field=name) from None
+
+
+@dataclass(frozen=True, eq=False)
+class FrfSet:
+    """Stepped-sine steps (n), sensors (S), harmonics (H); SI units, phasors as amplitudes."""
+
+    frequencies_hz: np.ndarray          # (n,) drive frequency of each step
+    level_n: np.ndarray                 # (n,) force amplitude aimed at (groups the steps)
+    direction: np.ndarray               # (n,) 'up' or 'down'
+    force: np.ndarray                   # (n,) achieved force phasor at f, N
+    sensors: tuple[str, ...]            # response sensor names (the structure file's)
+    response: np.ndarray                # (n, S, H) response phasors at h f
+    response_std: np.ndarray            # (n, S, H) std of each phasor estimate (>= 0)
+    quantity: str = "acceleration"      # what response measures (m/s^2, m/s or m)
+    drive_v: np.ndarray | None = None   # (n,) generator voltage phasor at f, V (or None)
+    runs: tuple[str, ...] = ()          # the run each step came from (or empty)
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        put = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 - frozen dataclass
+        f = np.asarray(self.frequencies_hz, float)
+        n = f.size
+        if f.ndim != 1 or n == 0 or not np.all(np.isfinite(f)) or np.any(f <= 0):
+            raise InputError("must be a non-empty list of positive frequencies", field="frequencies_hz")
+        put("frequencies_hz", f)
+        lv = np.asarray(self.level_n, float)
+        if lv.shape != (n,) or not np.all(lv > 0):
+            raise InputError(f"must be {n} positive force levels", field="level_n")
+        put("level_n", lv)
+        d = np.asarray(self.direction, dtype=str)
+        if d.shape != (n,) or not set(d.tolist()) <= {"up", "down"}:
+            raise InputError(f"must be {n} of 'up' or 'down'", field="direction")
+        put("direction", d)
+        fc = _complex(self.force, "force")
+        if fc.shape != (n,) or not np.all(np.isfinite(fc)) or np.any(fc == 0):
+            raise InputError(f"must be {n} non-zero finite force phasors", field="force")
+        put("force", fc)
+        sensors = tuple(str(s) for s in self.sensors)
+        if not sensors or len(set(sensors)) != len(sensors):
+            raise InputError("must be distinct sensor names, at least one", field="sensors")
+        put("sensors", sensors)
+        r = _complex(self.response, "response")
+        if r.ndim != 3 or r.shape[:2] != (n, len(sensors)) or r.shape[2] < 1 or not np.all(np.isfinite(r)):
+            raise InputError(f"must be finite, shaped (steps {n}, sensors {len(sensors)}, harmonics)",
+                             field="response")
+        put("response", r)
+        sd = np.asarray(self.response_std, float)
+        if sd.shape != r.shape or not np.all(sd >= 0):
+            raise InputError(f"must be {r.shape} non-negative standard deviations", field="response_std")
+        put("response_std", sd)
+        if self.quantity not in QUANTITIES:
+            raise InputError(f"must be one of {QUANTITIES}", field="quantity")
+        if self.drive_v is not None:
+            v = _complex(self.drive_v, "drive_v")
+            if v.shape != (n,) or not np.all(np.isfinite(v)):
+                raise InputError(f"must be {n} finite voltage phasors", field="drive_v")
+            put("drive_v", v)
+        runs = tuple(str(x) for x in self.runs)
+        if runs and len(runs) != n:
+            raise InputError(f"must name {n} runs or none", field="runs")
+        put("runs", runs)
+
+    @property
+    def harmonics(self) -> int:
+        """H, the number of response harmonics per step."""
+        return int(self.response.shape[2])
+
+    def __len__(self) -> int:
+        return int(self.frequencies_hz.size)
+
+    def accelerance(self, harmonic: int = 1) -> np.ndarray:
+        """(n, S) response at ``harmonic`` x f over the force phasor at f."""
+        return self.response[:, :, harmonic - 1] / self.force[:, None]
+
+    def groups(self) -> Iterator[tuple[tuple[float, str], np.ndarray]]:
+        """((level, direction), step indices in sweep order) per sweep, levels ascending."""
+        keys = sorted({(float(lv), str(d)) for lv, d in zip(self.level_n, self.direction)},
+                      key=lambda k: (k[0], k[1] != "up"))
+        for lv, d in keys:
+            yield (lv, d), np.flatnonzero((self.level_n == lv) & (self.direction == d))
+
+    def subset(self, index: Any) -> "FrfSet":
+        """The steps selected by ``index`` (a mask or indices), same sensors and harmonics."""
+        idx = np.arange(len(self))[index]
+        return FrfSet(self.frequencies_hz[idx], self.level_n[idx], self.direction[idx],
+                      self.force[idx], self.sensors, self.response[idx], self.response_std[idx],
+                      self.quantity, None if self.drive_v is None else self.drive_v[idx],
+                      tuple(self.runs[i] for i in idx) if self.runs else (), dict(self.metadata))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON types; complex numbers as [re, im] pairs."""
+        c = lambda a: np.stack([a.real, a.imag], -1).tolist()  # noqa: E731
+        return {"format": FORMAT, "frequencies_hz": self.frequencies_hz.tolist(),
+                "level_n": self.level_n.tolist(), "direction": self.direction.tolist(),
+                "force": c(self.force), "sensors": list(self.sensors), "response": c(self.response),
+                "response_std": self.response_std.tolist(), "quantity": self.quantity,
+                "drive_v": None if self.drive_v is None else c(self.drive_v),
+                "runs": list(self.runs), "metadata": self.metadata}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "FrfSet":
+        """Inverse of :meth:`to_dict`; a wrong format or missing key names the key."""
+        if not isinstance(d, dict) or d.get("format") != FORMAT:
+            raise InputError(f"not an FRF set (format must be {FORMAT!r})", field="format")
+
+        def c(key: str) -> Any:
+            a = np.asarray(d[key], float)
+            if a.ndim == 0 or a.shape[-1] != 2:
+                raise InputError("must be [re, im] pairs", field=key)
+            return a[..., 0] + 1j * a[..., 1]
+        try:
+            return cls(d["frequencies_hz"], d["level_n"], d["direction"], c("force"),
+                       tuple(d["sensors"]), c("response"), d["response_std"],
+                       d.get("quantity", "acceleration"),
+                       None if d.get("drive_v") is None else c("drive_v"),
+                       tuple(d.get("runs", ())), dict(d.get("metadata", {})))
+        except KeyError as exc:
+            raise InputError("missing from the FRF set", field=str(exc.args[0])) from None
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"unreadable FRF set: {exc}", field="frfset") from None
+
+    def save(self, path: str | Path) -> Path:
+        """Write as JSON in one step (a temporary file renamed over the target)."""
+        p = Path(path)
+        tmp = p.with_name(f".{p.name}.tmp")
+        tmp.write_text(json.dumps(self.to_dict()))
+        os.replace(tmp, p)
+        return p
+
+    @classmethod
+    def load(cls, path: str | Path) -> "FrfSet":
+        """Read a file written by :meth:`save`; errors name the file."""
+        p = Path(path)
+        try:
+            d = json.loads(p.read_text())
+        except (OSError, ValueError) as exc:
+            raise InputError(f"{p}: not a readable FRF set ({exc})", field="path") from None
+        return cls.from_dict(d)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, FrfSet):
+            return NotImplemented
+        for f in fields(self):
+            a, b = getattr(self, f.name), getattr(other, f.name)
+            if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+                if a is None or b is None or not np.array_equal(a, b):
+                    return False
+            elif a != b:
+                return False
+        return True
+
+    __hash__ = None  # type: ignore[assignment]
