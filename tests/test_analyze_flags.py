@@ -55,3 +55,11 @@ def test_stickslip_columns_are_labelled_model_based(run_path, capsys):
     text = capsys.readouterr().out
     assert "W model mJ" in text and "C model Ns/m" in text
     assert "not an independent check" in text
+
+
+@pytest.mark.parametrize("mu", ["1e-300", "0", "80"])
+def test_a_friction_coefficient_no_contact_has_is_one_clear_error(run_path, capsys, mu):
+    # 1e-300 overflowed the loads K_t u / (mu N) of Eq. 6 (a RuntimeWarning, then nonsense)
+    assert main(["analyze", run_path, "--method", "stickslip", "--friction", mu]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "friction coefficient must be between" in err[0]

@@ -100,6 +100,9 @@ def test_a_run_that_cannot_be_analysed_gets_its_own_error(served):
     ({"runs": ["lin_a"], "options": {"colour": "red"}}, 422, "options.colour"),
     ({"runs": []}, 422, "runs"),
     ({"runs": ["../lin_a"]}, 422, "runs"),
+    # 1e-300 overflowed the stick-slip loads K_t u / (mu N) into a server error
+    ({"runs": ["lin_a"], "method": "stick_slip", "options": {"friction_coefficient": 1e-300}},
+     422, "friction_coefficient"),
 ])
 def test_bad_analysis_requests(served, body, status, word):
     http, _ = served

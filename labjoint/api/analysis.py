@@ -21,6 +21,7 @@ from labjoint.api.resolve import RunResolver, roles
 from labjoint.errors import InputError
 from labjoint.identify.analyze import analyze_blocks
 from labjoint.identify.identified import load_identified
+from labjoint.identify.stickslip import MAX_FRICTION, MIN_FRICTION
 from labjoint.identify.methods import analyze_runs
 from labjoint.signal.filter import PAPER_CUTOFF_HZ
 from labjoint.storage import RunFile
@@ -51,7 +52,7 @@ class StickSlipOptions(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     friction_coefficient: float | None = Field(
-        None, gt=0, le=5, allow_inf_nan=False,
+        None, ge=MIN_FRICTION, le=MAX_FRICTION, allow_inf_nan=False,
         description="default: the latest friction test in <data_dir>/identified.json")
     shear_stiffness_n_per_m: float | None = Field(
         None, gt=0, allow_inf_nan=False, description="K_t; default: loop slope / 2 (Eq. 9)")

@@ -86,6 +86,9 @@ def analyze_paths(paths: list[str], method: str = "loop", force: str = "joint",
             raise InputError("give --friction or --friction-run, not both", field="--friction-run")
         from labjoint.cli.cmd_calibrate import friction_from_file
         friction = friction_from_file(friction_run)
+    if isinstance(friction, (int, float)) and method != "loop":   # once, before any file
+        from labjoint.identify.stickslip import check_friction
+        check_friction(friction, field="--friction")
     bar = Progress(len(paths), "analyze", enabled=progress)
     rows: list[dict[str, Any]] = []
     for p in paths:

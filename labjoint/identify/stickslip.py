@@ -55,10 +55,22 @@ BASIS = ("model-based: seed 002 Eqs. 6-9 with K_t, mu and the contact law; in mi
          "(the loop slope), U and omega and do not measure dissipation independently")
 
 
+#: Friction coefficients taken: far below (above) any dry contact's; as mu -> 0 the loads
+#: K_t u / (mu N) of Eq. 6 overflow.
+MIN_FRICTION, MAX_FRICTION = 1e-3, 5.0
+
+
+def check_friction(mu: float, field: str = "friction_coefficient") -> float:
+    """``mu`` as a float if it is a friction coefficient a contact can have, else InputError."""
+    mu = float(mu)
+    if not (np.isfinite(mu) and MIN_FRICTION <= mu <= MAX_FRICTION):
+        raise InputError(f"friction coefficient must be between {MIN_FRICTION:g} and "
+                         f"{MAX_FRICTION:g}, got {mu:g}", field=field)
+    return mu
+
+
 def _check_inputs(k_t: float, mu: float, frequency_hz: float) -> None:
-    if not (np.isfinite(mu) and mu > 0):
-        raise InputError(f"friction coefficient must be positive, got {mu}",
-                         field="friction_coefficient")
+    check_friction(mu)
     if not (np.isfinite(k_t) and k_t > 0):
         raise InputError(f"shear-layer stiffness K_t must be positive, got {k_t} N/m",
                          field="shear_stiffness_n_per_m")

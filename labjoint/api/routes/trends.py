@@ -18,15 +18,13 @@ from labjoint.api.schemas import RUN_NAME
 from labjoint.api.trend_schemas import Trends
 from labjoint.errors import InputError, LabjointError
 from labjoint.identify.identified import load_identified
+from labjoint.identify.stickslip import MAX_FRICTION, MIN_FRICTION
 from labjoint.identify.trends import build_trends, trend_row
 from labjoint.storage import read_run
 
 router = APIRouter(prefix="/trends", tags=["trends"], dependencies=[Depends(require_read)])
 #: Most runs named in one request (the filter's ``limit`` bounds the rest).
 MAX_NAMED = 1000
-#: Smallest friction coefficient taken: far below any dry contact's, and the stick-slip
-#: loads K_t u / (mu N) overflow as mu -> 0.
-MIN_FRICTION = 1e-3
 
 
 def _message(exc: LabjointError) -> str:
@@ -44,7 +42,7 @@ def trends(
                            description="runs by name; when given, these runs are taken "
                                        "and the catalog filters are not applied"),
     friction_coefficient: float | None = Query(
-        None, ge=MIN_FRICTION, le=5, allow_inf_nan=False,
+        None, ge=MIN_FRICTION, le=MAX_FRICTION, allow_inf_nan=False,
         description="for the stick-slip method; default: the latest friction test in "
                     "<data_dir>/identified.json (none: the loop method alone)"),
     force: Literal["joint", "reference"] = Query("joint", description="force sensor"),
