@@ -34,10 +34,13 @@ class SessionSteps:
                                  self.timeout_ms)
             self._drain_errors()  # what an unsupported header left in the error queue
             _LOAD_PROBES[key] = answer is not None
-        if not _LOAD_PROBES[key]:
-            log.warning("%s: OUTPut%d:IMPedance is not supported; the load is the configured "
-                        "%s (set the same on the front panel), never sent", self.resource,
-                        self.channel, self.load)
+            if not _LOAD_PROBES[key]:
+                # said once per instrument and process; the simulated twin (which models
+                # a firmware without the header) says it at info level, not as a warning
+                level = logging.INFO if str(self.visa_library).endswith("@sim") else logging.WARNING
+                log.log(level, "%s: OUTPut%d:IMPedance is not supported; the load is the "
+                        "configured %s (set the same on the front panel), never sent",
+                        self.resource, self.channel, self.load)
         return _LOAD_PROBES[key]
 
     def _reopen(self) -> None:
