@@ -137,6 +137,10 @@ class Catalog:
     def __repr__(self) -> str:
         return f"Catalog({self.location!r})"
 
+    def close(self) -> None:
+        """Close the database connections kept open (reopened on the next use)."""
+        self.sql.close()
+
     # -- writing -----------------------------------------------------------------
     def put(self, rec: RunRecord, con: Session | None = None) -> None:
         """Insert the row of ``rec.name``, or update it when it is the same run file; a

@@ -26,6 +26,7 @@ import functools
 import os
 import sqlite3
 import threading
+import weakref
 from contextlib import closing, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,6 +38,23 @@ from labjoint.errors import ConfigError
 POSTGRES_SCHEMES = ("postgresql", "postgres")
 BUSY_TIMEOUT_S = 30.0
 CONNECT_TIMEOUT_S = 10
+#: kept connections a forked child inherited: never closed nor freed by the child (closing
+#: would end the parent's session on the shared socket)
+_INHERITED: list[Any] = []
+
+
+def _close_kept(kept: list[tuple[int, Any]]) -> None:
+    """Close the kept connections this process opened; park those of a parent process."""
+    pid = os.getpid()
+    for owner, con in kept:
+        if owner != pid:
+            _INHERITED.append(con)
+            continue
+        try:
+            con.close()
+        except Exception:     # pragma: no cover - closing is best effort
+            pass
+    kept.clear()
 
 
 def is_postgres_url(target: Any) -> bool:
@@ -109,6 +127,10 @@ class Database:
 
     def __init__(self, target: str | Path) -> None:
         self._local = threading.local()
+        self._kept: list[tuple[int, Any]] = []       # (pid, connection) kept open
+        self._kept_lock = threading.Lock()
+        self._generation = 0                          # bumped by close()
+        weakref.finalize(self, _close_kept, self._kept)
         if is_postgres_url(target):
             self.dialect, self.url, self.path = "postgresql", str(target), None
             self.label = redact_url(self.url)
@@ -133,9 +155,10 @@ class Database:
         return (self._pg.Error,) if self.dialect == "postgresql" else (sqlite3.Error,)
 
     # -- connections -------------------------------------------------------------
-    def _sqlite(self) -> sqlite3.Connection:
+    def _sqlite(self, check_same_thread: bool = True) -> sqlite3.Connection:
         try:
-            con = sqlite3.connect(self.path, timeout=BUSY_TIMEOUT_S, isolation_level=None)
+            con = sqlite3.connect(self.path, timeout=BUSY_TIMEOUT_S, isolation_level=None,
+                                  check_same_thread=check_same_thread)
             con.execute("PRAGMA synchronous=NORMAL")  # WAL: durable enough for an index
         except sqlite3.Error as exc:
             raise ConfigError(f"cannot open catalog: {exc}", file=self.label) from None
@@ -158,8 +181,13 @@ class Database:
                     msg = msg.replace(pw, "***")
                 raise ConfigError(f"cannot connect to the PostgreSQL catalog {self.label}: "
                                   f"{msg}", field="catalog_url") from None
+            self._keep(con)
             self._local.con, self._local.pid = con, os.getpid()
         return con
+
+    def _keep(self, con: Any) -> None:
+        with self._kept_lock:
+            self._kept.append((os.getpid(), con))
 
     @contextmanager
     def session(self) -> Iterator[Session]:
@@ -178,10 +206,11 @@ class Database:
             yield Session(self, self._postgres())
             return
         con = getattr(self._local, "ro", None)
-        if con is None or self._local.ro_pid != os.getpid():
-            con = self._sqlite()
+        if con is None or self._local.ro_key != (os.getpid(), self._generation):
+            con = self._sqlite(check_same_thread=False)     # closed by close() in any thread
             con.execute("PRAGMA query_only = ON")
-            self._local.ro, self._local.ro_pid = con, os.getpid()
+            self._keep(con)
+            self._local.ro, self._local.ro_key = con, (os.getpid(), self._generation)
         yield Session(self, con)
 
     @contextmanager
@@ -238,8 +267,8 @@ class Database:
                 f"ON CONFLICT ({', '.join(keys)}) {action}")
 
     def close(self) -> None:
-        """Close this thread's kept PostgreSQL connection (SQLite keeps none)."""
-        con = getattr(self._local, "con", None)
-        if con is not None and self._local.pid == os.getpid():
-            con.close()
-        self._local.con = None
+        """Close the connections kept open (also done when the Database is freed); the
+        next statement opens new ones."""
+        with self._kept_lock:
+            _close_kept(self._kept)
+            self._generation += 1
