@@ -89,7 +89,7 @@ def migrate(db: Database, migrations: tuple[Migration, ...] = MIGRATIONS) -> lis
         if newer:
             raise ConfigError(f"catalog {db.label} has schema version {newer[-1]}, newer than "
                               f"this labjoint knows ({latest}): upgrade labjoint",
-                              field="catalog_url")
+                              field="rig.catalog_url")
         for m in migrations:
             if m.version in done:
                 continue

@@ -138,7 +138,7 @@ class Database:
                 self._pg = __import__("psycopg")
             except ImportError:                                   # pragma: no cover
                 raise ConfigError("a PostgreSQL catalog needs psycopg (pip install "
-                                  "'psycopg[binary]')", field="catalog_url") from None
+                                  "'psycopg[binary]')", field="rig.catalog_url") from None
         else:
             self.dialect, self.url, self.path = "sqlite", "", Path(target)
             self.label = str(self.path)
@@ -180,7 +180,7 @@ class Database:
                 if pw:
                     msg = msg.replace(pw, "***")
                 raise ConfigError(f"cannot connect to the PostgreSQL catalog {self.label}: "
-                                  f"{msg}", field="catalog_url") from None
+                                  f"{msg}", field="rig.catalog_url") from None
             self._keep(con)
             self._local.con, self._local.pid = con, os.getpid()
         return con
