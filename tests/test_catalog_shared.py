@@ -5,10 +5,12 @@ unreachable server or wrong credentials."""
 
 from __future__ import annotations
 
+import asyncio
 import json
 import multiprocessing
 import sqlite3
 
+import httpx
 import pytest
 
 from labjoint.cli.main import main
@@ -190,3 +192,16 @@ def test_simulated_runs_recorded_and_queried_through_a_postgresql_catalog(pg_url
     assert runs[0]["path"].startswith(str(data.resolve()))
     assert main(["runs", "--config", str(cfg), "--data", str(data), "--json"]) == 0
     assert len(json.loads(capsys.readouterr().out)["runs"]) == 2 == len(Catalog(pg_url))
+    # the REST service built from the same config answers /runs from PostgreSQL
+    from labjoint.api.server import build
+
+    svc = build(cfg, data_dir=data, port=0, daemon=False, log_level="warning", env={})
+    assert svc.app.state.catalog.location == redact_url(pg_url)
+
+    async def get():
+        async with httpx.AsyncClient(transport=httpx.ASGITransport(app=svc.app),
+                                     base_url="http://127.0.0.1:8000") as http:
+            return await http.get("/api/v1/runs", params={"vpp_min": 5})
+    r = asyncio.run(get())
+    assert r.status_code == 200, r.text
+    assert [(x["excitation_vpp"], x["status"]) for x in r.json()["items"]] == [(6.0, "complete")]
