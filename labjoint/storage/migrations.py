@@ -38,17 +38,20 @@ _RUNS = """CREATE TABLE IF NOT EXISTS runs (
     sample_rate_hz DOUBLE PRECISION, n_samples BIGINT, status TEXT, start_time TEXT,
     start_ts DOUBLE PRECISION, end_time TEXT, source TEXT, extra TEXT)"""
 
+#: the reprocess results (labjoint.storage.results on the dask branch: the same DDL)
 _RESULTS = """CREATE TABLE IF NOT EXISTS results (
-    run TEXT, pipeline TEXT, options_hash TEXT, version TEXT, status TEXT,
-    computed_at TEXT, labjoint_version TEXT, input_sha256 TEXT, options TEXT,
-    summary TEXT, error TEXT, PRIMARY KEY (run, pipeline, options_hash))"""
+    run TEXT NOT NULL, pipeline TEXT NOT NULL, options_hash TEXT NOT NULL,
+    version TEXT NOT NULL, status TEXT NOT NULL, computed_at TEXT, labjoint_version TEXT,
+    input_sha256 TEXT, options TEXT, summary TEXT, error TEXT,
+    PRIMARY KEY (run, pipeline, options_hash))"""
 
 MIGRATIONS: tuple[Migration, ...] = (
     Migration(1, "runs: one row per run file", (_RUNS, *(
         f"CREATE INDEX IF NOT EXISTS runs_{c} ON runs({c})"
         for c in ("torque_nm", "excitation_vpp", "frequency_hz", "status", "start_ts", "path")))),
     Migration(2, "results: one row per (run, pipeline, options) computed by reprocess",
-              (_RESULTS,)),
+              (_RESULTS, "CREATE INDEX IF NOT EXISTS results_version ON results (version)",
+               "CREATE INDEX IF NOT EXISTS results_pipeline ON results (pipeline, options_hash)")),
 )
 
 _VERSION_TABLE = ("CREATE TABLE IF NOT EXISTS schema_version (version BIGINT PRIMARY KEY, "
