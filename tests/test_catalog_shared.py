@@ -15,7 +15,7 @@ import pytest
 
 from labjoint.cli.main import main
 from labjoint.config import CONFIG_DIR
-from labjoint.errors import ConfigError
+from labjoint.errors import ConfigError, InputError
 from labjoint.storage import Catalog, RunRecord
 from labjoint.storage.migrations import MIGRATIONS, Migration, current_version, migrate
 from labjoint.storage.sqldb import Database, redact_url
@@ -130,6 +130,29 @@ def test_concurrent_writers_in_separate_processes(catalog_target):
     assert parent.count(torque_nm=0) == N_PROCS * 5 + 1     # i % 5 == 0 of each, and "before"
     parent.put(_record("after", 2))        # the forks did not end the parent's session
     assert parent.get("after").plan_step == 2
+
+
+def _same_name(target: str, path: str, barrier) -> None:
+    cat = Catalog(target)
+    barrier.wait()
+    try:
+        cat.put(RunRecord(name="dup", path=path, uid=path))
+    except InputError as exc:
+        assert "already holds a run named 'dup'" in str(exc)
+        raise SystemExit(3) from None
+
+
+def test_two_machines_adding_one_name_one_wins_the_others_are_refused(catalog_target,
+                                                                     tmp_path):
+    files = []
+    for k in range(N_PROCS):
+        files.append(tmp_path / f"m{k}" / "dup.h5")
+        files[-1].parent.mkdir()
+        files[-1].write_bytes(b"")
+    codes = _in_processes(_same_name, lambda k: (catalog_target, str(files[k])))
+    assert sorted(codes) == [0] + [3] * (N_PROCS - 1)
+    winner = files[codes.index(0)]
+    assert Catalog(catalog_target).get("dup").path == str(winner)
 
 
 def test_concurrent_first_open_migrates_once(catalog_target):

@@ -162,6 +162,7 @@ class Catalog:
             tx.execute(sql, list(row.values()))
 
     def _check_name(self, rec: RunRecord, con: Session) -> None:
+        con.lock(f"runs:{rec.name}")       # two machines adding one name: the second sees the first
         old = con.execute("SELECT path, uid FROM runs WHERE name = ?", [rec.name]).first()
         if old is None or (old["uid"] and old["uid"] == rec.uid):
             return

@@ -118,6 +118,13 @@ class Session:
         rows = [dict(zip(names, r)) for r in cur.fetchall()] if names else []
         return Result(rows, cur.rowcount)
 
+    def lock(self, key: str) -> None:
+        """Hold a lock on ``key`` until the transaction ends, so two writers checking and
+        then writing the same key take turns (PostgreSQL: an advisory lock on its hash;
+        SQLite's ``BEGIN IMMEDIATE`` already holds the whole database)."""
+        if self.db.dialect == "postgresql":
+            self.execute("SELECT pg_advisory_xact_lock(hashtext(?))", [key])
+
 
 class Database:
     """A SQLite file (a path) or a PostgreSQL database (a ``postgresql://`` URL).
@@ -135,10 +142,12 @@ class Database:
             self.dialect, self.url, self.path = "postgresql", str(target), None
             self.label = redact_url(self.url)
             try:
-                self._pg = __import__("psycopg")
+                import psycopg
+                import psycopg.rows
             except ImportError:                                   # pragma: no cover
                 raise ConfigError("a PostgreSQL catalog needs psycopg (pip install "
                                   "'psycopg[binary]')", field="rig.catalog_url") from None
+            self._pg = psycopg
         else:
             self.dialect, self.url, self.path = "sqlite", "", Path(target)
             self.label = str(self.path)
