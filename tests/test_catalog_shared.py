@@ -228,3 +228,12 @@ def test_simulated_runs_recorded_and_queried_through_a_postgresql_catalog(pg_url
     r = asyncio.run(get())
     assert r.status_code == 200, r.text
     assert [(x["excitation_vpp"], x["status"]) for x in r.json()["items"]] == [(6.0, "complete")]
+
+
+def test_missing_postgresql_binaries_fail_with_how_to_install():
+    """The fixture fails (never skips) when the server cannot start; the reason says how."""
+    import pg_server
+
+    with pytest.raises(pg_server.PostgresUnavailable, match="make postgres"):
+        pg_server.find_binary("initdb-that-does-not-exist")
+    assert pg_server.find_binary("initdb").endswith("/initdb")
