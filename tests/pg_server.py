@@ -105,7 +105,10 @@ def _runner(root: Path) -> list[str]:
 def start() -> Server:
     """Initialise and start a server in a new temporary directory."""
     initdb, pg_ctl = find_binary("initdb"), find_binary("pg_ctl")
-    root = Path(tempfile.mkdtemp(prefix="labjoint-pg-"))
+    # /tmp: short enough for the unix socket's path limit (107 bytes) and, when the server
+    # runs as postgres, reachable by that user (a root TMPDIR may not be)
+    root = Path(tempfile.mkdtemp(prefix="labjoint-pg-", dir="/tmp" if os.path.isdir("/tmp")
+                                 else None))
     try:
         password = secrets.token_urlsafe(12)
         (root / "pw").write_text(password + "\n")
