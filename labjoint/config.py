@@ -109,6 +109,10 @@ class RigSection(_Strict):
     reference_force_channel: str = "force_ref"
     displacement_channels: tuple[str, str] = ("disp_1", "disp_2")
     data_dir: str = "data"
+    #: the run catalog: "" = the SQLite file data_dir/catalog.sqlite; a
+    #: postgresql://user@host:port/db URL = a PostgreSQL catalog several machines share
+    #: (the password best in ~/.pgpass or PGPASSWORD, not in this file)
+    catalog_url: str = ""
     bolt_radius_m: float = Field(5.0e-3, gt=0, allow_inf_nan=False,
                                  description="bolt radius r_b (m)")
     contact_radius_m: float | None = Field(
@@ -120,6 +124,14 @@ class RigSection(_Strict):
         1.0e5, ge=0, allow_inf_nan=False, description="beam-1 support stiffness (N/m), 0: free")
     beam_support_damping_ns_per_m: float = Field(
         100.0, ge=0, allow_inf_nan=False, description="beam-1 support damping (N s/m), 0: none")
+
+    @field_validator("catalog_url")
+    @classmethod
+    def _postgres_url(cls, url: str) -> str:
+        if url and not url.startswith(("postgresql://", "postgres://")):
+            raise ValueError("must be empty (the SQLite catalog in data_dir) or a "
+                             "postgresql://user@host:port/database URL")
+        return url
 
     @field_validator("contact_radius_m")
     @classmethod

@@ -18,14 +18,20 @@ FS, F, AMP, K, C, N = 20000.0, 100.0, 5e-6, 1e7, 500.0, 8000
 VPPS = (1.0, 4.0, 8.0, 12.0, 16.0)
 
 
-@pytest.fixture(scope="module")
-def served(tmp_path_factory):
+@pytest.fixture(scope="module", params=["sqlite", "postgresql"])
+def served(tmp_path_factory, request):
+    """The service over a data directory whose catalog is the embedded SQLite file, or a
+    PostgreSQL database (``catalog_url``)."""
     d = tmp_path_factory.mktemp("data")
-    cat = Catalog(d / "catalog.sqlite")
+    url = ("" if request.param == "sqlite" else
+           request.getfixturevalue("pg_server_instance").new_database())
+    cat = Catalog(url or d / "catalog.sqlite")
     for i, vpp in enumerate(VPPS):
         write_linear_run(d, cat, f"sweep_{i:02d}", vpp=vpp, torque_nm=5.0 if i < 4 else 8.0,
                          fs=FS, f=F, amp_m=AMP, k=K, c=C, n=N)
-    app = create_app(ApiSettings(data_dir=d, control_tokens=[CONTROL], read_tokens=[READ]))
+    app = create_app(ApiSettings(data_dir=d, control_tokens=[CONTROL], read_tokens=[READ],
+                                 catalog_url=url))
+    assert (d / "catalog.sqlite").exists() == (not url)
     with live_server(app) as url, httpx.Client(base_url=url + "/api/v1") as http:
         yield http, d, cat
 

@@ -1,4 +1,6 @@
-"""Catalog: runs indexed by metadata; one query answers "5 Nm between 1 and 20 Vpp"."""
+"""Catalog: runs indexed by metadata; one query answers "5 Nm between 1 and 20 Vpp".
+
+Every test runs on both backends: the embedded SQLite file and a real PostgreSQL server."""
 
 from __future__ import annotations
 
@@ -25,10 +27,18 @@ RUNS = [
 ]
 
 
-@pytest.fixture(scope="module")
-def catalog(tmp_path_factory):
+def _target(backend, request, directory):
+    """A new catalog's place: a SQLite file in ``directory`` or a fresh PostgreSQL database."""
+    if backend == "sqlite":
+        return directory / "catalog.db"
+    return request.getfixturevalue("pg_server_instance").new_database()
+
+
+@pytest.fixture(scope="module", params=["sqlite", "postgresql"])
+def catalog(request, tmp_path_factory):
     d = tmp_path_factory.mktemp("cat")
-    cat = Catalog(d / "catalog.db")
+    cat = Catalog(_target(request.param, request, d))
+    cat.test_data_dir = d / "data"
     for name, torque, vpp, f, status, t0 in RUNS:
         write_run(d / "data", name, np.zeros((4, 20)), catalog=cat, status=status,
                   metadata={"torque_nm": torque, "excitation_vpp": vpp, "frequency_hz": f,
@@ -49,6 +59,18 @@ def test_5_nm_between_1_and_20_vpp_is_one_query(catalog):
 
 
 def test_query_counts_sql_statements(catalog, monkeypatch):
+    """One SELECT, counted where every catalog statement passes (the adapter) and, on
+    SQLite, by the driver itself."""
+    from labjoint.storage.sqldb import Session
+
+    through_adapter = []
+    real_execute = Session.execute
+
+    def spy_execute(self, sql, args=()):
+        through_adapter.append(sql)
+        return real_execute(self, sql, args)
+
+    monkeypatch.setattr(Session, "execute", spy_execute)
     statements = []
     real = sqlite3.connect
 
@@ -59,7 +81,9 @@ def test_query_counts_sql_statements(catalog, monkeypatch):
 
     monkeypatch.setattr(sqlite3, "connect", spy)
     catalog.query(torque_nm=5, vpp=(1, 20))
-    assert len([s for s in statements if s.lstrip().upper().startswith("SELECT")]) == 1
+    assert len([s for s in through_adapter if s.lstrip().upper().startswith("SELECT")]) == 1
+    if catalog.sql.dialect == "sqlite":
+        assert len([s for s in statements if s.lstrip().upper().startswith("SELECT")]) == 1
 
 
 def test_ranges_open_ends_lists_and_time_window(catalog):
@@ -101,9 +125,9 @@ def test_filter_values_are_data_not_sql(catalog):
             catalog.query(**bad)
 
 
-def test_rebuild_from_files_gives_the_same_index(catalog, tmp_path):
-    fresh = Catalog(tmp_path / "rebuilt.db")
-    data_dir = catalog.db_path.parent / "data"
+def test_rebuild_from_files_gives_the_same_index(catalog, tmp_path, request):
+    fresh = Catalog(_target(catalog.sql.dialect, request, tmp_path))
+    data_dir = catalog.test_data_dir
     (data_dir / "junk.h5").write_text("not a run")
     assert fresh.rebuild(data_dir) == len(RUNS)
     q = dict(torque_nm=5, vpp=(1, 20))
@@ -112,12 +136,12 @@ def test_rebuild_from_files_gives_the_same_index(catalog, tmp_path):
     (data_dir / "junk.h5").unlink()
 
 
-def test_running_runs_are_indexed_at_start_and_updated_at_stop(tmp_path):
+def test_running_runs_are_indexed_at_start_and_updated_at_stop(tmp_path, catalog_target):
     from labjoint.documents import Block, RunStart, RunStop
     from labjoint.storage.writer import RunWriter
     from test_storage_fixtures import rig_channels
 
-    cat = Catalog(tmp_path / "c.db")
+    cat = Catalog(catalog_target)
     w = RunWriter(tmp_path, catalog=cat)
     w("start", RunStart("u", "live", rig_channels(), 1000.0, {"torque_nm": 6.0}))
     assert cat.get("live").status == "running"

@@ -28,11 +28,10 @@ from labjoint.api.limits import BodySizeLimit
 from labjoint.api.resolve import RunResolver
 from labjoint.api.routes import analyses, models, plans, runs, system, trends
 from labjoint.api.settings import ApiSettings
-from labjoint.storage import Catalog
+from labjoint.storage import open_catalog
 
 log = logging.getLogger(__name__)
 API_PREFIX = "/api/v1"
-CATALOG_FILE = "catalog.sqlite"
 JOBS_FILE = "api_jobs.sqlite"
 #: Responses smaller than this go out as they are (gzip's header would outweigh the gain).
 GZIP_MIN_BYTES = 500
@@ -69,7 +68,7 @@ def create_app(settings: ApiSettings, daemon: Any = None, queue: Any = None,
                               "identification and model comparison. SI units throughout.",
                   openapi_url="/openapi.json", docs_url=None, redoc_url=None)
     install_docs(app)
-    catalog = Catalog(data_dir / CATALOG_FILE)
+    catalog = open_catalog(data_dir, settings.catalog_url)
     st = app.state
     st.settings, st.catalog, st.jobs = settings, catalog, jobs
     st.resolver = RunResolver(data_dir, catalog)

@@ -8,16 +8,14 @@ client sends is ever used to build a path.
 
 from __future__ import annotations
 
-import json
 import re
-import sqlite3
-import threading
 from pathlib import Path
 from typing import Any
 
 from labjoint.api.errors import ApiError, not_found
 from labjoint.api.schemas import RUN_NAME
 from labjoint.storage import Catalog, RunFile, RunRecord, open_run
+from labjoint.storage.catalog import record_from_row
 from labjoint.storage.roles import channel_roles
 
 _NAME = re.compile(RUN_NAME)
@@ -26,35 +24,25 @@ _NAME = re.compile(RUN_NAME)
 class RunResolver:
     """Catalog lookups and safe paths for runs in ``data_dir``.
 
-    Single-run lookups (the hot path of the API) go through one read-only SQLite
-    connection per thread, kept open: opening and closing a connection per request
-    (what :meth:`Catalog.get` does) costs several times the query itself.
+    Single-run lookups (the hot path of the API) go through one read-only connection
+    per thread, kept open (:meth:`~labjoint.storage.sqldb.Database.reader`): opening and
+    closing a SQLite connection per request (what :meth:`Catalog.get` does) costs several
+    times the query itself.
     """
 
     def __init__(self, data_dir: str | Path, catalog: Catalog) -> None:
         self.data_dir = Path(data_dir).resolve()
         self.catalog = catalog
-        self._local = threading.local()
-
-    def _connection(self) -> sqlite3.Connection:
-        con = getattr(self._local, "con", None)
-        if con is None:
-            con = sqlite3.connect(self.catalog.db_path, timeout=30.0)
-            con.execute("PRAGMA query_only = ON")
-            con.row_factory = sqlite3.Row
-            self._local.con = con
-        return con
 
     def record(self, name: str) -> RunRecord:
         """The catalog record of ``name`` (422 for a malformed name, 404 if unknown)."""
         if not isinstance(name, str) or not _NAME.match(name):
             raise ApiError(422, "invalid_run_name", f"run name {name!r} must match {RUN_NAME}")
-        row = self._connection().execute("SELECT * FROM runs WHERE name = ?", (name,)).fetchone()
+        with self.catalog.sql.reader() as s:
+            row = s.execute("SELECT * FROM runs WHERE name = ?", [name]).first()
         if row is None:
             raise not_found("run", name)
-        d = {k: row[k] for k in row.keys() if k != "extra"}
-        d["metadata"] = json.loads(row["extra"]) if row["extra"] else {}
-        return RunRecord(**d)
+        return record_from_row(row)
 
     def path(self, name: str) -> Path:
         """The run file of ``name``, verified to be inside the data directory."""

@@ -100,7 +100,8 @@ def build(config_path: str | Path | None = None, host: str | None = None,
     config = load_rig_config(config_path)
     ddir = Path(data_dir if data_dir is not None else config.rig.data_dir).resolve()
     settings = load_settings(ddir, config_path if config_path is not None else DEFAULT_CONFIG,
-                             env=env, host=host, port=port)
+                             env=env, host=host, port=port,
+                             catalog_url=config.rig.catalog_url or None)
     if not is_loopback(settings.host):
         log.warning("binding to %s: the API is reachable from the network", settings.host)
     generated = None

@@ -56,6 +56,8 @@ class ApiSettings(BaseModel):
     max_request_bytes: int = Field(1 << 20, ge=1024)
     analysis_workers: int = Field(2, ge=1, le=64)
     max_points: int = Field(20000, ge=10, le=1_000_000)
+    #: the run catalog ([rig] catalog_url of the config): "" = data_dir/catalog.sqlite
+    catalog_url: str = ""
 
     @field_validator("control_tokens", "read_tokens")
     @classmethod

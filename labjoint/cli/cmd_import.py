@@ -25,7 +25,7 @@ def run(args: argparse.Namespace) -> int:
     from labjoint.cli.signals import terminate_as_interrupt
     from labjoint.config import load_config
     from labjoint.errors import InputError
-    from labjoint.storage.catalog import Catalog
+    from labjoint.storage.catalog import catalog_for
     from labjoint.storage.foreign import FOREIGN_SUFFIXES, load_map
 
     if args.name and len(args.files) > 1:
@@ -35,9 +35,10 @@ def run(args: argparse.Namespace) -> int:
         if Path(f).suffix.lower() in FOREIGN_SUFFIXES and cmap is None:
             raise InputError("a TDMS or HDF5 file needs --map MAP.toml (which channel is what)",
                              file=f, field="--map")
-    out = Path(args.out or load_config(args.config).rig.data_dir)
+    cfg = load_config(args.config)
+    out = Path(args.out or cfg.rig.data_dir)
     out.mkdir(parents=True, exist_ok=True)
-    catalog = Catalog(out / "catalog.sqlite")
+    catalog = catalog_for(cfg, out)
     bar = Progress(len(args.files), "import", enabled=not (args.json or args.quiet))
     written = []
     for f in args.files:

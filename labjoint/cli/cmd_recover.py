@@ -17,13 +17,14 @@ def add_recover_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from labjoint.config import load_config
     from labjoint.errors import InputError
-    from labjoint.storage.catalog import Catalog
+    from labjoint.storage.catalog import catalog_for
     from labjoint.storage.recover import recover_all
 
-    data = Path(args.data or load_config(args.config).rig.data_dir)
+    cfg = load_config(args.config)
+    data = Path(args.data or cfg.rig.data_dir)
     if not data.is_dir():
         raise InputError("no such data directory", file=str(data), field="--data")
-    catalog = Catalog(data / "catalog.sqlite")
+    catalog = catalog_for(cfg, data)
     done = recover_all(data, catalog=catalog)
     stale = []
     for rec in catalog.query(status="running"):

@@ -27,10 +27,10 @@ def add_runs_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from labjoint.config import load_config
-    from labjoint.storage.catalog import Catalog
+    from labjoint.storage.catalog import catalog_for
 
-    data = Path(args.data or load_config(args.config).rig.data_dir)
-    cat = Catalog(data / "catalog.sqlite")
+    cfg = load_config(args.config)
+    cat = catalog_for(cfg, Path(args.data or cfg.rig.data_dir))
     recs = cat.query(torque_nm=args.torque, vpp=args.vpp, frequency_hz=args.frequency,
                      status=args.status, plan=args.plan, limit=args.limit)
     rows = [r.to_dict() if hasattr(r, "to_dict") else dict(r.__dict__) for r in recs]

@@ -59,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
     from labjoint.cli.signals import terminate_as_interrupt
     from labjoint.config import load_config
     from labjoint.daemon.setup import calibrated_config
-    from labjoint.storage.catalog import Catalog
+    from labjoint.storage.catalog import catalog_for
     from labjoint.storage.writer import RunWriter
 
     overrides: dict[str, Any] = {"rig": {"backend": "sim"}}
@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
                             n_cycles=args.cycles))
     n_runs = len(args.sweep) if not args.plan else 1
     bar = Progress(n_runs, "simulate", enabled=not (args.json or args.quiet))
-    writer = RunWriter(out, catalog=Catalog(out / "catalog.sqlite"))
+    writer = RunWriter(out, catalog=catalog_for(cfg, out))
 
     def progress(name: str, doc: Any) -> None:
         if name == "stop":

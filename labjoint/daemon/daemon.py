@@ -42,7 +42,7 @@ from labjoint.daemon.queue import Job, JobQueue, utc_now
 from labjoint.daemon.setup import Calibrations, default_paths, open_rig_lazily
 from labjoint.daemon.watch import JobWatcher
 from labjoint.errors import HardwareError
-from labjoint.storage import Catalog, RunWriter, recover_all
+from labjoint.storage import Catalog, RunWriter, catalog_for, recover_all
 
 log = logging.getLogger(__name__)
 
@@ -110,7 +110,7 @@ class Daemon:
             if not self._output_off("daemon start"):
                 raise HardwareError(f"cannot switch the generator output off: {self.last_error}")
             self.data_dir.mkdir(parents=True, exist_ok=True)
-            self.catalog = Catalog(self.catalog_db)
+            self.catalog = catalog_for(self.config, self.data_dir)
             for p in recover_all(self.data_dir, catalog=self.catalog):
                 log.warning("recovered %s: marked incomplete", p.name)
             for job_id in self.queue.fail_orphans("daemon restarted"):

@@ -59,7 +59,8 @@ def calibrated_config(config: RigConfig, data_dir: str | Path
 def default_paths(config: RigConfig, data_dir: str | Path | None = None,
                   queue_db: str | Path | None = None) -> tuple[Path, Path, Path]:
     """(data dir, queue db, catalog db): ``config.rig.data_dir`` (relative to the working
-    directory), ``<data_dir>/queue.sqlite`` and ``<data_dir>/catalog.sqlite``."""
+    directory), ``<data_dir>/queue.sqlite`` and ``<data_dir>/catalog.sqlite`` (the catalog
+    used unless the config's ``catalog_url`` names a PostgreSQL one)."""
     d = Path(data_dir) if data_dir is not None else Path(config.rig.data_dir)
     q = Path(queue_db) if queue_db is not None else d / "queue.sqlite"
     return d, q, d / "catalog.sqlite"

@@ -1,9 +1,12 @@
-"""SQLite catalog of run files, so "all runs at 5 Nm between 1 and 20 Vpp" is one query.
+"""Catalog of run files, so "all runs at 5 Nm between 1 and 20 Vpp" is one query.
 
 The run files are the truth; the catalog is an index that :meth:`Catalog.rebuild`
-recreates from them. WAL mode lets readers query while the daemon writes. Every
-statement is parameterised; column names in filters and ordering come from a fixed
-list, never from the caller's text.
+recreates from them. It lives in an embedded SQLite file (WAL mode lets readers query
+while the daemon writes) or, for several machines sharing one archive, in PostgreSQL
+(``catalog_url`` in the config; :func:`catalog_for`). All SQL goes through
+:class:`~labjoint.storage.sqldb.Database`; the schema is versioned
+(:mod:`labjoint.storage.migrations`). Every statement is parameterised; column names in
+filters and ordering come from a fixed list, never from the caller's text.
 
 >>> import tempfile, pathlib
 >>> cat = Catalog(pathlib.Path(tempfile.mkdtemp()) / "catalog.db")
@@ -16,26 +19,28 @@ from __future__ import annotations
 import json
 import logging
 import math
-import sqlite3
-from contextlib import closing
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Iterable
+from typing import TYPE_CHECKING, Any, Iterable
 
-from labjoint.errors import InputError
+from labjoint.errors import ConfigError, InputError
 from labjoint.storage.layout import to_json
+from labjoint.storage.migrations import migrate
+from labjoint.storage.sqldb import Database, Session, is_postgres_url, redact_url
+
+if TYPE_CHECKING:
+    from labjoint.config import RigConfig
 from labjoint.storage.reader import RunFile, open_run
 
 log = logging.getLogger(__name__)
 
-_COLUMNS = {
-    "name": "TEXT PRIMARY KEY", "path": "TEXT NOT NULL", "uid": "TEXT", "plan": "TEXT",
-    "plan_step": "", "frequency_hz": "REAL", "excitation_vpp": "REAL", "torque_nm": "REAL",
-    "normal_force_n": "REAL", "sample_rate_hz": "REAL", "n_samples": "INTEGER",
-    "status": "TEXT", "start_time": "TEXT", "start_ts": "REAL", "end_time": "TEXT",
-    "source": "TEXT", "extra": "TEXT",
-}
+#: the runs table's columns (schema: migration 1 of labjoint.storage.migrations)
+_COLUMNS = ("name", "path", "uid", "plan", "plan_step", "frequency_hz", "excitation_vpp",
+            "torque_nm", "normal_force_n", "sample_rate_hz", "n_samples", "status",
+            "start_time", "start_ts", "end_time", "source", "extra")
+#: the file name of the embedded catalog in a data directory
+CATALOG_FILE = "catalog.sqlite"
 _NUMERIC = ("frequency_hz", "excitation_vpp", "torque_nm", "normal_force_n", "sample_rate_hz",
             "n_samples", "plan_step")
 _TEXT = ("status", "plan", "source", "name", "uid")
@@ -115,49 +120,50 @@ def record_from_run(rf: RunFile) -> RunRecord:
 
 
 class Catalog:
-    """Index of run files in an embedded SQLite database at ``db_path``."""
+    """Index of run files in a SQLite file (a path) or PostgreSQL (a ``postgresql://`` URL).
 
-    def __init__(self, db_path: str | Path) -> None:
-        self.db_path = Path(db_path)
-        self.db_path.parent.mkdir(parents=True, exist_ok=True)
-        cols = ", ".join(f"{k} {t}".strip() for k, t in _COLUMNS.items())
-        with closing(self._connect()) as con, con:
-            con.execute("PRAGMA journal_mode=WAL")
-            con.execute(f"CREATE TABLE IF NOT EXISTS runs ({cols})")
-            for c in ("torque_nm", "excitation_vpp", "frequency_hz", "status", "start_ts", "path"):
-                con.execute(f"CREATE INDEX IF NOT EXISTS runs_{c} ON runs({c})")
+    Opening it applies the schema migrations the database lacks. Other modules that keep
+    their own tables in the catalog database (migrations add them) run their SQL
+    through :attr:`sql`, the same :class:`~labjoint.storage.sqldb.Database`.
+    """
 
-    def _connect(self) -> sqlite3.Connection:
-        try:
-            con = sqlite3.connect(self.db_path, timeout=30.0)
-        except sqlite3.Error as exc:
-            raise InputError(f"cannot open catalog: {exc}", file=str(self.db_path)) from None
-        con.row_factory = sqlite3.Row
-        con.execute("PRAGMA synchronous=NORMAL")  # WAL: durable enough for a rebuildable index
-        return con
+    def __init__(self, target: str | Path) -> None:
+        self.sql = Database(target)
+        #: the SQLite file, None for a PostgreSQL catalog
+        self.db_path = self.sql.path
+        self.location = self.sql.label
+        migrate(self.sql)
+
+    def __repr__(self) -> str:
+        return f"Catalog({self.location!r})"
+
+    def close(self) -> None:
+        """Close the database connections kept open (reopened on the next use)."""
+        self.sql.close()
 
     # -- writing -----------------------------------------------------------------
-    def put(self, rec: RunRecord, con: sqlite3.Connection | None = None) -> None:
+    def put(self, rec: RunRecord, con: Session | None = None) -> None:
         """Insert the row of ``rec.name``, or update it when it is the same run file; a
         different file under a name the catalog holds is refused, never replaced."""
-        row = {k: getattr(rec, k) for k in _COLUMNS if k != "extra"}
-        self._check_name(rec, con)
-        row["extra"] = to_json(rec.metadata)
-        sql = (f"INSERT OR REPLACE INTO runs ({', '.join(row)}) "
-               f"VALUES ({', '.join('?' for _ in row)})")
+        row: dict[str, Any] = {k: getattr(rec, k) for k in _COLUMNS if k != "extra"}
+        md = dict(rec.metadata)
+        step = _step(rec.plan_step)
+        if step is None and rec.plan_step is not None:
+            md.setdefault("plan_step", rec.plan_step)    # not a step number: kept, as metadata
+        row["plan_step"] = step
+        row["extra"] = to_json(md)
+        sql = self.sql.upsert_sql("runs", list(row), ["name"])
         if con is not None:
+            self._check_name(rec, con)
             con.execute(sql, list(row.values()))
             return
-        with closing(self._connect()) as c, c:
-            c.execute(sql, list(row.values()))
+        with self.sql.transaction() as tx:
+            self._check_name(rec, tx)
+            tx.execute(sql, list(row.values()))
 
-    def _check_name(self, rec: RunRecord, con: sqlite3.Connection | None) -> None:
-        sql = "SELECT path, uid FROM runs WHERE name = ?"
-        if con is not None:
-            old = con.execute(sql, (rec.name,)).fetchone()
-        else:
-            with closing(self._connect()) as c:
-                old = c.execute(sql, (rec.name,)).fetchone()
+    def _check_name(self, rec: RunRecord, con: Session) -> None:
+        con.lock(f"runs:{rec.name}")       # two machines adding one name: the second sees the first
+        old = con.execute("SELECT path, uid FROM runs WHERE name = ?", [rec.name]).first()
         if old is None or (old["uid"] and old["uid"] == rec.uid):
             return
         self._refuse_other(rec.name, old["path"], rec.path)
@@ -187,8 +193,7 @@ class Catalog:
 
     def remove(self, name: str) -> bool:
         """Drop a run from the index (the file stays); True if it was there."""
-        with closing(self._connect()) as con, con:
-            return con.execute("DELETE FROM runs WHERE name = ?", (name,)).rowcount > 0
+        return self.sql.execute("DELETE FROM runs WHERE name = ?", [name]).rowcount > 0
 
     def rebuild(self, data_dir: str | Path) -> int:
         """Re-create the index from every ``*.h5`` run file in ``data_dir``; returns the count.
@@ -201,10 +206,10 @@ class Catalog:
                     recs.append(record_from_run(rf))
             except InputError as exc:
                 log.warning("catalog rebuild: skipping %s: %s", p, exc)
-        with closing(self._connect()) as con, con:
-            con.execute("DELETE FROM runs")
+        with self.sql.transaction() as tx:
+            tx.execute("DELETE FROM runs")
             for rec in recs:
-                self.put(rec, con)
+                self.put(rec, tx)
         return len(recs)
 
     # -- reading -----------------------------------------------------------------
@@ -245,19 +250,19 @@ class Catalog:
             sql += " LIMIT ? OFFSET ?"
             args += [int(limit), int(offset)]
         elif offset:
-            sql += " LIMIT -1 OFFSET ?"
-            args.append(int(offset))
+            if int(offset) < 0:
+                raise InputError("limit and offset must be >= 0", field="offset")
+            sql += " LIMIT ? OFFSET ?"             # no "LIMIT -1"/"LIMIT ALL" both read
+            args += [_NO_LIMIT, int(offset)]
         return self._select(sql, args)
 
     def count(self, **filters: Any) -> int:
         """How many runs match ``filters`` (those of :meth:`query`)."""
         where, args = self._where(**filters)
-        sql = "SELECT COUNT(*) FROM runs" + (" WHERE " + " AND ".join(where) if where else "")
-        with closing(self._connect()) as con:
-            return int(con.execute(sql, args).fetchone()[0])
+        sql = "SELECT COUNT(*) AS n FROM runs" + (" WHERE " + " AND ".join(where) if where else "")
+        return int(self.sql.fetchone(sql, args)["n"])
 
-    @staticmethod
-    def _where(*, torque_nm: Any = None, vpp: Any = None, excitation_vpp: Any = None,
+    def _where(self, *, torque_nm: Any = None, vpp: Any = None, excitation_vpp: Any = None,
                frequency_hz: Any = None, normal_force_n: Any = None, sample_rate_hz: Any = None,
                n_samples: Any = None, plan_step: Any = None, status: Any = None,
                plan: Any = None, source: Any = None, name: Any = None, since: Any = None,
@@ -287,23 +292,34 @@ class Catalog:
             args.append(_timestamp(until, field="until"))
         if search:
             pattern = str(search).replace("\\", "\\\\").replace("%", "\\%").replace("_", "\\_")
-            where.append("name LIKE ? ESCAPE '\\'")       # LIKE ignores ASCII case
+            where.append(f"name {self.sql.like_ci} ? ESCAPE '\\'")   # ignoring ASCII case
             args.append(f"%{pattern}%")
         return where, args
 
     def __len__(self) -> int:
-        with closing(self._connect()) as con:
-            return int(con.execute("SELECT COUNT(*) FROM runs").fetchone()[0])
+        return int(self.sql.fetchone("SELECT COUNT(*) AS n FROM runs")["n"])
 
     def _select(self, sql: str, args: Iterable[Any]) -> list[RunRecord]:
-        with closing(self._connect()) as con:
-            rows = con.execute(sql, list(args)).fetchall()
-        out = []
-        for r in rows:
-            d = {k: r[k] for k in r.keys() if k != "extra"}
-            d["metadata"] = json.loads(r["extra"]) if r["extra"] else {}
-            out.append(RunRecord(**d))
-        return out
+        return [record_from_row(r) for r in self.sql.fetchall(sql, list(args))]
+
+
+def record_from_row(row: dict[str, Any]) -> RunRecord:
+    """The record of a ``SELECT * FROM runs`` row."""
+    d = {k: v for k, v in row.items() if k != "extra"}
+    d["metadata"] = json.loads(row["extra"]) if row["extra"] else {}
+    return RunRecord(**d)
+
+
+def _step(v: Any) -> int | None:
+    """A plan step as the integer column holds it; None if it is not a whole number."""
+    if v is None or isinstance(v, bool):
+        return None
+    x = _num(v)
+    return int(x) if x is not None and x == int(x) and abs(x) < 2**62 else None
+
+
+#: "no limit" for a query with only an offset (the largest BIGINT)
+_NO_LIMIT = 2**63 - 1
 
 
 def _numeric_filter(col: str, v: Any, where: list[str], args: list[Any]) -> None:
@@ -329,3 +345,22 @@ def _check_num(v: Any, col: str) -> float:
     if x is None:
         raise InputError(f"not a finite number: {v!r}", field=col)
     return x
+
+
+def open_catalog(data_dir: str | Path, url: str = "") -> Catalog:
+    """The catalog of ``data_dir``: the PostgreSQL database at ``url`` when given, else
+    the embedded SQLite file ``data_dir/catalog.sqlite``."""
+    if url:
+        if not is_postgres_url(url):
+            raise ConfigError(f"not a postgresql:// URL: {redact_url(url)!r}",
+                              field="rig.catalog_url")
+        return Catalog(url)
+    return Catalog(Path(data_dir) / CATALOG_FILE)
+
+
+def catalog_for(config: RigConfig | None, data_dir: str | Path | None = None) -> Catalog:
+    """The catalog a rig config names (``[rig] catalog_url``, default: the SQLite file in
+    ``data_dir``, itself defaulting to the config's ``data_dir``)."""
+    rig = config.rig if config is not None else None
+    d = data_dir if data_dir is not None else (rig.data_dir if rig is not None else "data")
+    return open_catalog(d, rig.catalog_url if rig is not None else "")
