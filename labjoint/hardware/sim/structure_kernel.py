@@ -1,0 +1,105 @@
+"""Time integration of the structural rig: modal coordinates, shaker coil, thread sliders.
+
+Per step dt (symplectic Euler on the modes, stable for omega dt < 2): generator voltage
+V = A sin(phase) + offset; coil current semi-implicit in R (stable at any step),
+L di/dt = G V - R i - Bl v_drive; drive-point force Bl i - c_s v_drive (armature mass and
+suspension stiffness are in the modal model); each thread's tangential slip
+u = r (rotation of the coupling - rotation of the pipe) drives the Iwan sliders, and the
+difference between the hysteretic force and the sticking spring already in the modes
+(plus c du/dt) acts as a moment r F on the modes. The stinger force (what the force
+sensor reads) is the drive-point force minus the armature's inertia and suspension.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+# par: A (half Vpp), offset, omega, on, G, R, L, Bl, c_s, k_s, m_a
+# state: phase, current
+# out rows
+FORCE, V_GEN, V_AMP, CURRENT, U0, F0, U1, F1, ACC = range(9)
+
+
+@njit(cache=True, fastmath=True)
+def integrate(n_samples, n_sub, dt, par, omega, c_modal, phi_drive, phi_acc, phi_joint,
+              radius, k_stick, k_res, k_el, phi_slip, c_t, eta, etad, z, state, out):
+    """Advance ``n_samples`` samples of ``n_sub`` steps; fill ``out`` (rows above, then one per accelerometer)."""
+    amp, off, w, on, gain = par[0], par[1], par[2], par[3], par[4]
+    res, ind, bl, cs, ks, ma = par[5], par[6], par[7], par[8], par[9], par[10]
+    n_m = omega.size
+    n_j = phi_joint.shape[0]
+    n_e = phi_slip.shape[1]
+    n_a = phi_acc.shape[0]
+    acc = eta.copy()
+    fj = k_stick.copy()
+    uj = k_stick.copy()
+    phase, cur = state[0], state[1]
+    v = 0.0
+    for s in range(n_samples):
+        for _ in range(n_sub):
+            phase += w * dt
+            if phase > 2 * math.pi:
+                phase -= 2 * math.pi
+            v = on * (amp * math.sin(phase) + off)
+            xd = 0.0
+            vd = 0.0
+            for m in range(n_m):
+                xd += phi_drive[m] * eta[m]
+                vd += phi_drive[m] * etad[m]
+            if ind > 0:
+                cur = (cur + dt / ind * (gain * v - bl * vd)) / (1.0 + dt * res / ind)
+            else:
+                cur = (gain * v - bl * vd) / res
+            f_drive = bl * cur - cs * vd
+            for m in range(n_m):
+                acc[m] = phi_drive[m] * f_drive - c_modal[m] * etad[m] - omega[m] * omega[m] * eta[m]
+            for j in range(n_j):
+                th = 0.0
+                thd = 0.0
+                for m in range(n_m):
+                    th += phi_joint[j, m] * eta[m]
+                    thd += phi_joint[j, m] * etad[m]
+                u = radius * th
+                f = k_res[j] * u
+                for e in range(n_e):
+                    d = u - z[j, e]
+                    lim = phi_slip[j, e]
+                    if d > lim:
+                        z[j, e] = u - lim
+                        d = lim
+                    elif d < -lim:
+                        z[j, e] = u + lim
+                        d = -lim
+                    f += k_el[j] * d
+                uj[j] = u
+                fj[j] = f + c_t[j] * radius * thd
+                moment = radius * (fj[j] - k_stick[j] * u)
+                for m in range(n_m):
+                    acc[m] -= phi_joint[j, m] * moment
+            for m in range(n_m):
+                etad[m] += dt * acc[m]
+                eta[m] += dt * etad[m]
+        a_drive = 0.0
+        xd = 0.0
+        vd = 0.0
+        for m in range(n_m):
+            a_drive += phi_drive[m] * acc[m]
+            xd += phi_drive[m] * eta[m]
+            vd += phi_drive[m] * etad[m]
+        out[FORCE, s] = bl * cur - cs * vd - ks * xd - ma * a_drive
+        out[V_GEN, s] = v
+        out[V_AMP, s] = gain * v
+        out[CURRENT, s] = cur
+        out[U0, s] = uj[0]
+        out[F0, s] = fj[0]
+        out[U1, s] = uj[n_j - 1]
+        out[F1, s] = fj[n_j - 1]
+        for i in range(n_a):
+            a = 0.0
+            for m in range(n_m):
+                a += phi_acc[i, m] * acc[m]
+            out[ACC + i, s] = a
+    state[0] = phase
+    state[1] = cur
