@@ -1,7 +1,9 @@
 """Time integration of the structural rig: modal coordinates, shaker coil, thread sliders.
 
-Per step dt (symplectic Euler on the modes, stable for omega dt < 2): generator voltage
-V = A sin(phase) + offset; coil current semi-implicit in R (stable at any step),
+Per step dt (symplectic Euler on the modes, stable for omega dt < 2, with the velocity at
+the step's time taken as the half-step velocity plus half a step of the last acceleration,
+so that damping, back-EMF and outputs are second order in dt): generator voltage
+V = A sin(phase) + offset; coil current by the trapezoidal rule (stable at any step),
 L di/dt = G V - R i - Bl v_drive; drive-point force Bl i - c_s v_drive (armature mass and
 suspension stiffness are in the modal model); each thread's tangential slip
 u = r (rotation of the coupling - rotation of the pipe) drives the Iwan sliders, and the
@@ -17,50 +19,57 @@ import math
 from numba import njit
 
 # par: A (half Vpp), offset, omega, on, G, R, L, Bl, c_s, k_s, m_a
-# state: phase, current
+# state: phase, current, previous coil input G V - Bl v
 # out rows
 FORCE, V_GEN, V_AMP, CURRENT, U0, F0, U1, F1, ACC = range(9)
 
 
 @njit(cache=True, fastmath=True)
 def integrate(n_samples, n_sub, dt, par, omega, c_modal, phi_drive, phi_acc, phi_joint,
-              radius, k_stick, k_res, k_el, phi_slip, c_t, eta, etad, z, state, out):
-    """Advance ``n_samples`` samples of ``n_sub`` steps; fill ``out`` (rows above, then one per accelerometer)."""
+              radius, k_stick, k_res, k_el, phi_slip, c_t, eta, etad, accp, z, state, out):
+    """Advance ``n_samples`` samples of ``n_sub`` steps; fill ``out`` (rows above, then one per
+    accelerometer) with the values at each sample's last step. ``accp``: last accelerations."""
     amp, off, w, on, gain = par[0], par[1], par[2], par[3], par[4]
     res, ind, bl, cs, ks, ma = par[5], par[6], par[7], par[8], par[9], par[10]
     n_m = omega.size
     n_j = phi_joint.shape[0]
     n_e = phi_slip.shape[1]
     n_a = phi_acc.shape[0]
-    acc = eta.copy()
+    vel = eta.copy()
     fj = k_stick.copy()
     uj = k_stick.copy()
-    phase, cur = state[0], state[1]
+    phase, cur, u_prev = state[0], state[1], state[2]
     v = 0.0
+    xd = 0.0
+    vd = 0.0
     for s in range(n_samples):
         for _ in range(n_sub):
+            v = on * (amp * math.sin(phase) + off)
             phase += w * dt
             if phase > 2 * math.pi:
                 phase -= 2 * math.pi
-            v = on * (amp * math.sin(phase) + off)
             xd = 0.0
             vd = 0.0
             for m in range(n_m):
+                vel[m] = etad[m] + 0.5 * dt * accp[m]
                 xd += phi_drive[m] * eta[m]
-                vd += phi_drive[m] * etad[m]
+                vd += phi_drive[m] * vel[m]
+            u_in = gain * v - bl * vd
             if ind > 0:
-                cur = (cur + dt / ind * (gain * v - bl * vd)) / (1.0 + dt * res / ind)
+                h = 0.5 * dt * res / ind
+                cur = ((1.0 - h) * cur + 0.5 * dt / ind * (u_in + u_prev)) / (1.0 + h)
             else:
-                cur = (gain * v - bl * vd) / res
+                cur = u_in / res
+            u_prev = u_in
             f_drive = bl * cur - cs * vd
             for m in range(n_m):
-                acc[m] = phi_drive[m] * f_drive - c_modal[m] * etad[m] - omega[m] * omega[m] * eta[m]
+                accp[m] = phi_drive[m] * f_drive - c_modal[m] * vel[m] - omega[m] * omega[m] * eta[m]
             for j in range(n_j):
                 th = 0.0
                 thd = 0.0
                 for m in range(n_m):
                     th += phi_joint[j, m] * eta[m]
-                    thd += phi_joint[j, m] * etad[m]
+                    thd += phi_joint[j, m] * vel[m]
                 u = radius * th
                 f = k_res[j] * u
                 for e in range(n_e):
@@ -77,17 +86,15 @@ def integrate(n_samples, n_sub, dt, par, omega, c_modal, phi_drive, phi_acc, phi
                 fj[j] = f + c_t[j] * radius * thd
                 moment = radius * (fj[j] - k_stick[j] * u)
                 for m in range(n_m):
-                    acc[m] -= phi_joint[j, m] * moment
-            for m in range(n_m):
-                etad[m] += dt * acc[m]
-                eta[m] += dt * etad[m]
+                    accp[m] -= phi_joint[j, m] * moment
+            if _ < n_sub - 1:
+                for m in range(n_m):
+                    etad[m] += dt * accp[m]
+                    eta[m] += dt * etad[m]
+        # outputs at this step's time (before its update), all consistent
         a_drive = 0.0
-        xd = 0.0
-        vd = 0.0
         for m in range(n_m):
-            a_drive += phi_drive[m] * acc[m]
-            xd += phi_drive[m] * eta[m]
-            vd += phi_drive[m] * etad[m]
+            a_drive += phi_drive[m] * accp[m]
         out[FORCE, s] = bl * cur - cs * vd - ks * xd - ma * a_drive
         out[V_GEN, s] = v
         out[V_AMP, s] = gain * v
@@ -99,7 +106,11 @@ def integrate(n_samples, n_sub, dt, par, omega, c_modal, phi_drive, phi_acc, phi
         for i in range(n_a):
             a = 0.0
             for m in range(n_m):
-                a += phi_acc[i, m] * acc[m]
+                a += phi_acc[i, m] * accp[m]
             out[ACC + i, s] = a
+        for m in range(n_m):
+            etad[m] += dt * accp[m]
+            eta[m] += dt * etad[m]
     state[0] = phase
     state[1] = cur
+    state[2] = u_prev

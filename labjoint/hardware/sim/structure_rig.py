@@ -83,9 +83,9 @@ class SimStructureRig:
     def reset(self) -> None:
         """Back to rest: no motion, no current, sliders unslipped."""
         n = self.model.omega.size
-        self._eta, self._etad = np.zeros(n), np.zeros(n)
+        self._eta, self._etad, self._accp = np.zeros(n), np.zeros(n), np.zeros(n)
         self._z = np.zeros_like(self._phi)
-        self._state = np.zeros(2)
+        self._state = np.zeros(3)
         self._time, self._samples = 0.0, 0
         self._seeds = np.random.SeedSequence(self.config.seed)
         if self._channels:
@@ -166,7 +166,7 @@ class SimStructureRig:
             buf = np.empty((out.shape[0], b - a))
             sk.integrate(b - a, self._n_sub, self._dt, par, m.omega, self._c_modal, m.drive, m.sensors,
                          m.joints, self.config.joint.radius_m, self._k_stick, self._k_res, self._k_el,
-                         self._phi, self._c_t, self._eta, self._etad, self._z, self._state, buf)
+                         self._phi, self._c_t, self._eta, self._etad, self._accp, self._z, self._state, buf)
             out[:, a:b] = buf
         t0 = self._time
         self._time += n / self._fs
