@@ -122,3 +122,25 @@ def test_step_sine_on_the_structural_rig_gives_constant_force_frfs_that_soften(t
     with pytest.raises(InputError) as e:
         frfset_from_runs(sorted(tmp_path.glob("*.h5"))[:1], sensors=["nowhere"])
     assert e.value.field == "sensors"
+
+
+def test_richard_abbott_threads_follow_masing_loops_on_the_backbone():
+    cfg = StructureSimConfig.from_dict({"joint": {"law": "richard_abbott", "slip_force_n": 8000.0,
+                                                  "residual_fraction": 0.1}})
+    rig = SimStructureRig(cfg, CHANNELS, 5120.0)
+    rig.simulate(int(6 * rig.sample_rate_hz), GeneratorSettings(28.0, 4.0, 0.0, True))
+    tr = rig.true_state()
+    u, f = tr.slip_m[0, -1280:], tr.joint_force_n[0, -1280:]   # 7 whole cycles of 28 Hz
+    j = cfg.joint
+    kt = j.rotational_stiffness_nm_per_rad / j.radius_m**2
+    k0, kp = kt * (1 - j.residual_fraction), kt * j.residual_fraction
+
+    def backbone(x):
+        return k0 * x / (1 + np.abs(k0 * x / j.slip_force_n) ** j.ra_exponent) ** (1 / j.ra_exponent) + kp * x
+
+    i = np.argmax(u)
+    # a steady Masing loop's tip is the backbone's point at the amplitude reached
+    assert f[i] == pytest.approx(backbone(u[i]), rel=0.02)
+    assert np.ptp(f) / np.ptp(u) < 0.97 * kt                      # softer than sticking
+    area = np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(u)) / 7        # energy dissipated per cycle
+    assert area > 1e-3 * np.ptp(f) * np.ptp(u)

@@ -62,13 +62,16 @@ class AssemblyConfig(_Strict):
 class JointLawConfig(_Strict):
     """The hidden law at each thread, tangential at radius ``radius_m`` (u = r * relative rotation).
 
+    ``richard_abbott``: seed 000's Eq. 2 backbone (initial stiffness the sticking one,
+    k_p = ``residual_fraction`` of it, reference force ``slip_force_n``, exponent
+    ``ra_exponent``) with Masing unloading and reloading;
     ``iwan``: ``elements`` Jenkins elements of equal stiffness whose slip displacements
     follow a density phi^chi up to phi_max (Segalman's 4-parameter Iwan without its
     Dirac term; ``residual_fraction`` of the sticking stiffness stays elastic after
     macro-slip); ``jenkins``: one element. ``viscous_ns_per_m`` adds c du/dt.
     """
 
-    law: Literal["iwan", "jenkins", "linear"] = "iwan"
+    law: Literal["iwan", "jenkins", "richard_abbott", "linear"] = "iwan"
     rotational_stiffness_nm_per_rad: float = Field(5.3e5, gt=0, description="sticking k_theta")
     radius_m: float = Field(0.057, gt=0)
     slip_force_n: float = Field(15000.0, gt=0, description="macro-slip force of the hysteretic part")
@@ -76,6 +79,7 @@ class JointLawConfig(_Strict):
     chi: float = Field(0.0, gt=-1, le=1)
     elements: int = Field(24, ge=1, le=200)
     viscous_ns_per_m: float = Field(0.0, ge=0)
+    ra_exponent: float = Field(3.6, gt=0, description="Richard-Abbott n (seed 000 Table 4)")
 
 
 class ShakerConfig(_Strict):

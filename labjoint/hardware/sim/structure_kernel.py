@@ -22,13 +22,58 @@ from numba import njit
 # state: phase, current, previous coil input G V - Bl v
 # out rows
 FORCE, V_GEN, V_AMP, CURRENT, U0, F0, U1, F1, ACC = range(9)
+# Richard-Abbott state columns: u previous, u and F at the last reversal, |u| max, direction,
+# F previous, on the backbone (1) or a Masing branch (0)
+N_RA_STATE = 7
+
+
+@njit(cache=True, inline="always")
+def _backbone(x, k0, kp, f0, n):
+    return k0 * x / (1.0 + abs(k0 * x / f0) ** n) ** (1.0 / n) + kp * x
+
+
+@njit(cache=True)
+def richard_abbott_step(u, p, st):
+    """Richard-Abbott force (seed 000 Eq. 2) at slip ``u`` with Masing's rules: the virgin
+    backbone g(u); after a reversal at (u_r, F_r) the branch F_r + 2 g((u - u_r) / 2),
+    back on the backbone once |u| passes its largest value so far. ``st`` is updated.
+
+    >>> import numpy as np
+    >>> st = np.zeros(N_RA_STATE); st[6] = 1.0
+    >>> p = np.array([1.0e6, 0.0, 10.0, 2.0])
+    >>> f = [richard_abbott_step(u, p, st) for u in (1e-5, 2e-5, 0.0, -2e-5, 0.0, 2e-5)]
+    >>> round(f[1], 6) == round(-f[3], 6), f[5] == f[1]
+    (True, True)
+    """
+    k0, kp, f0, n = p[0], p[1], p[2], p[3]
+    du = u - st[0]
+    if du != 0.0:
+        d = 1.0 if du > 0.0 else -1.0
+        if st[4] != 0.0 and d != st[4]:
+            st[1] = st[0]
+            st[2] = st[5]
+            st[6] = 0.0
+        st[4] = d
+    if abs(u) >= st[3] and (st[6] == 1.0 or u * st[4] > 0.0):
+        st[3] = abs(u)
+        st[6] = 1.0
+    if st[6] == 1.0:
+        f = _backbone(u, k0, kp, f0, n)
+    else:
+        f = st[2] + 2.0 * _backbone(0.5 * (u - st[1]), k0, kp, f0, n)
+    st[0] = u
+    st[5] = f
+    return f
 
 
 @njit(cache=True, fastmath=True)
 def integrate(n_samples, n_sub, dt, par, omega, c_modal, phi_drive, phi_acc, phi_joint,
-              radius, k_stick, k_res, k_el, phi_slip, c_t, eta, etad, accp, z, state, out):
+              radius, k_stick, k_res, k_el, phi_slip, c_t, eta, etad, accp, z, state, out,
+              law, ra, ras):
     """Advance ``n_samples`` samples of ``n_sub`` steps; fill ``out`` (rows above, then one per
-    accelerometer) with the values at each sample's last step. ``accp``: last accelerations."""
+    accelerometer) with the values at each sample's last step. ``accp``: last accelerations.
+    ``law`` 1: Richard-Abbott threads (``ra`` rows k_e - k_p, k_p, F_0, n; ``ras`` their
+    Masing state, :func:`richard_abbott_step`) instead of the sliders."""
     amp, off, w, on, gain = par[0], par[1], par[2], par[3], par[4]
     res, ind, bl, cs, ks, ma = par[5], par[6], par[7], par[8], par[9], par[10]
     n_m = omega.size
@@ -71,8 +116,13 @@ def integrate(n_samples, n_sub, dt, par, omega, c_modal, phi_drive, phi_acc, phi
                     th += phi_joint[j, m] * eta[m]
                     thd += phi_joint[j, m] * vel[m]
                 u = radius * th
-                f = k_res[j] * u
-                for e in range(n_e):
+                if law == 1:
+                    f = richard_abbott_step(u, ra[j], ras[j])
+                    n_e_j = 0
+                else:
+                    f = k_res[j] * u
+                    n_e_j = n_e
+                for e in range(n_e_j):
                     d = u - z[j, e]
                     lim = phi_slip[j, e]
                     if d > lim:

@@ -71,6 +71,9 @@ class SimStructureRig:
         self._k_el = np.full(n_j, k_el)
         self._phi = np.tile(phi, (n_j, 1))
         self._c_t = np.full(n_j, j.viscous_ns_per_m)
+        self._law = 1 if j.law == "richard_abbott" else 0
+        self._ra = np.tile([kt * (1 - j.residual_fraction), kt * j.residual_fraction, j.slip_force_n,
+                            j.ra_exponent], (n_j, 1))
         self._c_modal = 2 * self.model.zeta * self.model.omega
         self._par_shaker = (sh.amplifier_gain_v_per_v, sh.coil_resistance_ohm, sh.coil_inductance_h,
                             sh.force_factor_n_per_a, sh.suspension_damping_ns_per_m,
@@ -85,6 +88,8 @@ class SimStructureRig:
         n = self.model.omega.size
         self._eta, self._etad, self._accp = np.zeros(n), np.zeros(n), np.zeros(n)
         self._z = np.zeros_like(self._phi)
+        self._ras = np.zeros((self._phi.shape[0], sk.N_RA_STATE))
+        self._ras[:, 6] = 1.0   # virgin: on the backbone
         self._state = np.zeros(3)
         self._time, self._samples = 0.0, 0
         self._seeds = np.random.SeedSequence(self.config.seed)
@@ -166,7 +171,8 @@ class SimStructureRig:
             buf = np.empty((out.shape[0], b - a))
             sk.integrate(b - a, self._n_sub, self._dt, par, m.omega, self._c_modal, m.drive, m.sensors,
                          m.joints, self.config.joint.radius_m, self._k_stick, self._k_res, self._k_el,
-                         self._phi, self._c_t, self._eta, self._etad, self._accp, self._z, self._state, buf)
+                         self._phi, self._c_t, self._eta, self._etad, self._accp, self._z, self._state, buf,
+                         self._law, self._ra, self._ras)
             out[:, a:b] = buf
         t0 = self._time
         self._time += n / self._fs
