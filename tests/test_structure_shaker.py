@@ -90,3 +90,25 @@ def test_identified_shaker_predicts_the_rigs_response_per_volt(tmp_path):
     predicted = val.accelerance() * force_per_volt(s, val.frequencies_hz, val.accelerance()[:, drive])[:, None]
     measured = val.response[:, :, 0] / val.drive_v[:, None]
     assert np.abs(predicted / measured - 1).max() < 0.03
+
+
+def test_harmonic_balance_with_the_shaker_coupled_in(structure):
+    from labjoint.structure.modal import with_parameter
+    from labjoint.structure.shaker import response_per_volt
+
+    s = with_parameter(structure, "E_e_pa", 2.2e7)      # seed 000's stage 1: mode 1 near 28 Hz
+    f = np.array([27.0, 27.5, 28.0])
+    lin = per_volt(s, TRUE, f)
+    low = response_per_volt(s, TRUE, f, 1e-3, harmonics=1)
+    # at a millivolt the joints stick: the reduced HBM equals the full linear coupled solve
+    assert low["force_per_volt"][:, 0] == pytest.approx(lin["force_per_volt"], rel=1e-4)
+    assert low["acceleration_per_volt"][:, :, 0] == pytest.approx(lin["acceleration_per_volt"], rel=1e-4)
+    assert low["current_per_volt"][:, 0] == pytest.approx(lin["current_per_volt"], rel=1e-4)
+    high = response_per_volt(s, TRUE, f, 20.0, harmonics=3)
+    a_low, a_high = (np.abs(r["acceleration_per_volt"][:, -1, 0]) for r in (low, high))
+    assert a_high.max() < 0.9 * a_low.max()              # the threads slip: less response per volt
+    h2, h3 = (np.abs(high["acceleration_per_volt"][:, -1, k]).max() for k in (1, 2))
+    assert h3 > 3e-4 * a_high.max() and h2 < 0.1 * h3   # symmetric hysteresis: odd harmonics only
+    with pytest.raises(InputError) as e:
+        response_per_volt(s, TRUE, f, 0.0)
+    assert e.value.field == "volts"

@@ -30,6 +30,7 @@ import numpy as np
 
 from labjoint.errors import InputError
 from labjoint.structure.assembly import Structure
+from labjoint.structure.system import NonlinearSystem
 
 
 @dataclass(frozen=True)
@@ -146,3 +147,52 @@ def identify_shaker(frequencies_hz: Any, force_per_volt_measured: Any, drive_acc
                     float(bl), g)
     misfit = np.sqrt(np.mean(np.abs(1.0 / force_per_volt(shaker, f, h) - y) ** 2 / np.abs(y) ** 2))
     return shaker, float(misfit)
+
+
+def with_shaker(system: NonlinearSystem, shaker: Shaker) -> NonlinearSystem:
+    """The (possibly Craig-Bampton reduced) nonlinear system with the shaker coupled in: the
+    coil current I is one more unknown (first order: L dI/dt + R I + Bl v_drive = G V), the
+    armature adds m_a, c_s, k_s at the drive point, Bl I pushes it; the force input is the
+    generator voltage. Outputs: the system's, then ``drive_point`` (m) and ``coil_current`` (A).
+    Harmonic balance solves it as any system (``force_n`` is then the voltage amplitude, V)."""
+    n, e = system.n, system.force             # the drive displacement is e . x (unit force shape)
+    s = shaker
+    ee = np.outer(e, e)
+    M, C, K = (np.zeros((n + 1, n + 1)) for _ in range(3))
+    M[:n, :n] = system.M + s.armature_mass_kg * ee
+    C[:n, :n] = system.C + s.suspension_damping_ns_per_m * ee
+    C[n, :n] = s.force_factor_n_per_a * e       # back-EMF Bl v
+    C[n, n] = s.coil_inductance_h
+    K[:n, :n] = system.K + s.suspension_stiffness_n_per_m * ee
+    K[:n, n] = -s.force_factor_n_per_a * e      # coil force Bl I on the structure
+    K[n, n] = s.coil_resistance_ohm
+    force = np.zeros(n + 1)
+    force[n] = s.amplifier_gain_v_per_v
+    pad = lambda a: np.hstack([np.atleast_2d(a), np.zeros((np.atleast_2d(a).shape[0], 1))])  # noqa: E731
+    outputs = np.vstack([pad(system.outputs), np.r_[e, 0.0], np.r_[np.zeros(n), 1.0]])
+    return NonlinearSystem(M, C, K, force, pad(system.selectors) if len(system.elements) else
+                           np.zeros((0, n + 1)), system.elements, outputs,
+                           (*system.output_names, "drive_point", "coil_current"))
+
+
+def response_per_volt(structure: Structure, shaker: Shaker, frequencies_hz: Any, volts: float,
+                      harmonics: int = 3, modes: int | None = 10) -> dict[str, Any]:
+    """Nonlinear steady state at generator amplitude ``volts`` (V, peak) by harmonic balance
+    on the structure with the shaker (:func:`with_shaker`), per harmonic h = 1..H and per
+    volt: the sensors' accelerations (n, S, H), the force into the structure (n, H) and the
+    coil current (n, H), solved in the order given (a sweep follows its branch)."""
+    from labjoint.structure.frf import response_at, system_of
+
+    if not volts > 0:
+        raise InputError(f"must be a positive voltage amplitude, got {volts}", field="volts")
+    f = np.asarray(frequencies_hz, float)
+    sysm = with_shaker(system_of(structure, modes), shaker)
+    ph = response_at(sysm, f, volts, harmonics=harmonics) / volts       # (n, H+1, S+2)
+    h = np.arange(1, harmonics + 1)
+    w = 2 * np.pi * f[:, None] * h[None, :]                            # (n, H)
+    acc = -(w**2)[:, None, :] * np.moveaxis(ph[:, 1:, :-2], 1, 2)       # (n, S, H)
+    a_drive = -(w**2) * ph[:, 1:, -2]
+    current = ph[:, 1:, -1]
+    force = shaker.force_factor_n_per_a * current - shaker.apparent_mass(w) * a_drive
+    return {"frequencies_hz": f, "sensors": structure.sensor_names, "acceleration_per_volt": acc,
+            "force_per_volt": force, "current_per_volt": current}
