@@ -92,7 +92,8 @@ def frfset_from_runs(runs: Iterable[str | Path], sensors: Sequence[str] | None =
 
     ``sensors``: the response channels (default: every acceleration channel);
     ``settle_fraction`` of each record is skipped first; steps whose force did not
-    converge are kept and listed in ``metadata["unconverged"]``.
+    converge are kept and listed in ``metadata["unconverged"]``; ``force_error`` is the
+    plan's (measured before recording), ``force_error_recorded`` that of the record itself.
     """
     steps = [_step(Path(p), sensors, harmonics, segments, settle_fraction) for p in runs]
     if not steps:
@@ -110,4 +111,6 @@ def frfset_from_runs(runs: Iterable[str | Path], sensors: Sequence[str] | None =
                   runs=tuple(s["run"] for s in steps),
                   metadata={"source": "step_sine", "segments": segments,
                             "unconverged": [s["run"] for s in steps if not s["converged"]],
-                            "force_error": [s["error"] for s in steps]})
+                            "force_error": [s["error"] for s in steps],
+                            "force_error_recorded": [abs(abs(s["force"]) - s["level"]) / s["level"]
+                                                     for s in steps]})
