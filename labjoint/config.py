@@ -27,8 +27,8 @@ class _Strict(BaseModel):
 
 class ChannelConfig(_Strict):
     name: str
-    sensor: Literal["force", "capacitive", "nanocomposite", "voltage"]
-    quantity: Literal["force", "displacement", "voltage"]
+    sensor: Literal["force", "capacitive", "nanocomposite", "voltage", "accelerometer"]
+    quantity: Literal["force", "displacement", "voltage", "acceleration"]
     unit: str
     sensitivity: float
     range_v: float = 5.0
@@ -105,9 +105,10 @@ class RigSection(_Strict):
 
     backend: Literal["sim", "real"] = "sim"
     torque_to_normal_n_per_nm: float = Field(478.0, gt=0, allow_inf_nan=False)
-    joint_force_channel: str = "shear_nc"
+    joint_force_channel: str | None = "shear_nc"    # None: no interfacial force sensor
     reference_force_channel: str = "force_ref"
-    displacement_channels: tuple[str, str] = ("disp_1", "disp_2")
+    #: none on a structural rig read by accelerometers (steady state is then judged on them)
+    displacement_channels: tuple[str, str] | tuple[()] = ("disp_1", "disp_2")
     data_dir: str = "data"
     #: the run catalog: "" = the SQLite file data_dir/catalog.sqlite; a
     #: postgresql://user@host:port/db URL = a PostgreSQL catalog several machines share

@@ -20,12 +20,12 @@ def engine_roles(channels: list[ChannelSpec], config: RigConfig | None, simulate
     if config is not None:
         r = config.rig
         roles = {"displacement_channels": list(r.displacement_channels),
-                 "joint_force_channel": r.joint_force_channel,
+                 "joint_force_channel": r.joint_force_channel or None,
                  "reference_force_channel": r.reference_force_channel,
                  "rig_backend": r.backend}
         for key in ("displacement_channels", "joint_force_channel", "reference_force_channel"):
             for n in np.atleast_1d(roles[key]):
-                if n not in names:
+                if n is not None and n not in names:
                     raise ConfigError(f"channel {n!r} is not among the DAQ channels {names}",
                                       file=config.source or None, field=f"rig.{key}")
         return roles

@@ -106,12 +106,13 @@ class Sampler:
         return [index[n] for n in names]
 
     def wait_steady(self, msg: WaitSteady, f: float, per_period_rms: bool = False) -> SteadyResult:
-        """Read until the displacement amplitudes stop drifting (or ``max_cycles``); with
+        """Read until the displacement (else acceleration) amplitudes stop drifting (or ``max_cycles``); with
         ``per_period_rms`` (an arbitrary periodic drive, ``f`` its repetition frequency)
         the amplitude of a period is its RMS times sqrt(2), not one line's."""
-        names = list(self.relative)
+        names = list(self.relative) or [c.name for c in self.daq.channels if c.quantity == "acceleration"]
         if not names:
-            raise InputError("WaitSteady needs displacement channels", field="displacement_channels")
+            raise InputError("WaitSteady needs displacement or acceleration channels",
+                             field="displacement_channels")
         fs = self.daq.sample_rate_hz
         rows = self._rows(names)
         scale = [self.daq.channels[i].units_per_volt(f) for i in rows]

@@ -2,7 +2,9 @@
 
 - modes: natural frequencies (Hz) and mode shapes at the sensors of the linear structure;
 - update: stage-1 updating of the joint stiffness from measured natural frequencies;
-- frf: the model's nonlinear FRF at constant force by harmonic balance and continuation.
+- frf: the model's nonlinear FRF at constant force by harmonic balance and continuation;
+- measured, ema: FRF sets from step-sine runs and their modal parameters
+  (:mod:`labjoint.cli.cmd_structure_measured`).
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ import argparse
 
 import numpy as np
 
+from labjoint.cli.cmd_structure_measured import add_measured_parsers, run_measured, run_ema
 from labjoint.cli.output import emit_json, table
 from labjoint.errors import InputError
 
@@ -48,6 +51,7 @@ def add_structure_arguments(p: argparse.ArgumentParser) -> None:
             q.add_argument("--modes", type=int, default=10,
                            help="Craig-Bampton kept modes (default 10; -1: unreduced)")
             q.add_argument("--samples", type=int, default=None, help="AFT samples per period (default 256)")
+    add_measured_parsers(sub)
 
 
 def _load(args: argparse.Namespace):
@@ -64,7 +68,8 @@ def _load(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
-    return {"modes": _modes, "update": _update, "frf": _frf}[args.action](args)
+    return {"modes": _modes, "update": _update, "frf": _frf, "measured": run_measured,
+            "ema": run_ema}[args.action](args)
 
 
 def _modes(args: argparse.Namespace) -> int:

@@ -14,8 +14,8 @@ import numpy as np
 
 from labjoint.errors import HardwareError, InputError
 
-SENSOR_KINDS = ("force", "capacitive", "nanocomposite", "imported", "voltage")
-QUANTITIES = ("force", "displacement", "voltage", "time")
+SENSOR_KINDS = ("force", "capacitive", "nanocomposite", "imported", "voltage", "accelerometer")
+QUANTITIES = ("force", "displacement", "voltage", "time", "acceleration")
 
 
 @dataclass(frozen=True)

@@ -115,7 +115,8 @@ class RunWriter:
             layout.create_layout(
                 f, name=doc.name, uid=doc.uid, channels=list(doc.channels),
                 sample_rate_hz=float(doc.sample_rate_hz), metadata=md, source="acquired",
-                signal=str(md.get("joint_force_channel", "shear_nc")), data_units="V",
+                signal=str(md.get("joint_force_channel") or md.get("reference_force_channel") or "shear_nc"),
+                data_units="V",
                 writer_pid=os.getpid(), writer_host=socket.gethostname())
             f.swmr_mode = True
             layout.publish(tmp, final)

@@ -1,4 +1,5 @@
-"""Physics-based simulated rig of seed 002: bolted lap joint, shakers, sensors, DAQ module.
+"""Physics-based simulated rigs: seed 002's bolted lap joint (the default) and, with
+``[sim] rig = "structure"``, seed 000's pipe assembly on a shaker (:mod:`.structure_rig`).
 
 Entry points: :func:`open_sim` (generator, DAQ, rig from a rig config), :class:`SimRig`,
 :class:`SimDAQ`, :class:`MemoryGenerator`, :class:`SimConfig`.

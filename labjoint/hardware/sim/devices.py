@@ -113,7 +113,7 @@ class SimDAQ(DAQ):
     ``realtime=True`` paces reads to the sample clock (as a real module would block).
     """
 
-    def __init__(self, rig: SimRig, generator: SignalGenerator, realtime: bool = False) -> None:
+    def __init__(self, rig: Any, generator: SignalGenerator, realtime: bool = False) -> None:
         self.rig = rig
         self.generator = generator
         self.realtime = realtime
@@ -191,14 +191,23 @@ class SimDAQ(DAQ):
         self._closed = True
 
 
-def open_sim(rig_config: Any) -> tuple[MemoryGenerator, SimDAQ, SimRig]:
-    """Generator, DAQ and rig for a :class:`labjoint.config.RigConfig` (``[sim]`` table validated)."""
-    cfg = SimConfig.from_rig(rig_config)
+def open_sim(rig_config: Any) -> tuple[MemoryGenerator, SimDAQ, Any]:
+    """Generator, DAQ and rig for a :class:`labjoint.config.RigConfig` (``[sim]`` table
+    validated); ``[sim] rig = "structure"`` selects the structural rig (seed 000)."""
     try:
         channels = rig_config.daq.specs()
         rate = rig_config.daq.sample_rate_hz
     except AttributeError as exc:  # pragma: no cover - not a rig config
         raise ConfigError(f"not a rig config: {exc}", field="daq") from None
-    rig = SimRig(cfg, channels, rate)
+    rig: Any
+    if (getattr(rig_config, "sim", None) or {}).get("rig") == "structure":
+        from labjoint.hardware.sim.structure_config import StructureSimConfig
+        from labjoint.hardware.sim.structure_rig import SimStructureRig
+
+        cfg: Any = StructureSimConfig.from_rig(rig_config)
+        rig = SimStructureRig(cfg, channels, rate)
+    else:
+        cfg = SimConfig.from_rig(rig_config)
+        rig = SimRig(cfg, channels, rate)
     generator = MemoryGenerator()
     return generator, SimDAQ(rig, generator, realtime=cfg.realtime), rig
