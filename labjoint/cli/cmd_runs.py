@@ -15,14 +15,15 @@ def _range(text: str) -> tuple[float, float] | float:
     return float(text)
 
 
-def add_runs_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--data", default=None, help="data directory (default: the config's data_dir)")
+def add_runs_arguments(p: argparse.ArgumentParser, limit: int | None = 100) -> None:
+    p.add_argument("--data", "--data-dir", dest="data", default=None,
+                   help="data directory (default: the config's data_dir)")
     p.add_argument("--torque", type=_range, default=None, help="torque in Nm, or LO:HI")
     p.add_argument("--vpp", type=_range, default=None, help="excitation in Vpp, or LO:HI")
     p.add_argument("--frequency", type=_range, default=None, help="frequency in Hz, or LO:HI")
     p.add_argument("--status", default=None)
     p.add_argument("--plan", default=None)
-    p.add_argument("--limit", type=int, default=100)
+    p.add_argument("--limit", type=int, default=limit)
 
 
 def run(args: argparse.Namespace) -> int:

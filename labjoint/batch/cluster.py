@@ -1,0 +1,125 @@
+"""Reprocess tasks on Dask (``dask.distributed``): a LocalCluster, or a lab's scheduler.
+
+:func:`dask_client` yields a connected client: ``"local"`` starts a LocalCluster sized to
+the machine (one worker process per core, one thread each) and stops it afterwards; a
+``tcp://HOST:PORT`` address connects to a running ``dask scheduler`` whose workers run
+the project's environment and see the run files at the same paths (a shared filesystem).
+:class:`DaskRunner` submits each task with ``retries=1``: a task that raises is run once
+more, and a task whose worker dies is resubmitted by the scheduler once (the LocalCluster
+is started with ``allowed_failures=1``; a lab's scheduler takes the same setting,
+``distributed.scheduler.allowed-failures``), then reported. Tasks get run paths and
+options; they return small dicts.
+"""
+
+from __future__ import annotations
+
+import os
+from contextlib import contextmanager
+from typing import Any, Iterator
+
+from labjoint.batch.tasks import Task, run_task
+from labjoint.errors import InputError
+
+#: times the scheduler reruns a task whose worker died before it reports KilledWorker
+ALLOWED_FAILURES = 1
+#: seconds to wait for a scheduler before saying it cannot be reached
+CONNECT_TIMEOUT_S = 10.0
+
+
+@contextmanager
+def dask_client(scheduler: str = "local", n_workers: int | None = None,
+                dashboard: str | None = ":0",
+                timeout_s: float = CONNECT_TIMEOUT_S) -> Iterator[Any]:
+    """A Dask client on a new LocalCluster (``"local"``) or on the scheduler at
+    ``scheduler``; closed (and the LocalCluster stopped) on exit."""
+    from distributed import Client, LocalCluster
+
+    if scheduler == "local":
+        n = int(n_workers or os.cpu_count() or 1)
+        if n < 1:
+            raise InputError(f"must be >= 1, got {n_workers}", field="workers")
+        with LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                          dashboard_address=dashboard,
+                          scheduler_kwargs={"allowed_failures": ALLOWED_FAILURES}) as cluster, \
+                Client(cluster) as client:
+            yield client
+        return
+    if not isinstance(scheduler, str) or "://" not in scheduler:
+        raise InputError(f"must be 'local' or an address such as tcp://HOST:8786, got "
+                         f"{scheduler!r}", field="scheduler")
+    try:
+        client = Client(scheduler, timeout=f"{timeout_s}s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise InputError(f"cannot reach the Dask scheduler at {scheduler}: "
+                         f"{type(exc).__name__}: {exc}", field="scheduler") from None
+    with client:
+        yield client
+
+
+class DaskRunner:
+    """Runs reprocess tasks on a Dask client's workers, yielding them as they end."""
+
+    def __init__(self, client: Any) -> None:
+        self.client = client
+
+    @property
+    def dashboard_link(self) -> str | None:
+        return getattr(self.client, "dashboard_link", None)
+
+    def run(self, tasks: list[Task]) -> Iterator[tuple[Task, dict[str, Any] | BaseException]]:
+        from distributed import as_completed
+
+        if not tasks:
+            return
+        futs = {}
+        for t in tasks:
+            f = self.client.submit(run_on_worker, t, retries=1, pure=False,
+                                   key=f"reprocess-{t.pipeline}-{t.key}-{os.urandom(4).hex()}")
+            futs[f.key] = (f, t)
+        pending = set(futs)
+        try:
+            for f in as_completed([f for f, _ in futs.values()]):
+                pending.discard(f.key)
+                task = futs[f.key][1]
+                try:
+                    yield task, f.result()
+                except Exception as exc:   # raised twice, or its worker died twice
+                    yield task, exc
+        finally:
+            left = [futs[k][0] for k in pending]
+            if left:
+                self.client.cancel(left)
+
+
+class DaskExecutor:
+    """A Dask client as diagnose's candidate-refit executor (``submit``, ``share``)."""
+
+    def __init__(self, client: Any) -> None:
+        self.client = client
+
+    def submit(self, fn: Any, *args: Any) -> Any:
+        return self.client.submit(fn, *args, pure=False)
+
+    def share(self, obj: Any) -> Any:
+        """Send ``obj`` to the cluster once; the handle tasks receive it through."""
+        (fut,) = self.client.scatter([obj], hash=False)
+        return fut
+
+
+@contextmanager
+def worker_executor() -> Iterator[DaskExecutor]:
+    """Inside a Dask task: an executor on the cluster the task runs on (the task's
+    thread leaves the worker's pool while it waits, so its slot serves the refits)."""
+    from distributed import worker_client
+
+    with worker_client() as client:
+        yield DaskExecutor(client)
+
+
+def run_on_worker(task: Task) -> dict[str, Any]:
+    """:func:`~labjoint.batch.tasks.run_task` as a Dask task: a diagnosis or ladder with
+    ``spread`` sends its candidate refits to the cluster's workers."""
+    if not task.spread:
+        return run_task(task)
+    with worker_executor() as ex:
+        return run_task(task, ex)
