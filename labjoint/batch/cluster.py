@@ -23,7 +23,7 @@ from labjoint.errors import InputError
 #: times the scheduler reruns a task whose worker died before it reports KilledWorker
 ALLOWED_FAILURES = 1
 #: seconds to wait for a scheduler before saying it cannot be reached
-CONNECT_TIMEOUT_S = 10.0
+CONNECT_TIMEOUT_S = 5.0
 
 
 @contextmanager
@@ -57,10 +57,12 @@ def dask_client(scheduler: str = "local", n_workers: int | None = None,
 
 
 class DaskRunner:
-    """Runs reprocess tasks on a Dask client's workers, yielding them as they end."""
+    """Runs reprocess tasks on a Dask client's workers, yielding them as they end;
+    ``fn(task) -> dict`` is what each task runs (default :func:`run_on_worker`)."""
 
-    def __init__(self, client: Any) -> None:
+    def __init__(self, client: Any, fn: Any = None) -> None:
         self.client = client
+        self.fn = fn or run_on_worker
 
     @property
     def dashboard_link(self) -> str | None:
@@ -73,7 +75,7 @@ class DaskRunner:
             return
         futs = {}
         for t in tasks:
-            f = self.client.submit(run_on_worker, t, retries=1, pure=False,
+            f = self.client.submit(self.fn, t, retries=1, pure=False,
                                    key=f"reprocess-{t.pipeline}-{t.key}-{os.urandom(4).hex()}")
             futs[f.key] = (f, t)
         pending = set(futs)
