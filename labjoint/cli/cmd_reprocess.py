@@ -48,36 +48,25 @@ def add_reprocess_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def pipeline_options(args: argparse.Namespace, data_dir: Path) -> dict[str, Any]:
-    """The options of the pipeline (what the result is keyed by), from the arguments."""
-    pl = args.pipeline
-    if pl in ("analyze", "stickslip"):
-        for name in ("model", "group_by", "max_steps", "candidates"):
-            if getattr(args, name) is not None:
-                raise InputError(f"applies to fit, diagnose and ladder, not {pl}",
-                                 field="--" + name.replace("_", "-"))
-        opts: dict[str, Any] = {"force": args.force_sensor}
-        if pl == "stickslip":
-            mu = args.friction
-            if mu is None:
-                from labjoint.identify.identified import load_identified
-                found = load_identified(data_dir, "friction_coefficient")
-                if found is None:
-                    raise InputError("the stick-slip pipeline needs the friction coefficient: "
-                                     "give --friction MU or identify it first (labjoint "
-                                     "friction RUN)", field="--friction")
-                mu = found.value
-            opts["friction"] = float(mu)
-        return opts
-    if not args.model:
-        raise InputError(f"{pl} needs --model EXPR", field="--model")
-    opts = {"model": args.model}
-    for key in ("seed", "kind", "factor", "alpha", "candidates"):
-        v = getattr(args, key)
-        if v is not None:
-            opts[key] = v
-    if pl == "ladder" and args.max_steps is not None:
-        opts["max_steps"] = args.max_steps
-    return opts
+    """The pipeline's options from the arguments (:func:`labjoint.batch.options.check_options`)."""
+    from labjoint.batch.options import check_options
+
+    given: dict[str, Any] = {"model": args.model, "seed": args.seed, "kind": args.kind,
+                             "factor": args.factor, "alpha": args.alpha,
+                             "candidates": args.candidates, "max_steps": args.max_steps}
+    if args.pipeline in ("analyze", "stickslip"):
+        given["force"] = args.force_sensor
+    if args.pipeline == "stickslip":
+        given["friction"] = args.friction
+    elif args.friction is not None:
+        given["friction"] = args.friction
+    if args.group_by is not None and args.pipeline not in GROUPED:
+        raise InputError(f"applies to fit, diagnose and ladder, not {args.pipeline}",
+                         field="--group-by")
+    try:
+        return check_options(args.pipeline, given, data_dir)
+    except InputError as exc:
+        raise InputError(exc.message, field="--" + str(exc.field).replace("_", "-")) from None
 
 
 def run(args: argparse.Namespace) -> int:
