@@ -157,3 +157,18 @@ def test_an_unreachable_scheduler_is_one_clear_line(lab, capsys):
                  addr]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "cannot reach the Dask scheduler" in err[0] and addr in err[0]
+
+
+def test_a_diagnose_group_on_workers_with_and_without_spread_refits_agrees(lab, client):
+    """A Dask worker may not start processes: without spread the refits run in the task."""
+    d, cat = lab
+    res = Results(cat)
+    opts = {"model": "linear_stiffness", "candidates": "viscous,cubic_stiffness"}
+    reports = [execute(plan_reprocess(res, cat.query(), "diagnose", opts, force=True,
+                                      spread=spread), DaskRunner(client), res)
+               for spread in (False, True)]
+    for rep in reports:
+        assert rep["computed"] == 3 and rep["failed"] == 0, rep
+    a, b = (r["runs"][0]["summary"] for r in reports)
+    assert a["candidates"] == b["candidates"] and a["significant"] == b["significant"]
+    assert a["nrmse"] == pytest.approx(b["nrmse"], rel=1e-12)

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import multiprocessing
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -75,9 +76,19 @@ def _stickslip(paths: list[Path], options: dict[str, Any], executor: Any = None
             if k.startswith("stickslip_") and k != "stickslip_basis"}
 
 
-def _compare_options(options: dict[str, Any], judging: bool) -> dict[str, Any]:
+def _compare_options(options: dict[str, Any], judging: bool, executor: Any = None
+                     ) -> dict[str, Any]:
+    """compare's options; candidate refits on ``executor`` when given, else in this
+    process when it may not start processes (a Dask worker is a daemonic process),
+    else in compare's default local processes."""
     keys = COMPARE_KEYS + (JUDGE_KEYS if judging else ())
-    return {k: options[k] for k in keys if options.get(k) is not None}
+    out = {k: options[k] for k in keys if options.get(k) is not None}
+    if judging:
+        if executor is not None:
+            out["executor"] = executor
+        elif multiprocessing.current_process().daemon:
+            out["n_jobs"] = 1
+    return out
 
 
 def _model_group(options: dict[str, Any]) -> str:
@@ -120,7 +131,7 @@ def _diagnose(paths: list[Path], options: dict[str, Any], executor: Any = None
     from labjoint.compare import diagnose_runs
 
     res = diagnose_runs([str(p) for p in paths], _need_model(options),
-                        **_compare_options(options, True), executor=executor)
+                        **_compare_options(options, True, executor))
     summary = {"model": res["model"], "nrmse": res["nrmse"], "noise_floor": res["noise_floor"],
                "adequate": res["adequate"], "verdict": res["verdict"],
                "candidates": [c["effect"] for c in res["candidates"]],
@@ -134,7 +145,7 @@ def _ladder(paths: list[Path], options: dict[str, Any], executor: Any = None) ->
 
     res = ladder_runs([str(p) for p in paths], _need_model(options),
                       max_steps=options.get("max_steps"), save=True,
-                      **_compare_options(options, True), executor=executor)
+                      **_compare_options(options, True, executor))
     return {"final_model": res["final_model"], "adequate": res["adequate"],
             "noise_floor": res["noise_floor"], "key": res["key"],
             "steps": [s["model"] for s in res["steps"]]}
