@@ -162,3 +162,24 @@ def test_cli_a_failed_run_exits_non_zero_naming_it(lab, capsys):
     cap = capsys.readouterr()
     assert code == 2 and "run lin_b" in cap.err and "disappeared" in cap.err
     assert json.loads(cap.out)["computed"] == 2
+
+
+def test_a_task_planned_for_other_code_is_refused_not_mislabelled(lab):
+    """A worker whose pipeline version differs (another labjoint installed) refuses."""
+    from dataclasses import replace
+
+    from labjoint.batch.tasks import run_task
+
+    d, cat = lab
+    plan = plan_reprocess(Results(cat), cat.query(), "analyze", {})
+    out = run_task(replace(plan.tasks[0], version="analyze-0000000000000000"))
+    assert out["status"] == "failed" and "install the same labjoint" in out["error"]
+    assert read_processed_or_none(d / "lin_a.h5") is None          # nothing written
+
+
+def read_processed_or_none(path):
+    from labjoint.errors import InputError
+    try:
+        return read_processed(path, "loop")
+    except (InputError, KeyError):
+        return None

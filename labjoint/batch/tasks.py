@@ -4,7 +4,8 @@ A task receives run names and paths (never the records: the worker reads the fil
 itself, on the shared filesystem) and returns a few hundred bytes: the status, the
 summary, each input file's sha256 as the pipeline read it, and the error of a failed run.
 A bad run (missing file, not a sine, a missing channel ...) is a ``failed`` result, not an
-exception; anything else (a bug, a dying worker) propagates, so the engine retries it.
+exception; anything else (a bug, a dying worker) propagates, so the engine retries it. A
+worker whose code gives another pipeline version than the plan's refuses the task.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from labjoint import __version__
-from labjoint.batch.pipelines import get_pipeline
+from labjoint.batch.pipelines import get_pipeline, pipeline_version
 from labjoint.documents import utc_now
 from labjoint.errors import LabjointError
 from labjoint.storage.results import file_sha256
@@ -39,6 +40,11 @@ def run_task(task: Task, executor: Any = None) -> dict[str, Any]:
     out: dict[str, Any] = {"key": task.key, "runs": list(task.names), "status": "failed",
                            "summary": {}, "input_sha256": {}, "error": "",
                            "version": task.version, "labjoint_version": __version__}
+    here = pipeline_version(task.pipeline)
+    if here != task.version:          # a worker with other code would mislabel its result
+        out["error"] = (f"this worker runs {task.pipeline} version {here}, the reprocess "
+                        f"planned {task.version}: install the same labjoint on every worker")
+        return out
     try:
         for name, p in zip(task.names, task.paths):
             if not Path(p).is_file():

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import sqlite3
 from contextlib import closing
 from dataclasses import asdict, dataclass, field
@@ -137,7 +138,8 @@ class Results:
         vals = row.to_dict()
         vals["computed_at"] = vals["computed_at"] or utc_now()
         vals["options"] = options_json(row.options)
-        vals["summary"] = json.dumps(row.summary, sort_keys=True, default=_jsonable)
+        vals["summary"] = json.dumps(_finite(row.summary), sort_keys=True, default=_jsonable,
+                                     allow_nan=False)
         sets = ", ".join(f"{c} = excluded.{c}" for c in COLUMNS if c not in _KEY)
         sql = (f"INSERT INTO results ({', '.join(COLUMNS)}) "
                f"VALUES ({', '.join('?' for _ in COLUMNS)}) "
@@ -188,6 +190,23 @@ class Results:
             d["error"] = d["error"] or ""
             out.append(ResultRow(**d))
         return out
+
+
+def _finite(obj: Any) -> Any:
+    """NaN and infinities as None, so the stored summary is strict JSON.
+
+    >>> _finite({"a": [1.0, float("nan")], "b": float("inf")})
+    {'a': [1.0, None], 'b': None}
+    """
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if hasattr(obj, "item") and callable(obj.item) and getattr(obj, "ndim", 1) == 0:
+        return _finite(obj.item())
+    return obj
 
 
 def _jsonable(obj: Any) -> Any:
