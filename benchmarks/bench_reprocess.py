@@ -24,6 +24,8 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
+import subprocess
+import sys
 import tempfile
 import time
 import uuid
@@ -40,6 +42,8 @@ from labjoint.storage import Catalog
 from labjoint.storage.results import Results
 from labjoint.storage.writer import RunWriter
 
+ROOT = Path(__file__).resolve().parent.parent
+OPTS = {"force": "joint"}                   # analyze's options as the CLI gives them
 CHANNELS = [ChannelSpec("force_ref", "force", "force", "N", SENS["force_ref"], iepe=True),
             ChannelSpec("disp_1", "capacitive", "displacement", "m", SENS["disp_1"]),
             ChannelSpec("disp_2", "capacitive", "displacement", "m", SENS["disp_2"]),
@@ -109,11 +113,11 @@ def bench_analyze(d: Path, n: int, seconds: float) -> None:
     print(f"data: {n} runs x {seconds:g} s x 4 ch at {FS / 1e3:g} kS/s, written in "
           f"{time.perf_counter() - t0:.1f} s")
     res = Results(cat)
-    plan_reprocess(res, cat.query()[:1], "analyze", {})        # compile and cache kernels
-    execute(plan_reprocess(res, cat.query()[:1], "analyze", {}, force=True), SerialRunner(), res)
+    plan_reprocess(res, cat.query()[:1], "analyze", OPTS)        # compile and cache kernels
+    execute(plan_reprocess(res, cat.query()[:1], "analyze", OPTS, force=True), SerialRunner(), res)
 
     t0 = time.perf_counter()
-    rep = execute(plan_reprocess(res, cat.query(), "analyze", {}, force=True), SerialRunner(), res)
+    rep = execute(plan_reprocess(res, cat.query(), "analyze", OPTS, force=True), SerialRunner(), res)
     t_serial = time.perf_counter() - t0
     assert rep["computed"] == n, rep["failed"]
 
@@ -122,7 +126,7 @@ def bench_analyze(d: Path, n: int, seconds: float) -> None:
         client.run(_warm, cat.query()[0].path)
         t_start = time.perf_counter() - t0
         t0 = time.perf_counter()
-        rep = execute(plan_reprocess(res, cat.query(), "analyze", {}, force=True),
+        rep = execute(plan_reprocess(res, cat.query(), "analyze", OPTS, force=True),
                       DaskRunner(client), res)
         t_dist = time.perf_counter() - t0
         assert rep["computed"] == n, rep["failed"]
@@ -140,12 +144,20 @@ def bench_analyze(d: Path, n: int, seconds: float) -> None:
     print("memory per worker after the reprocess: "
           + ", ".join(f"{v / 2**20:.0f} MB" for v in rss.values()))
     t0 = time.perf_counter()
-    plan = plan_reprocess(res, cat.query(), "analyze", {})
+    plan = plan_reprocess(res, cat.query(), "analyze", OPTS)
     rep = execute(plan, SerialRunner(), res)
     t_noop = time.perf_counter() - t0
     assert rep["skipped"] == n and not plan.tasks
     print(f"no-op second reprocess ({n} runs, catalog query + plan): {t_noop:.3f} s "
           f"(goal <= 2 s for 1,000)")
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "labjoint.cli.main", "reprocess", "--data-dir",
+                           str(d), "--pipeline", "analyze", "--json"], capture_output=True,
+                          text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    t_cli = time.perf_counter() - t0
+    assert proc.returncode == 0 and f'"skipped": {n}' in proc.stdout, proc.stderr
+    print(f"no-op `labjoint reprocess` as a command ({n} runs, process start to exit): "
+          f"{t_cli:.2f} s")
 
 
 def bench_diagnose(d: Path) -> None:

@@ -7,9 +7,11 @@ Version rule: a pipeline's version is ``<name>-`` followed by the first 16 hex d
 a sha256 over, in order, (1) for every package the pipeline's code lives in
 (:attr:`Pipeline.packages`), every ``*.py`` file under it sorted by its path relative to
 ``labjoint/``, as the path, a NUL, the file's bytes, a NUL; (2) this module's own source
-(it maps options to calls); (3) the canonical JSON of the pipeline's settings (the
-defaults it runs with that are not options). Editing any of these files, even a comment,
+(it maps options to calls); (3) the canonical JSON of :attr:`Pipeline.settings` (settings
+that live outside those files; the pipelines' defaults, such as the filter's cutoff and
+order, are constants in the hashed packages). Editing any of these files, even a comment,
 gives a new version; code outside these packages (storage, config, the CLI) does not.
+Computing it reads the files without importing them (a no-op reprocess stays fast).
 The options a result was computed with are not in the version: they are part of the
 result's key (:func:`labjoint.storage.results.options_hash`).
 """
@@ -151,13 +153,6 @@ def _ladder(paths: list[Path], options: dict[str, Any], executor: Any = None) ->
             "steps": [s["model"] for s in res["steps"]]}
 
 
-def _settings_analyze() -> dict[str, Any]:
-    from labjoint.identify.analyze import FILE_BLOCK_SAMPLES
-    from labjoint.signal.filter import PAPER_CUTOFF_HZ, PAPER_ORDER
-
-    return {"cutoff_hz": PAPER_CUTOFF_HZ, "order": PAPER_ORDER, "block": FILE_BLOCK_SAMPLES}
-
-
 _SIGNAL = ("signal", "identify")
 _MODELS = ("signal", "identify", "models", "structure", "compare")
 PIPELINES: dict[str, Pipeline] = {
@@ -187,10 +182,7 @@ def pipeline_version(name: str) -> str:
         for p in sorted((ROOT / pkg).rglob("*.py")):
             h.update(str(p.relative_to(ROOT)).encode() + b"\0" + p.read_bytes() + b"\0")
     h.update(Path(__file__).read_bytes() + b"\0")
-    settings = dict(pipe.settings)
-    if name in ("analyze", "stickslip"):
-        settings.update(_settings_analyze())
-    h.update(json.dumps(settings, sort_keys=True).encode())
+    h.update(json.dumps(pipe.settings, sort_keys=True).encode())
     return f"{name}-{h.hexdigest()[:16]}"
 
 
