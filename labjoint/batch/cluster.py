@@ -56,6 +56,18 @@ def dask_client(scheduler: str = "local", n_workers: int | None = None,
         yield client
 
 
+def dashboard_line(client: Any, local: bool) -> str:
+    """The line naming the Dask dashboard; a LocalCluster's pages need bokeh here."""
+    import importlib.util
+
+    link = getattr(client, "dashboard_link", None)
+    if not link:
+        return "Dask dashboard: none (the scheduler serves no dashboard)"
+    if local and importlib.util.find_spec("bokeh") is None:
+        return f"Dask dashboard: {link} (its pages need bokeh: pip install bokeh)"
+    return f"Dask dashboard: {link}"
+
+
 class DaskRunner:
     """Runs reprocess tasks on a Dask client's workers, yielding them as they end;
     ``fn(task) -> dict`` is what each task runs (default :func:`run_on_worker`)."""

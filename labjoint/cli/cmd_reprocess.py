@@ -97,10 +97,10 @@ def run(args: argparse.Namespace) -> int:
     if not plan.tasks or not distributed:
         report = execute(plan, SerialRunner(), results, progress)
     else:
-        from labjoint.batch.cluster import DaskRunner, dask_client
+        from labjoint.batch.cluster import DaskRunner, dashboard_line, dask_client
         with dask_client(args.scheduler, args.workers) as client:
             if not args.quiet:
-                sys.stderr.write(f"Dask dashboard: {client.dashboard_link}\n")
+                sys.stderr.write(dashboard_line(client, args.scheduler == "local") + "\n")
             report = execute(plan, DaskRunner(client), results, progress)
     failed = [r for r in report["runs"] if r["status"] == "failed"]
     for r in failed:

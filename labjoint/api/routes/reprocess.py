@@ -87,9 +87,9 @@ def submit(request: Request, body: ReprocessRequest,
 
         if scheduler == "none" or not plan.tasks:
             return execute(plan, SerialRunner(), results, step)
-        from labjoint.batch.cluster import DaskRunner, dask_client
+        from labjoint.batch.cluster import DaskRunner, dashboard_line, dask_client
         with dask_client(scheduler) as client:
-            progress(0.0, f"Dask dashboard: {client.dashboard_link}")
+            progress(0.0, dashboard_line(client, scheduler == "local"))
             report = execute(plan, DaskRunner(client), results, step)
             report["dashboard"] = client.dashboard_link
             return report
