@@ -172,3 +172,20 @@ def test_a_diagnose_group_on_workers_with_and_without_spread_refits_agrees(lab, 
     a, b = (r["runs"][0]["summary"] for r in reports)
     assert a["candidates"] == b["candidates"] and a["significant"] == b["significant"]
     assert a["nrmse"] == pytest.approx(b["nrmse"], rel=1e-12)
+
+
+def test_runs_sent_in_chunks_are_each_recorded_and_a_vanished_one_named(lab, client):
+    d, cat = lab
+    res = Results(cat)
+    plan = plan_reprocess(res, cat.query(), "analyze", {})
+    (d / "lin_c.h5").unlink()                       # gone after the plan, before its task
+    runner = DaskRunner(client, chunk=2)
+    assert [len(c) for c in runner._chunks(plan.tasks)] == [2, 1]
+    rep = execute(plan, runner, res)
+    by = {r["run"]: r for r in rep["runs"]}
+    assert by["lin_c"]["status"] == "failed" and "disappeared" in by["lin_c"]["error"]
+    assert rep["computed"] == 2
+    for name in ("lin_a", "lin_b"):
+        u, k, c = CASES[name]
+        assert by[name]["summary"]["damping_ns_per_m"] == pytest.approx(c, rel=0.01)
+        assert by[name]["summary"]["stiffness_n_per_m"] == pytest.approx(k, rel=0.01)

@@ -22,6 +22,10 @@ from labjoint.errors import InputError
 
 #: times the scheduler reruns a task whose worker died before it reports KilledWorker
 ALLOWED_FAILURES = 1
+#: most single-run tasks sent to a worker as one Dask task
+MAX_CHUNK = 16
+#: Dask tasks per worker at least, when runs are chunked (so the load still balances)
+CHUNKS_PER_WORKER = 8
 #: seconds to wait for a scheduler before saying it cannot be reached
 CONNECT_TIMEOUT_S = 5.0
 
@@ -69,16 +73,33 @@ def dashboard_line(client: Any, local: bool) -> str:
 
 
 class DaskRunner:
-    """Runs reprocess tasks on a Dask client's workers, yielding them as they end;
-    ``fn(task) -> dict`` is what each task runs (default :func:`run_on_worker`)."""
+    """Runs reprocess tasks on a Dask client's workers, yielding them as they end.
 
-    def __init__(self, client: Any, fn: Any = None) -> None:
+    Single-run tasks are sent in chunks of ``chunk`` (default: up to ``MAX_CHUNK``, so
+    that each worker still gets about ``CHUNKS_PER_WORKER`` of them): a run's analysis
+    takes tens of milliseconds, and one Dask task per run would spend a good part of
+    that in the scheduler and this client. ``fn(task) -> dict``, when given, is what
+    each task runs, one per Dask task (default :func:`run_on_worker`)."""
+
+    def __init__(self, client: Any, fn: Any = None, chunk: int | None = None) -> None:
         self.client = client
-        self.fn = fn or run_on_worker
+        self.fn = fn
+        self.chunk = chunk
 
     @property
     def dashboard_link(self) -> str | None:
         return getattr(self.client, "dashboard_link", None)
+
+    def _chunks(self, tasks: list[Task]) -> list[list[Task]]:
+        from labjoint.batch.pipelines import get_pipeline
+
+        size = self.chunk
+        if self.fn is not None or get_pipeline(tasks[0].pipeline).grouped:
+            size = 1
+        elif size is None:
+            workers = max(len(self.client.scheduler_info().get("workers", {})), 1)
+            size = max(1, min(MAX_CHUNK, len(tasks) // (CHUNKS_PER_WORKER * workers)))
+        return [tasks[a:a + size] for a in range(0, len(tasks), size)]
 
     def run(self, tasks: list[Task]) -> Iterator[tuple[Task, dict[str, Any] | BaseException]]:
         from distributed import as_completed
@@ -86,19 +107,25 @@ class DaskRunner:
         if not tasks:
             return
         futs = {}
-        for t in tasks:
-            f = self.client.submit(self.fn, t, retries=1, pure=False,
-                                   key=f"reprocess-{t.pipeline}-{t.key}-{os.urandom(4).hex()}")
-            futs[f.key] = (f, t)
+        for part in self._chunks(tasks):
+            fn, arg = (self.fn, part[0]) if self.fn is not None else (run_chunk, part)
+            f = self.client.submit(fn, arg, retries=1, pure=False,
+                                   key=f"reprocess-{part[0].pipeline}-{part[0].key}"
+                                       f"-{os.urandom(4).hex()}")
+            futs[f.key] = (f, part)
         pending = set(futs)
         try:
             for f in as_completed([f for f, _ in futs.values()]):
                 pending.discard(f.key)
-                task = futs[f.key][1]
+                part = futs[f.key][1]
                 try:
-                    yield task, f.result()
+                    out = f.result()
                 except Exception as exc:   # raised twice, or its worker died twice
-                    yield task, exc
+                    for t in part:
+                        yield t, exc
+                    continue
+                for t, res in zip(part, out if self.fn is None else [out]):
+                    yield t, res
         finally:
             left = [futs[k][0] for k in pending]
             if left:
@@ -128,6 +155,11 @@ def worker_executor() -> Iterator[DaskExecutor]:
 
     with worker_client() as client:
         yield DaskExecutor(client)
+
+
+def run_chunk(tasks: list[Task]) -> list[dict[str, Any]]:
+    """:func:`run_on_worker` on each task of a chunk, in order."""
+    return [run_on_worker(t) for t in tasks]
 
 
 def run_on_worker(task: Task) -> dict[str, Any]:
