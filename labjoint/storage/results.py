@@ -10,7 +10,9 @@ single run file.
 
 The SQL is portable (``?`` placeholders, ``INSERT ... ON CONFLICT DO UPDATE``, TEXT /
 DOUBLE PRECISION / BIGINT columns) so the same statements serve the shared PostgreSQL
-catalog. The table lives in the catalog's database (:attr:`Catalog.db_path`).
+catalog. The table lives in the catalog's database: through the catalog's SQL adapter
+(``catalog.sql``, with ``execute`` and ``fetchall`` returning dict rows) when it has one,
+else in its SQLite file (:attr:`Catalog.db_path`).
 
 >>> import tempfile, pathlib
 >>> from labjoint.storage.catalog import Catalog
@@ -54,7 +56,8 @@ INDEX_SQL = ("CREATE INDEX IF NOT EXISTS results_version ON results (version)",
 
 
 def create_results_table(con: Any) -> None:
-    """Create the ``results`` table and its indexes on a DB-API connection (idempotent)."""
+    """Create the ``results`` table and its indexes (idempotent) through anything with
+    ``execute(sql)``: a DB-API connection, the catalog's SQL adapter or a session."""
     con.execute(CREATE_SQL)
     for sql in INDEX_SQL:
         con.execute(sql)
@@ -114,21 +117,37 @@ class ResultRow:
         return asdict(self)
 
 
+class SqliteFile:
+    """The two calls :class:`Results` makes, on a SQLite file (one connection per call)."""
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+
+    def _connect(self) -> sqlite3.Connection:
+        try:
+            con = sqlite3.connect(self.path, timeout=30.0)
+        except sqlite3.Error as exc:
+            raise InputError(f"cannot open catalog: {exc}", file=str(self.path)) from None
+        con.row_factory = sqlite3.Row
+        con.execute("PRAGMA synchronous=NORMAL")   # WAL (the catalog's): durable enough
+        return con
+
+    def execute(self, sql: str, args: Iterable[Any] = ()) -> None:
+        with closing(self._connect()) as con, con:
+            con.execute(sql, list(args))
+
+    def fetchall(self, sql: str, args: Iterable[Any] = ()) -> list[dict[str, Any]]:
+        with closing(self._connect()) as con:
+            return [dict(r) for r in con.execute(sql, list(args)).fetchall()]
+
+
 class Results:
     """The ``results`` table in the database of a :class:`~labjoint.storage.catalog.Catalog`."""
 
     def __init__(self, catalog: Any) -> None:
-        self.db_path = Path(catalog.db_path)
-        with closing(self._connect()) as con, con:
-            create_results_table(con)
-
-    def _connect(self) -> sqlite3.Connection:
-        try:
-            con = sqlite3.connect(self.db_path, timeout=30.0)
-        except sqlite3.Error as exc:
-            raise InputError(f"cannot open catalog: {exc}", file=str(self.db_path)) from None
-        con.row_factory = sqlite3.Row
-        return con
+        sql = getattr(catalog, "sql", None)
+        self.db = sql if callable(getattr(sql, "fetchall", None)) else SqliteFile(catalog.db_path)
+        create_results_table(self.db)
 
     def record(self, row: ResultRow) -> None:
         """Insert or replace the row of (run, pipeline, options_hash)."""
@@ -144,8 +163,7 @@ class Results:
         sql = (f"INSERT INTO results ({', '.join(COLUMNS)}) "
                f"VALUES ({', '.join('?' for _ in COLUMNS)}) "
                f"ON CONFLICT ({', '.join(_KEY)}) DO UPDATE SET {sets}")
-        with closing(self._connect()) as con, con:
-            con.execute(sql, [vals[c] for c in COLUMNS])
+        self.db.execute(sql, [vals[c] for c in COLUMNS])
 
     def get(self, run: str, pipeline: str, options_hash: str) -> ResultRow | None:
         rows = self._select("SELECT * FROM results WHERE run = ? AND pipeline = ? "
@@ -155,16 +173,14 @@ class Results:
     def of(self, pipeline: str, options_hash: str) -> dict[str, tuple[str, str]]:
         """run -> (status, version) of every result of ``pipeline`` with these options, in
         one query (what a reprocess plans from)."""
-        with closing(self._connect()) as con:
-            rows = con.execute("SELECT run, status, version FROM results WHERE pipeline = ? "
-                               "AND options_hash = ?", (pipeline, options_hash)).fetchall()
+        rows = self.db.fetchall("SELECT run, status, version FROM results WHERE pipeline = ? "
+                                "AND options_hash = ?", [pipeline, options_hash])
         return {r["run"]: (r["status"], r["version"]) for r in rows}
 
     def runs_with_version(self, version: str, status: str = "complete") -> set[str]:
         """Names of the runs holding a result of pipeline version ``version``."""
-        with closing(self._connect()) as con:
-            rows = con.execute("SELECT DISTINCT run FROM results WHERE version = ? "
-                               "AND status = ?", (version, status)).fetchall()
+        rows = self.db.fetchall("SELECT DISTINCT run FROM results WHERE version = ? "
+                                "AND status = ?", [version, status])
         return {r["run"] for r in rows}
 
     def for_runs(self, runs: Iterable[str]) -> dict[str, list[ResultRow]]:
@@ -180,10 +196,8 @@ class Results:
         return out
 
     def _select(self, sql: str, args: list[Any]) -> list[ResultRow]:
-        with closing(self._connect()) as con:
-            rows = con.execute(sql, args).fetchall()
         out = []
-        for r in rows:
+        for r in self.db.fetchall(sql, args):
             d = {c: r[c] for c in COLUMNS}
             d["options"] = json.loads(d["options"]) if d["options"] else {}
             d["summary"] = json.loads(d["summary"]) if d["summary"] else {}
