@@ -36,7 +36,9 @@ def served(tmp_path_factory):
     cat = Catalog(data / "catalog.sqlite")
     for i, amp in enumerate((2e-6, 6e-6)):
         write_linear_run(data, cat, f"lin_{i}", amp_m=amp, n=4000)
-    svc = build(sim_config_file(tmp, api=f'control_tokens = ["{CONTROL}"]\n'), data_dir=data,
+    # reprocess jobs in the job's thread: the HTTP surface is under test, not Dask
+    api = f'control_tokens = ["{CONTROL}"]\nreprocess_scheduler = "none"\n'
+    svc = build(sim_config_file(tmp, api=api), data_dir=data,
                 port=0, log_level="critical", env={})
     sock = socket.socket()
     sock.bind(("127.0.0.1", 0))
@@ -55,7 +57,8 @@ def served(tmp_path_factory):
 def _stop_everything(http: httpx.Client) -> None:
     """Cancel what the generated requests left queued or running (plans, jobs)."""
     for path, cancel in (("/plans", "/plans/{}/cancel"), ("/analyses", "/analyses/{}/cancel"),
-                         ("/models/jobs", "/models/jobs/{}/cancel")):
+                         ("/models/jobs", "/models/jobs/{}/cancel"),
+                         ("/reprocess", "/reprocess/{}/cancel")):
         for j in http.get(path, params={"limit": 500}).json()["items"]:
             if j["status"] in ("queued", "running", "held", "waiting_torque"):
                 http.post(cancel.format(j["id"]))

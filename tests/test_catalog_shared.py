@@ -237,3 +237,23 @@ def test_missing_postgresql_binaries_fail_with_how_to_install():
     with pytest.raises(pg_server.PostgresUnavailable, match="make postgres"):
         pg_server.find_binary("initdb-that-does-not-exist")
     assert pg_server.find_binary("initdb").endswith("/initdb")
+
+
+def test_reprocess_records_its_results_in_a_postgresql_catalog(pg_url, tmp_path, capsys):
+    """`labjoint reprocess` with ``catalog_url`` in the config: results land in the shared
+    catalog's results table (migration 2), and a second reprocess finds them and does nothing."""
+    cfg, data = _config(tmp_path, pg_url), tmp_path / "data"
+    assert main(["simulate", "--sweep", "4,8", "--frequency", "400", "--torque", "5",
+                 "--cycles", "12", "--sample-rate", "20000", "--out", str(data),
+                 "--config", str(cfg), "--json", "--quiet"]) == 0
+    capsys.readouterr()
+    argv = ["reprocess", "--config", str(cfg), "--data-dir", str(data), "--pipeline", "analyze",
+            "--scheduler", "none", "--json"]
+    assert main(argv) == 0
+    first = json.loads(capsys.readouterr().out)
+    assert (first["computed"], first["failed"]) == (2, 0)
+    rows = Catalog(pg_url).sql.fetchall("SELECT run, status FROM results ORDER BY run")
+    assert [r["status"] for r in rows] == ["complete", "complete"]
+    assert main(argv) == 0
+    again = json.loads(capsys.readouterr().out)
+    assert (again["computed"], again["skipped"]) == (0, 2)

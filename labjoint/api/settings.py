@@ -11,6 +11,8 @@ Keys of ``[api]`` (all optional)::
     max_request_bytes = 1048576   # larger request bodies are refused with 413
     analysis_workers = 2          # threads running analysis/model jobs
     max_points = 20000            # most points one data slice may return
+    reprocess_scheduler = "local" # reprocess jobs: "local" (a Dask LocalCluster per job),
+                                  # "none" (in the job's thread) or tcp://HOST:PORT
 
 Environment: ``LABJOINT_API_TOKEN`` and ``LABJOINT_API_READ_TOKEN`` add a control and a
 read token (each may hold several, comma-separated), so secrets need not live in files.
@@ -58,6 +60,7 @@ class ApiSettings(BaseModel):
     max_points: int = Field(20000, ge=10, le=1_000_000)
     #: the run catalog ([rig] catalog_url of the config): "" = data_dir/catalog.sqlite
     catalog_url: str = ""
+    reprocess_scheduler: str = Field("local", pattern=r"^(local|none|(tcp|tls)://\S+)$")
 
     @field_validator("control_tokens", "read_tokens")
     @classmethod

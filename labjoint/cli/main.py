@@ -23,6 +23,8 @@ COMMANDS = {
     "calibrate": ("cmd_calibrate", "calibrate", "calibrate the joint-force sensor (N/V per frequency)"),
     "friction": ("cmd_calibrate", "friction", "identify mu from a friction-test run and store it"),
     "runs": ("cmd_runs", "run", "query the run catalog"),
+    "reprocess": ("cmd_reprocess", "run", "rerun a pipeline over catalogued runs (Dask); "
+                  "current results are skipped"),
     "recover": ("cmd_recover", "run", "close run files whose writer died; fix the catalog"),
     "fit": ("cmd_models", "fit", "fit a joint model to runs"),
     "diagnose": ("cmd_models", "diagnose", "where a model fails and which effect is missing"),

@@ -13,8 +13,9 @@ names or paths; default: hold out the highest frequency, or every 3rd run by amp
 with one frequency), ``prime_cycles`` ("auto" or a number), ``multistart``, ``seed``,
 ``factor`` (adequacy factor on the noise floor, default 1.5), ``alpha``, ``practical``,
 ``min_rel``, ``tie_tol``, ``tie_corr`` (:mod:`.significance`), ``n_jobs`` (candidate
-refits in parallel), ``candidates`` (restrict the effects tried), ``warm`` (False: the
-naive serial refit from scratch), ``max_steps``, ``auto``, ``save`` (ladder).
+refits in parallel), ``executor`` (candidate refits on it instead, e.g. a Dask cluster's),
+``candidates`` (restrict the effects tried), ``warm`` (False: the naive serial refit from
+scratch), ``max_steps``, ``auto``, ``save`` (ladder).
 """
 
 from __future__ import annotations
@@ -78,7 +79,8 @@ def settings_from(options: dict[str, Any]) -> DiagnoseSettings:
     return DiagnoseSettings(factor=factor, significance=SignificanceSettings(**sig),
                             n_jobs=n_jobs, multistart=options.get("multistart", "auto"),
                             seed=int(options.get("seed", 0)), warm=bool(options.get("warm", True)),
-                            candidates=tuple(cands) if cands else None)
+                            candidates=tuple(cands) if cands else None,
+                            executor=options.get("executor"))
 
 
 def _positive(v: Any, name: str) -> float:
@@ -98,7 +100,7 @@ def _check(options: dict[str, Any], allowed: Iterable[str]) -> None:
 
 
 COMMON = ("validate", "prime_cycles", "multistart", "seed", "full", "progress", "kind", "warmup")
-DIAG = COMMON + SIG_KEYS + ("factor", "n_jobs", "candidates", "warm")
+DIAG = COMMON + SIG_KEYS + ("factor", "n_jobs", "candidates", "warm", "executor")
 
 
 @dataclass

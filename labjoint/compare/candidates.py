@@ -35,7 +35,8 @@ optimum without the candidate, and a candidate that looks significant is judged 
 that too.
 
 Candidates are refitted in ``n_jobs`` worker processes (forked where safe), the costliest
-first. The naive way refits every candidate from the data's guesses alone with the fitter's
+first, or on an executor given in the settings (a Dask cluster's workers,
+:mod:`labjoint.batch.cluster`): the same functions, seeds and order, so the same ranking. The naive way refits every candidate from the data's guesses alone with the fitter's
 defaults (multi-start), serially; the benchmark compares the two.
 """
 
@@ -137,12 +138,17 @@ def _limit(per_param: int, n: int) -> int:
     return int(max(2, per_param * max(n, 1)))
 
 
+def _data(work: tuple | None) -> tuple[list[RunData], list[RunData], float | None]:
+    """The runs a refit works on: given (an executor's task) or this worker's (a pool's)."""
+    return work if work is not None else (_WORK["fit"], _WORK["val"], _WORK.get("floor"))
+
+
 def _refit(expr: str, params: Parameters | None, multistart: int | str, seed: int,
-           staged: bool) -> FitResult:
-    fit_runs, val_runs = _WORK["fit"], _WORK["val"]
+           staged: bool, work: tuple | None = None) -> FitResult:
+    fit_runs, val_runs, floor = _data(work)
     if not staged or params is None:
         return ModelFitter(expr, multistart=multistart, seed=seed).fit(
-            fit_runs, validation=val_runs, floor=_WORK.get("floor"))
+            fit_runs, validation=val_runs, floor=floor)
     n_new = sum(1 for q in params.values() if q.vary)
     screen = ModelFitter(expr, multistart=1, seed=seed, params=params,
                          max_nfev=_limit(SCREEN_NFEV, n_new)).fit(fit_runs, validation=val_runs)
@@ -155,8 +161,8 @@ def _refit(expr: str, params: Parameters | None, multistart: int | str, seed: in
                                                                  init=screen)
 
 
-def _refine(expr: str, staged: FitResult, seed: int) -> FitResult:
-    fit_runs, val_runs = _WORK["fit"], _WORK["val"]
+def _refine(expr: str, staged: FitResult, seed: int, work: tuple | None = None) -> FitResult:
+    fit_runs, val_runs, _ = _data(work)
     nfev = _limit(REFINE_NFEV, len(staged.params_))
     cold = ModelFitter(expr, multistart=REFINE_STARTS, seed=seed, max_nfev=nfev).fit(
         fit_runs, validation=val_runs)
@@ -169,10 +175,13 @@ def _init_worker(fit_runs: list[RunData], val_runs: list[RunData],
 
 
 def _run(tasks: list[tuple[str, Callable[..., FitResult], tuple]], fit_runs: list[RunData],
-         val_runs: list[RunData], jobs: int, progress: Any, floor: float | None = None
-         ) -> dict[str, FitResult]:
-    """Run ``(name, function, args)`` tasks serially or in ``jobs`` forked workers."""
+         val_runs: list[RunData], jobs: int, progress: Any, floor: float | None = None,
+         executor: Any = None) -> dict[str, FitResult]:
+    """Run ``(name, function, args)`` tasks serially, in ``jobs`` forked workers, or on
+    ``executor`` when one is given (:class:`DiagnoseSettings`)."""
     out: dict[str, FitResult] = {}
+    if executor is not None and len(tasks) > 1:
+        return _on_executor(executor, tasks, (fit_runs, val_runs, floor), progress)
     if jobs <= 1 or len(tasks) <= 1:
         _init_worker(fit_runs, val_runs, floor)
         try:
@@ -197,6 +206,28 @@ def _run(tasks: list[tuple[str, Callable[..., FitResult], tuple]], fit_runs: lis
     return out
 
 
+def _on_executor(executor: Any, tasks: list[tuple[str, Callable[..., FitResult], tuple]],
+                 work: tuple, progress: Any) -> dict[str, FitResult]:
+    """The tasks on an executor: anything with ``submit(fn, *args)`` returning futures
+    (``concurrent.futures.Executor``, a Dask client's adapter); with a ``share(obj)``
+    method the runs are sent to the workers once and every task gets the handle. Results
+    are gathered in the order the tasks were made, so the outcome is the serial one."""
+    share = getattr(executor, "share", None)
+    data = share(work) if callable(share) else work
+    futs = {name: executor.submit(fn, *args, data) for name, fn, args in tasks}
+    out: dict[str, FitResult] = {}
+    try:
+        for name, fut in futs.items():
+            out[name] = fut.result()
+            if progress is not None:
+                progress(name)
+    except BaseException:       # cancelled, or a refit failed: start no more
+        for fut in futs.values():
+            fut.cancel()
+        raise
+    return out
+
+
 def _start_method() -> str:
     """fork where it is safe and cheap (the workers inherit the runs and compiled kernels);
     Python >= 3.12 warns about forking a threaded process, so forkserver there."""
@@ -213,7 +244,8 @@ def _jobs(n_jobs: int | None) -> int:
 def refit_candidates(base: FitResult | None, base_model: Model, names: Sequence[str],
                      fit_runs: list[RunData], val_runs: list[RunData], *, warm: bool = True,
                      n_jobs: int | None = None, multistart: int | str = "auto", seed: int = 0,
-                     progress: Any = None, floor: float | None = None) -> dict[str, FitResult]:
+                     progress: Any = None, floor: float | None = None,
+                     executor: Any = None) -> dict[str, FitResult]:
     """Fit ``base_model + name`` for every candidate; staged from ``base`` (module
     docstring) unless ``warm`` is False (naive: from the data's guesses, serial, multi-start
     stopping at ``floor``, the fit runs' noise floor)."""
@@ -224,15 +256,16 @@ def refit_candidates(base: FitResult | None, base_model: Model, names: Sequence[
         model = Model.parse(f"{base_model.expr}+{name}")
         params = screen_params(model, base_model, name, base, summary) if staged else None
         tasks.append((name, _refit, (model.expr, params, multistart, seed, staged)))
-    return _run(tasks, fit_runs, val_runs, _jobs(n_jobs) if warm else 1, progress, floor)
+    return _run(tasks, fit_runs, val_runs, _jobs(n_jobs) if warm else 1, progress, floor,
+                executor if warm else None)
 
 
 def refine(fits: dict[str, FitResult], names: Sequence[str], fit_runs: list[RunData],
-           val_runs: list[RunData], *, n_jobs: int | None = None, seed: int = 0
-           ) -> dict[str, FitResult]:
+           val_runs: list[RunData], *, n_jobs: int | None = None, seed: int = 0,
+           executor: Any = None) -> dict[str, FitResult]:
     """Refit the named candidates from scratch with ``REFINE_STARTS`` starts; keep the better."""
     tasks = [(n, _refine, (fits[n].model.expr, fits[n], seed)) for n in names]
-    return {**fits, **_run(tasks, fit_runs, val_runs, _jobs(n_jobs), None)}
+    return {**fits, **_run(tasks, fit_runs, val_runs, _jobs(n_jobs), None, executor=executor)}
 
 
 def ablate(fit: FitResult, base_model: Model, fit_runs: list[RunData], val_runs: list[RunData],

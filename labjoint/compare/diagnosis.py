@@ -78,6 +78,9 @@ class DiagnoseSettings:
     warm: bool = True
     candidates: tuple[str, ...] | None = None
     refine: int = 1
+    #: where candidate refits run: None (``n_jobs`` local processes) or an executor
+    #: (``submit(fn, *args)``, optionally ``share(obj)``; :func:`.candidates._on_executor`)
+    executor: Any = field(default=None, compare=False, repr=False)
 
 
 @dataclass
@@ -316,7 +319,7 @@ def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
     fits = refit_candidates(base_fit, model, names, [r.data for r in fit_r],
                             [r.data for r in val_r], warm=settings.warm, n_jobs=settings.n_jobs,
                             multistart=settings.multistart, seed=settings.seed, progress=progress,
-                            floor=floor_fit)
+                            floor=floor_fit, executor=settings.executor)
     sig_s = settings.significance
     judge = Baseline(kind, runs, ev, maps, val_names, floor_val, sig_s).judge
     cands = [judge(n, fits[n]) for n in names]
@@ -326,7 +329,8 @@ def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
         if settings.warm and not at_floor else []
     fd, vd = [r.data for r in fit_r], [r.data for r in val_r]
     if top:
-        better = refine(fits, top, fd, vd, n_jobs=settings.n_jobs, seed=settings.seed)
+        better = refine(fits, top, fd, vd, n_jobs=settings.n_jobs, seed=settings.seed,
+                        executor=settings.executor)
         for i, c in enumerate(cands):
             if c.effect in top and better[c.effect] is not fits[c.effect]:
                 cands[i] = judge(c.effect, better[c.effect])

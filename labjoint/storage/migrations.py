@@ -38,7 +38,7 @@ _RUNS = """CREATE TABLE IF NOT EXISTS runs (
     sample_rate_hz DOUBLE PRECISION, n_samples BIGINT, status TEXT, start_time TEXT,
     start_ts DOUBLE PRECISION, end_time TEXT, source TEXT, extra TEXT)"""
 
-#: the reprocess results (labjoint.storage.results on the dask branch: the same DDL)
+#: the reprocess results (read and written by labjoint.storage.results)
 _RESULTS = """CREATE TABLE IF NOT EXISTS results (
     run TEXT NOT NULL, pipeline TEXT NOT NULL, options_hash TEXT NOT NULL,
     version TEXT NOT NULL, status TEXT NOT NULL, computed_at TEXT, labjoint_version TEXT,

@@ -5,11 +5,12 @@ import { api, setToken, token } from './api.js';
 import * as live from './views/live.js';
 import * as models from './views/models.js';
 import * as predict from './views/predict.js';
+import * as reprocess from './views/reprocess.js';
 import * as run from './views/run.js';
 import * as runs from './views/runs.js';
 import * as trends from './views/trends.js';
 
-const VIEWS = { runs, run, models, predict, live, trends };
+const VIEWS = { runs, run, models, predict, live, trends, reprocess };
 let current = null;
 
 export function parseHash(hash) {
