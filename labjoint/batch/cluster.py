@@ -60,15 +60,11 @@ def dask_client(scheduler: str = "local", n_workers: int | None = None,
         yield client
 
 
-def dashboard_line(client: Any, local: bool) -> str:
-    """The line naming the Dask dashboard; a LocalCluster's pages need bokeh here."""
-    import importlib.util
-
+def dashboard_line(client: Any) -> str:
+    """The line naming the Dask dashboard (bokeh, a dependency, serves its pages)."""
     link = getattr(client, "dashboard_link", None)
     if not link:
         return "Dask dashboard: none (the scheduler serves no dashboard)"
-    if local and importlib.util.find_spec("bokeh") is None:
-        return f"Dask dashboard: {link} (its pages need bokeh: pip install bokeh)"
     return f"Dask dashboard: {link}"
 
 

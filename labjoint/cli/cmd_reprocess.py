@@ -101,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
         from labjoint.batch.cluster import DaskRunner, dashboard_line, dask_client
         with dask_client(args.scheduler, args.workers) as client:
             if not args.quiet:
-                sys.stderr.write(dashboard_line(client, args.scheduler == "local") + "\n")
+                sys.stderr.write(dashboard_line(client) + "\n")
             report = execute(plan, DaskRunner(client), results, progress)
     failed = [r for r in report["runs"] if r["status"] == "failed"]
     for r in failed:

@@ -89,7 +89,7 @@ def submit(request: Request, body: ReprocessRequest,
             return execute(plan, SerialRunner(), results, step)
         from labjoint.batch.cluster import DaskRunner, dashboard_line, dask_client
         with dask_client(scheduler) as client:
-            progress(0.0, dashboard_line(client, scheduler == "local"))
+            progress(0.0, dashboard_line(client))
             report = execute(plan, DaskRunner(client), results, step)
             report["dashboard"] = client.dashboard_link
             return report
