@@ -51,7 +51,7 @@ def test_split_and_bad_parameter(predictor):
     fs = synthetic_frfset(predictor, None, [38.0, 39.0], [10.0], ("free_end",), harmonics=1)
     with pytest.raises(InputError) as e:
         update_nonlinear(predictor, fs, ["iwan.F_S"])
-    assert e.value.field == "parameters"
+    assert e.value.field == "iwan.F_S"
     with pytest.raises(InputError) as e:
         predictor.predict(fs.__class__(fs.frequencies_hz, fs.level_n, fs.direction, fs.force, ("nowhere",),
                                        fs.response, fs.response_std))

@@ -84,7 +84,7 @@ def _coords(law: JointLaw, names: Sequence[str], start: dict[str, float] | None
     for nm in names:
         if nm not in p:
             raise InputError(f"not a parameter of the joint law '{law.model.expr}' "
-                             f"({', '.join(law.params)})", field="parameters")
+                             f"({', '.join(law.params)})", field=nm)
         q = p[nm]
         upper = q.upper
         if nm == "richard_abbott.kp" and "richard_abbott.ke" not in names:
