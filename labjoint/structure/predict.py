@@ -30,6 +30,8 @@ from labjoint.structure.system import JointElement, NonlinearSystem
 
 MAX_HARMONICS = 5
 SAMPLES = 64
+#: relative residual of the harmonic balance solves (a measured phasor is known to ~1e-3)
+TOL = 1e-7
 
 
 class FrfPredictor:
@@ -48,6 +50,7 @@ class FrfPredictor:
         self.law = structure.joints[0].law
         self._natural: np.ndarray | None = None
         self._warm: dict[tuple, np.ndarray] = {}
+        self.tol = TOL
 
     def natural_frequencies(self, n: int = 2) -> np.ndarray:
         """The first ``n`` natural frequencies (Hz) with the joints stuck (linear)."""
@@ -74,6 +77,19 @@ class FrfPredictor:
                              f"the structure ({', '.join(names)})", field="sensors")
         return np.array([names.index(s) for s in sensors])
 
+    def _steps(self, frfset: FrfSet, law: JointLaw | None, H: int, warm: bool):
+        """(step index, w, force phasor, HBM solution, solver) in sweep order per sweep."""
+        hb = HarmonicBalance(self.system_with(law), H, max(self.samples, 8 * H))
+        for (_, d), idx in frfset.groups():
+            x = None
+            for k in idx:
+                f, F = frfset.frequencies_hz[k], frfset.force[k]
+                key = (H, d, float(f), float(abs(F)))
+                x = hb.solve(2 * np.pi * f, float(abs(F)), x0=self._warm.get(key, x) if warm else x,
+                             tol=self.tol)
+                self._warm[key] = x
+                yield k, 2 * np.pi * f, F, x, hb
+
     def predict(self, frfset: FrfSet, law: JointLaw | None = None,
                 harmonics: int | None = None, warm: bool = True) -> np.ndarray:
         """(n, S, H) model response phasors at the set's steps, in its quantity (SI).
@@ -83,21 +99,20 @@ class FrfPredictor:
         continuation from the previous step); otherwise from the previous step."""
         H_out = frfset.harmonics
         H = int(min(max(harmonics or self.harmonics, 1), MAX_HARMONICS))
-        hb = HarmonicBalance(self.system_with(law), H, max(self.samples, 8 * H))
         rows = self.system.outputs[self.rows(frfset.sensors)]
         out = np.zeros((len(frfset), len(frfset.sensors), H_out), complex)
         h = np.arange(1, min(H, H_out) + 1)
-        for (_, d), idx in frfset.groups():
-            x = None
-            for k in idx:
-                f, F = frfset.frequencies_hz[k], frfset.force[k]
-                w = 2 * np.pi * f
-                key = (H, d, float(f), float(abs(F)))
-                x = hb.solve(w, float(abs(F)), x0=self._warm.get(key, x) if warm else x)
-                self._warm[key] = x
-                ph = hb.phasors(x, rows)[h]                          # (h, S) displacement
-                ph = ph * np.exp(1j * h * np.angle(F))[:, None]
-                out[k, :, :h.size] = (convert(ph, h * w, frfset.quantity)).T
+        for k, w, F, x, hb in self._steps(frfset, law, H, warm):
+            ph = hb.phasors(x, rows)[h] * np.exp(1j * h * np.angle(F))[:, None]   # (h, S) displacement
+            out[k, :, :h.size] = convert(ph, h * w, frfset.quantity).T
+        return out
+
+    def predict_rows(self, frfset: FrfSet, law: JointLaw | None, rows: np.ndarray) -> np.ndarray:
+        """(n, r) harmonic-1 phasors of ``rows`` of the system's coordinates (e.g. the
+        joints' selectors: their relative rotations) at the set's steps."""
+        out = np.zeros((len(frfset), np.atleast_2d(rows).shape[0]), complex)
+        for k, _, F, x, hb in self._steps(frfset, law, 1, True):
+            out[k] = hb.phasors(x, rows)[1] * np.exp(1j * np.angle(F))
         return out
 
 

@@ -3,7 +3,7 @@
 Residual (Eq. 9): r_i = (alpha_model(w_i) - alpha_test(w_i)) / |alpha_test(w_i)| over the
 fitted steps (each complex residual as its real and imaginary parts; the harmonic-1
 accelerance of every sensor), minimised by ``scipy.optimize.least_squares`` (trf,
-2-point Jacobian) in ln p for parameters that are positive, within the vocabulary's
+2-point Jacobian, scaled by the Jacobian's columns) in ln p for parameters that are positive, within the vocabulary's
 bounds and, for Richard-Abbott, E_p < E_e (kp < ke, Eq. 9's constraint). The steps
 around mode 1 are fitted and those around mode 2 validate (seed 000's workflow): a step
 belongs to the mode whose linear natural frequency is nearest (in log frequency).
@@ -76,8 +76,8 @@ class LawFit:
     message: str = ""
 
 
-def _coords(law: JointLaw, names: Sequence[str], start: dict[str, float] | None
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _coords(law: JointLaw, names: Sequence[str], start: dict[str, float] | None,
+            scale_range: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Start, bounds and log flags of the searched coordinates."""
     p = law.model.make_params(values={**law.params, **(start or {})})
     x0, lo, hi, logs = [], [], [], []
@@ -95,16 +95,21 @@ def _coords(law: JointLaw, names: Sequence[str], start: dict[str, float] | None
         x0.append(np.log(v) if lg else v)
         lo.append(np.log(q.lower) if lg and q.lower > 0 else (-np.inf if lg else q.lower))
         hi.append(np.log(upper) if lg else upper)
-    x0 = np.clip(np.array(x0), np.array(lo) + 1e-12, np.array(hi) - 1e-12)
-    return x0, np.array(lo), np.array(hi), np.array(logs)
+    x0, lo, hi, logs = np.array(x0), np.array(lo), np.array(hi), np.array(logs)
+    if scale_range is not None:
+        w = np.log(scale_range)
+        lo = np.where(logs, np.maximum(lo, x0 - w), lo)
+        hi = np.where(logs, np.minimum(hi, x0 + w), hi)
+    return np.clip(x0, lo + 1e-12, hi - 1e-12), lo, hi, logs
 
 
 def fit_law(law: JointLaw, names: Sequence[str], residual: Callable[[JointLaw], np.ndarray],
             sigma: np.ndarray | None = None, start: dict[str, float] | None = None,
-            max_nfev: int | None = None) -> LawFit:
-    """Least squares of ``residual(law)`` over the law parameters ``names`` (module docstring)."""
+            max_nfev: int | None = None, scale_range: float | None = None) -> LawFit:
+    """Least squares of ``residual(law)`` over the law parameters ``names`` (module
+    docstring); ``scale_range``: positive parameters kept within this factor of their start."""
     names = tuple(names)
-    x0, lo, hi, logs = _coords(law, names, start)
+    x0, lo, hi, logs = _coords(law, names, start, scale_range)
     history: list[dict[str, Any]] = []
 
     def law_at(x: np.ndarray) -> JointLaw:
@@ -113,12 +118,12 @@ def fit_law(law: JointLaw, names: Sequence[str], residual: Callable[[JointLaw], 
 
     def fun(x: np.ndarray) -> np.ndarray:
         r = residual(law_at(x))
-        v = np.where(logs, np.exp(x), x)
+        v = np.where(logs, np.exp(np.minimum(x, 700.0)), x)
         history.append({"parameters": dict(zip(names, v.tolist())), "cost": float(r @ r) / 2})
         return r
 
     sol = least_squares(fun, x0, bounds=(lo, hi), method="trf", diff_step=DIFF_STEP,
-                        x_scale=1.0, max_nfev=max_nfev or 15 * len(names))
+                        x_scale="jac", max_nfev=max_nfev or 15 * len(names))
     J, r = sol.jac, sol.fun
     JtJ = J.T @ J
     try:
@@ -131,7 +136,7 @@ def fit_law(law: JointLaw, names: Sequence[str], residual: Callable[[JointLaw], 
         dof = max(r.size - len(names), 1)
         cov = inv * float(r @ r) / dof
     se_x = np.sqrt(np.clip(np.diag(cov), 0, None))
-    v = np.where(logs, np.exp(sol.x), sol.x)
+    v = np.where(logs, np.exp(np.minimum(sol.x, 700.0)), sol.x)
     se = np.where(logs, v * se_x, se_x)
     d = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
     return LawFit(law_at(sol.x), names, dict(zip(names, v.tolist())), dict(zip(names, se.tolist())),
