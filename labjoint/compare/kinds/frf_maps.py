@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from labjoint.compare.frf_fit import FRF_EFFECTS, fit_frf
+from labjoint.compare.kinds.frf_fit import FRF_EFFECTS, fit_frf
 from labjoint.compare.kinds.frf import FrfMeasurement
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model
