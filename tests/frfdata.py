@@ -39,3 +39,19 @@ def hidden_set(p: FrfPredictor, law: JointLaw | None, steps: int = 8, seed: int 
 
 def hidden_law() -> JointLaw:
     return JointLaw("iwan+viscous", HIDDEN)
+
+
+def write_linear_structure(path) -> None:
+    """The structure of :func:`linear_joint_structure_dict` as a TOML file."""
+    from pathlib import Path
+    text = Path("configs/structure-seed000.toml").read_text()
+    text = text.replace('model = "richard_abbott"', 'model = "linear_stiffness"')
+    text = text.replace("stations = 8 ", "stations = 4 ").replace("stations = 8\n", "stations = 4\n")
+    keep = []
+    for line in text.splitlines():
+        if line.startswith(("E_p_pa", "S_Y_pa", "n = ")):
+            continue
+        keep.append(line)
+        if line.startswith("E_e_pa"):
+            keep += ["[joints.params]", '"linear_stiffness.k" = 1e10']
+    Path(path).write_text("\n".join(keep) + "\n")
