@@ -7,9 +7,10 @@ import * as models from './views/models.js';
 import * as predict from './views/predict.js';
 import * as run from './views/run.js';
 import * as runs from './views/runs.js';
+import * as structure from './views/structure.js';
 import * as trends from './views/trends.js';
 
-const VIEWS = { runs, run, models, predict, live, trends };
+const VIEWS = { runs, run, models, predict, structure, live, trends };
 let current = null;
 
 export function parseHash(hash) {
