@@ -42,11 +42,12 @@ function residualMaps(cells) {
       c.frequency_hz.forEach((f, i) => { z[xs.indexOf(Number(f.toFixed(2)))] = c.residual_over_noise[i]; });
       return z;
     });
-    return heatMap({
-      id: `frf-residual-h${hn}`, title: `harmonic ${hn}: |residual| / noise`,
+    const title = `harmonic ${hn}: residual over the FRF's noise (1 = noise)`;
+    return h('figure', { class: 'frf-map', 'data-harmonic': hn }, h('h3', {}, title), heatMap({
+      id: `frf-residual-h${hn}`, title,
       x: xs, y: cs.map((c) => `${c.level_n} N ${c.direction} m${c.mode}`), z: rows,
       xlabel: 'frequency (Hz)', ylabel: 'level', zlabel: 'residual / noise', format: (v) => fmt(v, 2),
-    });
+    }));
   });
 }
 
