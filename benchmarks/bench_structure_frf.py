@@ -13,7 +13,8 @@ linear natural frequency), at 3 force levels, 3 harmonics, stepped up in sweep o
 - unreduced HBM: every DOF, at ``CHECK`` of the same points (time per point, answer);
 - time integration: Newmark on the same Craig-Bampton system (512 steps per period) from
   rest to the periodic steady state (tolerance 1e-6 of the range per period), at
-  ``CHECK`` of the same points (time per point against the set's time per point: the
+  the mode-1 points of ``CHECK`` (mode 2 settles over hundreds of periods of 512 steps,
+  hours in this integrator; time per point against the set's time per point: the
   goal >= 100x; harmonic-1 response against HBM with ``H_CHECK`` harmonics, 256 samples:
   the goal within 1 %; HBM with 3 harmonics truncates what the slipping joint puts into
   harmonics 5 and 7, printed as well).
@@ -107,17 +108,20 @@ def main() -> None:
         xf = hf.solve(w, lv, x0=None, tol=pr.tol)
         t_full = time.perf_counter() - t0
         p_full = hf.phasors(xf)[1, row]
-        t0 = time.perf_counter()
-        ss = steady_state(cb, lv, f, H_CHECK, steps_per_period=512, tol=1e-6, max_periods=4000)
-        t_ti = time.perf_counter() - t0
-        p_ti = ss.phasors[1, row]
         d = lambda a, b: 100 * abs(a / b - 1)  # noqa: E731
         print(f"  mode {m + 1}, {f:.2f} Hz, {lv:g} N: CB+HBM {1e3 * t_hb[H]:.1f} ms/point "
               f"({H} harmonics; {H_CHECK}: {1e3 * t_hb[H_CHECK]:.0f} ms, differs {d(p_hb[H], p_hb[H_CHECK]):.2f} %); "
               f"unreduced HBM ({full.n} DOF) {t_full:.2f} s ({t_full / t_hb[H]:.0f}x), differs "
-              f"{d(p_full, p_hb[H]):.3f} %; time integration ({ss.periods} periods, 512 steps "
-              f"each) {t_ti:.1f} s ({t_ti / per_cb:.0f}x the set's time per point), differs "
-              f"{d(p_ti, p_hb[H_CHECK]):.3f} % from {H_CHECK} harmonics, {d(p_ti, p_hb[H]):.2f} % from {H}")
+              f"{d(p_full, p_hb[H]):.3f} %")
+        if m > 0:       # mode 2 settles over hundreds of periods: hours of Newmark steps
+            continue
+        t0 = time.perf_counter()
+        ss = steady_state(cb, lv, f, H_CHECK, steps_per_period=512, tol=1e-6, max_periods=4000)
+        t_ti = time.perf_counter() - t0
+        p_ti = ss.phasors[1, row]
+        print(f"    time integration ({ss.periods} periods, 512 steps each) {t_ti:.1f} s "
+              f"({t_ti / per_cb:.0f}x the set's time per point), differs {d(p_ti, p_hb[H_CHECK]):.3f} % "
+              f"from {H_CHECK} harmonics, {d(p_ti, p_hb[H]):.2f} % from {H}")
 
 
 if __name__ == "__main__":

@@ -37,7 +37,7 @@ def test_prepared_measurements_split_and_noise(pr):
 
 
 def test_ladder_finds_the_dissipation_and_the_error_falls_to_the_noise(pr):
-    ms = prepare_frfsets([("sim", hidden_set(pr, hidden_law()))], pr)
+    ms = prepare_frfsets([("sim", hidden_set(pr, hidden_law(), steps=5))], pr)
     lad = build_ladder(ms, "linear_stiffness", settings=CANDIDATES, max_steps=2)
     d = lad.to_dict(full=True)
     steps = d["steps"]
