@@ -51,6 +51,9 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
     """
     if kind not in ("auto", *KINDS):
         raise InputError(f"unknown kind {kind!r}; known: auto, {', '.join(KINDS)}", field="kind")
+    if kind == "frf":
+        raise InputError("the frf kind takes FRF sets inside a structure (prepare_frfsets, or "
+                         "the structure option), not runs", field="kind")
     items = [read_any(r) if isinstance(r, (str, Path)) else r for r in runs]
     if not items:
         raise InputError("no runs given", field="runs")
