@@ -74,3 +74,27 @@ def test_effect_that_is_no_joint_law_is_refused(pr):
     with pytest.raises(InputError) as e:
         kind_of(ms).fit("bouc_wen", ms)
     assert e.value.field == "model" and "bouc_wen" in e.value.message
+
+
+def test_harmonics_count_in_the_error_and_the_maps(pr):
+    """A model that explains harmonic 1 but not a measured harmonic 3 is judged worse, and
+    the map puts the misfit at harmonic 3 (what ranks candidates is this same error)."""
+    from labjoint.compare.metrics import evaluate
+    from labjoint.signal.frfset import FrfSet
+
+    truth = hidden_law()
+    fs = hidden_set(pr, truth, steps=4)
+    resp = fs.response.copy()
+    resp[:, :, 2] += 20 * fs.response_std[:, :, 2]          # a third harmonic the model lacks
+    bent = FrfSet(fs.frequencies_hz, fs.level_n, fs.direction, fs.force, fs.sensors, resp,
+                  fs.response_std)
+    kind = kind_of(prepare_frfsets([("a", fs)], pr))
+    errs, maps = [], []
+    for s in (fs, bent):
+        ms = prepare_frfsets([("a", s)], pr)
+        ev = evaluate(truth.model, truth.params, ms, loops=False)
+        errs.append(ev.nrmse())
+        maps.append(kind.maps(ev.runs, {}).by_harmonic())
+    assert errs[1] > 3 * errs[0]
+    assert maps[0][3] < 1.5 and maps[1][3] > 10
+    assert maps[1][1] == pytest.approx(maps[0][1])
