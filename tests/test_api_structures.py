@@ -83,3 +83,17 @@ def test_the_python_client(http):
         with pytest.raises(ApiError) as e:
             c.frf_model("fit", "lin", ["nowhere"], "linear_stiffness")
         assert e.value.status == 404
+
+
+def test_stage2_job(http):
+    r = http.post("/structures/lin/stage2", json={"frfsets": ["sweep"], "modes": 4,
+                                                  "parameters": ["linear_stiffness.k"]})
+    assert r.status_code == 202, r.text
+    job = _done(http, f"/structures/jobs/{r.json()['id']}")
+    assert job["status"] == "complete", job
+    res = job["result"]
+    k = res["parameters"]["linear_stiffness.k"]
+    assert 0 < k["stderr"] < 0.1 * k["value"]
+    assert res["fit_steps"] == 15 and res["validation_steps"] == 0 and res["error_validation_rms"] is None
+    bad = http.post("/structures/lin/stage2", json={"frfsets": ["sweep"], "parameters": ["iwan.F_S"]})
+    assert bad.status_code == 422 and "iwan.F_S" in bad.text and "linear_stiffness.k" in bad.text

@@ -196,11 +196,17 @@ def stage2(request: Request, body: Stage2Request, name: str = Path(pattern=RUN_N
 
     path = named_file(request, STRUCTURES, name, ".toml")
     files = [named_file(request, FRFSETS, n, ".json") for n in dict.fromkeys(body.frfsets)]
+    structure = load_structure(path)
+    law = structure.joints[0].law if structure.joints else None
+    for p in body.parameters or ():
+        if law is None or p not in law.params:
+            known = ", ".join(law.params) if law else "none: the structure has no joint"
+            raise InputError(f"{p} is not a parameter of the joint law ({known})", field="parameters")
 
     def work(progress: Callable[[float, str], None]) -> dict[str, Any]:
         sets = [FrfSet.load(f) for f in files]
         fs = sets[0] if len(sets) == 1 else _concat(sets)
-        pr = FrfPredictor(load_structure(path), body.modes, harmonics=1)
+        pr = FrfPredictor(structure, body.modes, harmonics=1)
         return update_nonlinear(pr, fs, body.parameters).to_dict()
 
     return _job(request, "structure_stage2", {"structure": name, **body.model_dump()}, scope, work)
