@@ -115,6 +115,8 @@ def test_auto_kind_judges_a_set_one_way_and_sine_refuses_a_multisine():
     with pytest.raises(InputError, match="multisine"):
         prepare([record()], kind="sine")
     with pytest.raises(InputError, match="unknown kind"):
+        prepare([sine], kind="modal")
+    with pytest.raises(InputError, match="FRF sets inside a structure"):
         prepare([sine], kind="frf")
     with pytest.raises(InputError, match="mix kinds"):
         kind_of([prepare([sine])[0], both[1]])

@@ -1,6 +1,8 @@
 """`labjoint fit|diagnose|ladder RUN... --model EXPR`: model comparison on the command line.
 
-RUN is an HDF5 run file or a CSV file in the import format (design.md). With ``--json``
+RUN is an HDF5 run file or a CSV file in the import format (design.md), or an FRF set
+file (JSON, format ``labjoint.frfset/1``) compared inside ``--structure STRUCTURE.toml``
+(the ``frf`` kind: the joint model in the structure's joints). With ``--json``
 each prints the JSON object of the model-comparison contract; without it, the same as
 readable tables.
 """
@@ -23,7 +25,8 @@ def _x100(x: Any) -> float | None:
 
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("runs", nargs="+", metavar="RUN", help="HDF5 run files or CSV files (import format)")
+    p.add_argument("runs", nargs="+", metavar="RUN",
+                   help="HDF5 run files or CSV files (import format), or FRF set files (JSON)")
     p.add_argument("--model", required=True, metavar="EXPR",
                    help="effects joined by '+', e.g. linear_stiffness+iwan")
     p.add_argument("--validate", nargs="+", metavar="RUN", default=None,
@@ -32,7 +35,13 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--prime-cycles", default="auto",
                    help="cycles of priming for records that start in steady state ('auto')")
     p.add_argument("--seed", type=int, default=0, help="seed of the fitter's extra starts")
-    p.add_argument("--kind", choices=("auto", "sine", "record"), default="auto",
+    p.add_argument("--structure", default=None, metavar="STRUCTURE.toml",
+                   help="FRF sets: the structure whose joints carry the model")
+    p.add_argument("--modes", type=int, default=None, metavar="N",
+                   help="FRF sets: Craig-Bampton kept modes (default 10)")
+    p.add_argument("--harmonics", type=int, default=None, metavar="H",
+                   help="FRF sets: response harmonics compared (default the set's, at most 3)")
+    p.add_argument("--kind", choices=("auto", "sine", "record", "frf"), default="auto",
                    help="judge steady-sine cycles (sine) or the record along its history under "
                         "any excitation (record); auto: sine when every run is a steady sine")
     p.add_argument("--warmup", default="auto", metavar="S",
@@ -89,7 +98,9 @@ def _prime(v: str) -> int | str:
 
 def _options(args: argparse.Namespace, judging: bool) -> dict[str, Any]:
     o: dict[str, Any] = {"validate": args.validate, "prime_cycles": _prime(args.prime_cycles),
-                         "seed": args.seed, "kind": args.kind, "warmup": args.warmup}
+                         "seed": args.seed, "kind": args.kind, "warmup": args.warmup,
+                         "structure": args.structure, "modes": args.modes,
+                         "harmonics": args.harmonics}
     if judging:
         o.update(factor=args.factor, alpha=args.alpha, n_jobs=args.jobs,
                  candidates=args.candidates)
@@ -125,6 +136,9 @@ def fit(args: argparse.Namespace) -> int:
 def _fit_simulation(args: argparse.Namespace) -> int:
     from labjoint.compare.output_error import fit_simulation, save_model
 
+    if args.structure:
+        raise InputError("--error simulation judges records; FRF sets with --structure are "
+                         "judged on their FRF residual", field="structure")
     fit = fit_simulation(args.runs, args.model, validate=args.validate, periodic=args.periodic,
                          warmup=args.warmup, seed=args.seed)
     if args.out:
@@ -149,8 +163,9 @@ def _simulation_job(args: argparse.Namespace, operation: str, steps: int) -> dic
     """Diagnose or ladder by simulation error through the one option mapping REST uses."""
     from labjoint.compare.simulation_api import simulation_job
 
-    if args.kind == "sine":
-        raise InputError("--error simulation judges records (--kind record or auto)", field="kind")
+    if args.kind == "sine" or args.structure:
+        raise InputError("--error simulation judges records (--kind record or auto; FRF sets "
+                         "with --structure are judged on their FRF residual)", field="kind")
     options = {"validate": args.validate, "periodic": args.periodic, "warmup": args.warmup,
                "seed": args.seed, "factor": args.factor, "alpha": args.alpha,
                "candidates": args.candidates}

@@ -209,6 +209,51 @@ class Client:
         return self._result(self._wait(lambda: self.request("GET", f"/models/jobs/{job['id']}"),
                                        JOB_FINISHED, timeout, 0.5))
 
+    # -- structures (issue 15) -----------------------------------------------------
+    def structures(self) -> dict[str, list[str]]:
+        """Structure files and FRF sets of the data directory: {"structures", "frfsets"}."""
+        return self.request("GET", "/structures")
+
+    def structure_modes(self, name: str, count: int = 4) -> dict[str, Any]:
+        return self.request("GET", f"/structures/{name}/modes", params={"count": count})
+
+    def _structure_job(self, path: str, body: dict[str, Any], timeout: float) -> dict[str, Any]:
+        job = self.request("POST", path, json=body)
+        return self._result(self._wait(lambda: self.request("GET", f"/structures/jobs/{job['id']}"),
+                                       JOB_FINISHED, timeout, 0.5))
+
+    def structure_update(self, name: str, measured_hz: Iterable[float], parameter: str = "E_e_pa",
+                         timeout: float = 600.0) -> dict[str, Any]:
+        """Stage-1 updating from measured natural frequencies, waited for."""
+        return self._structure_job(f"/structures/{name}/update",
+                                   {"measured_hz": list(measured_hz), "parameter": parameter}, timeout)
+
+    def structure_frf(self, name: str, force_n: float, band_hz: tuple[float, float],
+                      harmonics: int = 3, modes: int = 10, timeout: float = 600.0) -> dict[str, Any]:
+        """Model FRF at constant force over ``band_hz``, waited for."""
+        return self._structure_job(f"/structures/{name}/frf",
+                                   {"force_n": force_n, "band_hz": list(band_hz),
+                                    "harmonics": harmonics, "modes": modes}, timeout)
+
+    def structure_stage2(self, name: str, frfsets: Iterable[str],
+                         parameters: Iterable[str] | None = None, modes: int = 10,
+                         timeout: float = 3600.0) -> dict[str, Any]:
+        """Stage-2 updating of the joint law on FRF sets (seed 000 Eq. 9), waited for."""
+        return self._structure_job(f"/structures/{name}/stage2",
+                                   {"frfsets": list(frfsets), "modes": modes,
+                                    "parameters": None if parameters is None else list(parameters)},
+                                   timeout)
+
+    def frf_model(self, operation: str, structure: str, frfsets: Iterable[str], model: str,
+                  max_steps: int = 3, timeout: float = 3600.0, **options: Any) -> dict[str, Any]:
+        """``operation`` ("fit", "diagnose", "ladder") of a joint model inside ``structure`` on
+        FRF sets, waited for."""
+        body = {"frfsets": list(frfsets), "model": model, "max_steps": max_steps,
+                "options": options}
+        job = self.request("POST", f"/structures/{structure}/models/{operation}", json=body)
+        return self._result(self._wait(lambda: self.request("GET", f"/models/jobs/{job['id']}"),
+                                       JOB_FINISHED, timeout, 0.5))
+
     @staticmethod
     def results_table(analysis: dict[str, Any]) -> str:
         """An aligned text table of hysteresis results (display units: um, mJ, MN/m)."""

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from labjoint.compare.frf_api import FRF_OPTIONS, is_frfset, load_frf, save_beside
 from labjoint.compare.diagnosis import DiagnoseSettings, Diagnosis, diagnose_prepared, parameters_dict
 from labjoint.compare.jsonsafe import clean
 from labjoint.compare.ladders import Ladder, build_ladder
@@ -41,15 +42,24 @@ SIG_KEYS = ("alpha", "practical", "min_rel", "tie_tol", "tie_corr")
 
 
 def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | str = "auto",
-         kind: str = "auto", warmup: str | float = "auto"
+         kind: str = "auto", warmup: str | float = "auto", frf: dict[str, Any] | None = None
          ) -> tuple[list[Measurement], list[str] | None]:
     """Prepared measurements of one kind (:func:`labjoint.compare.kinds.prepare`;
-    validation runs named but not among ``runs`` are added) and the validation run names."""
+    validation runs named but not among ``runs`` are added) and the validation run names.
+    FRF set files (or FrfSets) are prepared as the ``frf`` kind inside the structure of
+    ``frf`` (the options of :mod:`labjoint.compare.frf_api`)."""
     if isinstance(runs, (str, Path)) or not isinstance(runs, Iterable):
         runs = [runs]
     items = list(runs)
     if not items:
         raise InputError("no runs given", field="runs")
+    frf = {k: v for k, v in (frf or {}).items() if v is not None}
+    if any(is_frfset(x) for x in items):
+        if kind not in ("auto", "frf"):
+            raise InputError(f"FRF sets are the frf kind, not {kind}", field="kind")
+        return load_frf(items, validate, frf)
+    if frf:
+        raise InputError(f"{', '.join(sorted(frf))} go with FRF set files", field=sorted(frf)[0])
     extra = []
     if validate:
         given = {str(x) for x in items} | {str(Path(str(x)).resolve()) for x in items
@@ -61,6 +71,20 @@ def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | s
         return prepared, None
     _, val, _ = split_by_names(prepared, [str(v) for v in validate])
     return prepared, [r.name for r in val]
+
+
+def _load(runs: Any, options: dict[str, Any]) -> tuple[list[Measurement], list[str] | None]:
+    return load(runs, options.get("validate"), options.get("prime_cycles", "auto"),
+                options.get("kind", "auto"), options.get("warmup", "auto"),
+                {k: options.get(k) for k in FRF_OPTIONS})
+
+
+def _measured(d: dict[str, Any], ms: Sequence[Measurement]) -> dict[str, Any]:
+    """FRF results say what their NRMSE and noise floor are (design.md's ``measurement``)."""
+    if ms and ms[0].kind == "frf":
+        d["measurement"] = "frf"
+        d["error"] = "response phasors (harmonics 1..H) whitened by the FRF set's response_std"
+    return d
 
 
 def settings_from(options: dict[str, Any]) -> DiagnoseSettings:
@@ -99,7 +123,8 @@ def _check(options: dict[str, Any], allowed: Iterable[str]) -> None:
         raise InputError(f"unknown option(s) {unknown}; known: {sorted(allowed)}", field=unknown[0])
 
 
-COMMON = ("validate", "prime_cycles", "multistart", "seed", "full", "progress", "kind", "warmup")
+COMMON = ("validate", "prime_cycles", "multistart", "seed", "full", "progress", "kind",
+          "warmup") + FRF_OPTIONS
 DIAG = COMMON + SIG_KEYS + ("factor", "n_jobs", "candidates", "warm", "executor")
 
 
@@ -136,16 +161,16 @@ class FitReport:
 def fit_report(runs: Any, model: str | Model, **options: Any) -> FitReport:
     """Fit ``model`` to the runs (all of them, or all but ``validate``)."""
     _check(options, COMMON)
-    prepared, val = load(runs, options.get("validate"), options.get("prime_cycles", "auto"),
-                          options.get("kind", "auto"), options.get("warmup", "auto"))
+    prepared, val = _load(runs, options)
     val = val or []
     fit_r = [r for r in prepared if r.name not in set(val)]
     val_r = [r for r in prepared if r.name in set(val)]
     m = Model.parse(model)
     kind = kind_of(prepared)
     nf = noise_floor(prepared)
-    fit = ModelFitter(m, multistart=options.get("multistart", "auto"),
-                      seed=int(options.get("seed", 0))).fit(
+    own = getattr(kind, "fit", None)
+    fit = own(m, fit_r, val_r) if own is not None else ModelFitter(
+        m, multistart=options.get("multistart", "auto"), seed=int(options.get("seed", 0))).fit(
         [r.data for r in fit_r], validation=[r.data for r in val_r] or None,
         floor=nf.over(fit_r))
     ev = evaluate(m, fit.params_, prepared)
@@ -155,14 +180,14 @@ def fit_report(runs: Any, model: str | Model, **options: Any) -> FitReport:
 def fit_runs(runs: Any, model: str | Model, **options: Any) -> dict[str, Any]:
     """`labjoint fit` JSON: model, parameters {value, stderr, unit}, nrmse, noise_floor, runs."""
     full = bool(options.get("full", False))
-    return clean(fit_report(runs, model, **options).to_dict(full=full))
+    report = fit_report(runs, model, **options)
+    return clean(_measured(report.to_dict(full=full), report.evaluation.runs_measured()))
 
 
 def diagnose_report(runs: Any, model: str | Model, **options: Any) -> Diagnosis:
     """Where ``model`` fails and which effect is missing (:mod:`.diagnosis`)."""
     _check(options, DIAG)
-    prepared, val = load(runs, options.get("validate"), options.get("prime_cycles", "auto"),
-                          options.get("kind", "auto"), options.get("warmup", "auto"))
+    prepared, val = _load(runs, options)
     return diagnose_prepared(prepared, model, validate=val, settings=settings_from(options),
                              progress=options.get("progress"))
 
@@ -174,7 +199,7 @@ def diagnose_runs(runs: Any, model: str | Model, **options: Any) -> dict[str, An
     d = report.to_dict(full=full)
     if full and "loops" not in d:
         d["loops"] = kind_of(report.evaluation.runs_measured()).loops(report.evaluation.runs)
-    return clean(d)
+    return clean(_measured(d, report.evaluation.runs_measured()))
 
 
 def ladder_report(runs: Any, model: str | Model, max_steps: int | None = None,
@@ -183,11 +208,12 @@ def ladder_report(runs: Any, model: str | Model, max_steps: int | None = None,
     that could not take it (path -> reason)."""
     save = bool(options.pop("save", True))
     _check(options, DIAG)
-    prepared, val = load(runs, options.get("validate"), options.get("prime_cycles", "auto"),
-                          options.get("kind", "auto"), options.get("warmup", "auto"))
+    prepared, val = _load(runs, options)
     lad = build_ladder(prepared, model, max_steps=max_steps, auto=bool(auto), validate=val,
                        settings=settings_from(options), progress=options.get("progress"))
     errors: dict[str, str] = {}
+    if save and prepared[0].kind == "frf":
+        return lad, save_beside(lad.to_dict(), prepared, lad.start, "ladder"), errors
     saved = save_ladder(lad.to_dict(), [r.path for r in prepared], errors) if save else []
     return lad, saved, errors
 
@@ -202,6 +228,8 @@ def ladder_runs(runs: Any, model: str | Model, max_steps: int | None = None, aut
     if full and isinstance(fd, dict) and dg is not None and "loops" not in fd:
         fd["loops"] = kind_of(dg.evaluation.runs_measured()).loops(dg.evaluation.runs)
     d["saved"] = saved
+    _measured(d, lad.steps[-1].diagnosis.evaluation.runs_measured() if lad.steps[-1].diagnosis
+              else [])
     if errors:
         d["not_saved"] = errors
     return clean(d)

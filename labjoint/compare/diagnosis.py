@@ -285,6 +285,18 @@ def contenders(cands: list[CandidateResult], base_validation: float, n: int) -> 
     return out
 
 
+def own_refits(own: Callable[..., FitResult], base_fit: FitResult, model: Model,
+               names: Sequence[str], fit_r: Sequence[Measurement], val_r: Sequence[Measurement],
+               progress: Callable[[str], None] | None) -> dict[str, FitResult]:
+    """Candidates refitted by a kind's own fitter, each from the baseline's optimum."""
+    out = {}
+    for n in names:
+        out[n] = own(Model.parse(f"{model.expr}+{n}"), fit_r, val_r, init=base_fit)
+        if progress:
+            progress(n)
+    return out
+
+
 def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
                       validate: Sequence[str] | None = None,
                       settings: DiagnoseSettings = DiagnoseSettings(),
@@ -299,7 +311,10 @@ def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
     fit_names, val_names = [r.name for r in fit_r], [r.name for r in val_r]
     noise = noise or noise_floor(runs)
     floor_fit = noise.over(runs, fit_names)
-    if base_fit is None:
+    own = getattr(kind, "fit", None)      # a kind with its own predictor fits its own way
+    if base_fit is None and own is not None:
+        base_fit = own(model, fit_r, val_r)
+    elif base_fit is None:
         base_fit = ModelFitter(model, multistart=settings.multistart, seed=settings.seed).fit(
             [r.data for r in fit_r], validation=[r.data for r in val_r],
             floor=floor_fit)
@@ -311,22 +326,27 @@ def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
     maps = kind.maps(ev.runs, noise.by_run())
     curves = kind.curves(ev.runs)
     found = kind.failures(ev, maps, curves, noise.nrmse, settings.factor)
-    names, skipped = candidate_effects(model, settings.candidates)
+    names, skipped = (kind.candidates(model, settings.candidates) if hasattr(kind, "candidates")
+                      else candidate_effects(model, settings.candidates))
     near = ev.nrmse() <= settings.factor * noise.nrmse
     quiet = near and ev.nrmse(val_names) <= floor_val
     if quiet:
         names = []
-    fits = refit_candidates(base_fit, model, names, [r.data for r in fit_r],
-                            [r.data for r in val_r], warm=settings.warm, n_jobs=settings.n_jobs,
-                            multistart=settings.multistart, seed=settings.seed, progress=progress,
-                            floor=floor_fit, executor=settings.executor)
+    if own is not None:
+        fits = own_refits(own, base_fit, model, names, fit_r, val_r, progress)
+    else:
+        fits = refit_candidates(base_fit, model, names, [r.data for r in fit_r],
+                                [r.data for r in val_r], warm=settings.warm,
+                                n_jobs=settings.n_jobs, multistart=settings.multistart,
+                                seed=settings.seed, progress=progress, floor=floor_fit,
+                                executor=settings.executor)
     sig_s = settings.significance
     judge = Baseline(kind, runs, ev, maps, val_names, floor_val, sig_s).judge
     cands = [judge(n, fits[n]) for n in names]
     cands.sort(key=lambda c: c.nrmse_after_validation)
     at_floor = ev.nrmse(val_names) <= settings.factor * floor_val
     top = contenders(cands, ev.nrmse(val_names), settings.refine) \
-        if settings.warm and not at_floor else []
+        if settings.warm and not at_floor and own is None else []
     fd, vd = [r.data for r in fit_r], [r.data for r in val_r]
     if top:
         better = refine(fits, top, fd, vd, n_jobs=settings.n_jobs, seed=settings.seed,
@@ -336,7 +356,9 @@ def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
                 cands[i] = judge(c.effect, better[c.effect])
     for i, c in enumerate(cands):
         if c.significant:
-            ab = ablate(c.fit, model, fd, vd, settings.seed)
+            ab = (ablate(c.fit, model, fd, vd, settings.seed) if own is None else
+                  own(model, fit_r, val_r, init={k: v for k, v in c.fit.params_.valuesdict().items()
+                                                 if k in set(model.param_names)}))
             cands[i] = judge(c.effect, c.fit, evaluate(model, ab.params_, runs, loops=False))
     cands.sort(key=lambda c: c.nrmse_after_validation)
     t2 = time.perf_counter()

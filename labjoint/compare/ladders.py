@@ -154,7 +154,9 @@ def build_ladder(runs: Sequence[Measurement], model: Model | str, *, max_steps: 
         chain = prefixes(model)
         for i, m in enumerate(chain):
             last = i == len(chain) - 1
-            fit = ModelFitter(m, multistart=settings.multistart, seed=settings.seed).fit(
+            own = getattr(kind_of(runs), "fit", None)
+            fit = own(m, fit_r, val_r, init=fit) if own is not None else ModelFitter(
+                m, multistart=settings.multistart, seed=settings.seed).fit(
                 [r.data for r in fit_r], validation=[r.data for r in val_r], init=fit,
                 floor=floor_fit)
             added = None if i == 0 else next(n for n in m.names if n not in chain[i - 1].names)

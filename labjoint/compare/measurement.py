@@ -30,8 +30,11 @@ kind: ``split`` (fit and validation measurements, and the rule in words), ``maps
 candidate effect changes, in a sentence).
 
 A **predictor** is what gives the model's prediction for a measurement: a joint model
-with its parameters, ``Model.eval(params, measurement.data)`` (:func:`predict`); a
-structure-level predictor will evaluate a joint model inside a structure.
+with its parameters, ``Model.eval(params, measurement.data)`` (:func:`predict`), or the
+measurement's own ``predict(model, params)``: the ``frf`` kind evaluates the joint model
+inside a structure (harmonic balance). A kind with its own predictor also gives its
+``fit(model, fit, validation, init=None)`` and ``candidates(model, only)``, which the
+diagnosis and the ladder use in place of the equation-error fitter.
 
 Adding a kind: one module in :mod:`labjoint.compare.kinds` with a measurement class
 satisfying :class:`Measurement` and a kind satisfying :class:`Kind`, registered in
@@ -159,7 +162,12 @@ class Kind(Protocol):
 
 
 def predict(model: Model, params: Parameters, m: Measurement) -> np.ndarray:
-    """The joint model's force on the measurement's record samples (N)."""
+    """The joint model's force on the measurement's record samples (N); a measurement
+    with its own predictor (``m.predict``: e.g. the model inside a structure) gives its
+    prediction in the units of its ``data.force``."""
+    own = getattr(m, "predict", None)
+    if own is not None:
+        return own(model, params)
     return model.eval(params, m.data)
 
 

@@ -2,7 +2,10 @@
 
 - ``sine``: the steady cycles of a run under a steady sine (:mod:`.sine`);
 - ``record``: a record under any excitation, judged sample by sample along its history
-  (:mod:`.record`).
+  (:mod:`.record`);
+- ``frf``: constant-force stepped-sine FRFs of a structure with their harmonics, the
+  model inside the structure (:mod:`.frf`, :mod:`.frf_maps`; prepared with
+  :func:`labjoint.compare.kinds.frf.prepare_frfsets`).
 """
 
 from __future__ import annotations
@@ -11,6 +14,8 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
+from labjoint.compare.kinds.frf import FrfMeasurement
+from labjoint.compare.kinds.frf_maps import FRF
 from labjoint.compare.kinds.record import RECORD, RecordMeasurement, prepare_record
 from labjoint.compare.kinds.sine import SINE
 from labjoint.compare.measurement import Kind, Measurement
@@ -20,7 +25,7 @@ from labjoint.errors import InputError
 from labjoint.signal.excitation import detect_excitation
 from labjoint.storage import Run, read_any
 
-KINDS: dict[str, Kind] = {SINE.name: SINE, RECORD.name: RECORD}
+KINDS: dict[str, Kind] = {SINE.name: SINE, RECORD.name: RECORD, FRF.name: FRF}
 
 
 def kind_of(ms: Sequence[Measurement]) -> Kind:
@@ -46,6 +51,9 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
     """
     if kind not in ("auto", *KINDS):
         raise InputError(f"unknown kind {kind!r}; known: auto, {', '.join(KINDS)}", field="kind")
+    if kind == "frf":
+        raise InputError("the frf kind takes FRF sets inside a structure (prepare_frfsets, or "
+                         "the structure option), not runs", field="kind")
     items = [read_any(r) if isinstance(r, (str, Path)) else r for r in runs]
     if not items:
         raise InputError("no runs given", field="runs")
@@ -57,6 +65,9 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
         kind = "sine" if sine and given <= {"sine"} else "record"
     out: list[Measurement] = []
     for r in items:
+        if isinstance(r, FrfMeasurement):
+            raise InputError("FRF measurements are prepared with prepare_frfsets (they need "
+                             "the structure)", field="runs")
         if isinstance(r, (PreparedRun, RecordMeasurement)):
             if r.kind != kind:
                 raise InputError(f"run '{r.name}' was prepared as {r.kind}, the set as {kind}",
@@ -76,4 +87,4 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
     return out
 
 
-__all__ = ["KINDS", "kind_of", "prepare", "SINE", "RECORD"]
+__all__ = ["KINDS", "kind_of", "prepare", "SINE", "RECORD", "FRF"]

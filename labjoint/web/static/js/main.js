@@ -8,9 +8,10 @@ import * as predict from './views/predict.js';
 import * as reprocess from './views/reprocess.js';
 import * as run from './views/run.js';
 import * as runs from './views/runs.js';
+import * as structure from './views/structure.js';
 import * as trends from './views/trends.js';
 
-const VIEWS = { runs, run, models, predict, live, trends, reprocess };
+const VIEWS = { runs, run, models, predict, structure, live, trends, reprocess };
 let current = null;
 
 export function parseHash(hash) {

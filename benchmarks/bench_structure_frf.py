@@ -1,0 +1,128 @@
+"""Benchmark: seed 000's nonlinear FRF set, Craig-Bampton + HBM against unreduced HBM and
+time integration to steady state (issue 15; one run, this shared 2-core machine).
+
+The seed 000 assembly (configs/structure-seed000.toml) with a Richard-Abbott joint in
+its nonlinear range at these forces (ke = 1e10 N/m, kp = 1e8 N/m, F_y = 3 kN, n = 2 per
+thread: Table 4's S_Y gives a yield force of 200 kN, which 16.5 N never reaches in a beam
+model). The FRF set: ``POINTS`` frequencies around each of modes 1 and 2 (0.9-1.05 x the
+linear natural frequency), at 3 force levels, 3 harmonics, stepped up in sweep order
+(each step from the previous solution, as the rig steps): 6 x ``POINTS`` solutions.
+
+- CB + HBM: Craig-Bampton with 10 kept modes, 3 harmonics, 64 samples per period, the
+  whole set timed (the goal: under 10 s);
+- unreduced HBM: every DOF, at ``CHECK`` of the same points (time per point, answer);
+- time integration: Newmark on the same Craig-Bampton system (512 steps per period) from
+  rest to the periodic steady state (tolerance 1e-6 of the range per period), at
+  the mode-1 points of ``CHECK`` (mode 2 settles over hundreds of periods of 512 steps,
+  hours in this integrator; time per point against the set's time per point: the
+  goal >= 100x; harmonic-1 response against HBM with ``H_CHECK`` harmonics, 256 samples:
+  the goal within 1 %; HBM with 3 harmonics truncates what the slipping joint puts into
+  harmonics 5 and 7, printed as well).
+
+Run: ``python benchmarks/bench_structure_frf.py``.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from labjoint.signal.frfset import FrfSet  # noqa: E402
+from labjoint.structure import load_structure  # noqa: E402
+from labjoint.structure.frf import system_of  # noqa: E402
+from labjoint.structure.hbm import HarmonicBalance  # noqa: E402
+from labjoint.structure.modal import with_parameter  # noqa: E402
+from labjoint.structure.predict import FrfPredictor  # noqa: E402
+from labjoint.structure.timeint import steady_state  # noqa: E402
+
+SEED000 = ROOT / "configs" / "structure-seed000.toml"
+LAW = {"richard_abbott.ke": 1e10, "richard_abbott.kp": 1e8, "richard_abbott.F_y": 3e3,
+       "richard_abbott.n": 2.0}
+LEVELS = (2.0, 10.0, 30.0)
+POINTS = 34
+CHECK = ((0, 0.97, 10.0), (0, 1.0, 30.0), (1, 0.99, 30.0))   # (mode, f / f_n, level)
+H = 3
+H_CHECK = 7
+
+
+def structure():
+    s = load_structure(SEED000)
+    for k, v in LAW.items():
+        s = with_parameter(s, k, v)
+    return s
+
+
+def frf_set(freqs: np.ndarray) -> FrfSet:
+    f = np.concatenate([freqs] * len(LEVELS))
+    lv = np.repeat(LEVELS, freqs.size)
+    one = np.ones((f.size, 1, H), complex)
+    return FrfSet(f, lv, ["up"] * f.size, lv.astype(complex), ("free_end",), one, 0 * one.real)
+
+
+def main() -> None:
+    s = structure()
+    t0 = time.perf_counter()
+    pr = FrfPredictor(s, modes=10, harmonics=H, samples=64)
+    nat = pr.natural_frequencies(2)
+    t_setup = time.perf_counter() - t0
+    freqs = np.concatenate([np.linspace(0.9 * fn, 1.05 * fn, POINTS) for fn in nat])
+    fs = frf_set(freqs)
+    t0 = time.perf_counter()
+    resp = pr.predict(fs, warm=False)
+    t_cb = time.perf_counter() - t0
+    per_cb = t_cb / len(fs)
+    print(f"seed 000 assembly, joint {LAW}; modes {nat[0]:.2f} / {nat[1]:.2f} Hz (joints stuck)")
+    print(f"CB (10 modes, {pr.system.n} DOF) + HBM ({H} harmonics): {len(fs)} points "
+          f"({POINTS} x 2 modes x {len(LEVELS)} levels) in {t_cb:.2f} s ({1e3 * per_cb:.1f} ms/point; "
+          f"reduction {t_setup:.2f} s once); set under 10 s: {'yes' if t_cb + t_setup < 10 else 'NO'}")
+    for (lv, _), idx in fs.groups():
+        for m in range(2):
+            band = idx[m * POINTS:(m + 1) * POINTS]
+            a = np.abs(resp[band, 0, 0]) / lv
+            k = int(np.argmax(a))
+            print(f"  {lv:4.0f} N mode {m + 1}: peak {a[k]:.3g} m/s^2/N at {fs.frequencies_hz[band][k]:.2f} Hz, "
+                  f"harmonic 3 up to {np.max(np.abs(resp[band, 0, 2])):.3g} m/s^2")
+    full = system_of(s, None)
+    cb = pr.system
+    row = list(cb.output_names).index("free_end")
+    for m, ratio, lv in CHECK:
+        f = ratio * nat[m]
+        w = 2 * np.pi * f
+        p_hb, t_hb = {}, {}
+        for h, n in ((H, 64), (H_CHECK, 256)):
+            hb = HarmonicBalance(cb, h, n)
+            t0 = time.perf_counter()
+            x = None
+            for fk in np.linspace(0.9 * nat[m], f, 8):        # reach the point along its sweep
+                x = hb.solve(2 * np.pi * fk, lv, x0=x, tol=pr.tol)
+            t_hb[h] = (time.perf_counter() - t0) / 8
+            p_hb[h] = hb.phasors(x)[1, row]
+        hf = HarmonicBalance(full, H, 64)
+        t0 = time.perf_counter()
+        xf = hf.solve(w, lv, x0=None, tol=pr.tol)
+        t_full = time.perf_counter() - t0
+        p_full = hf.phasors(xf)[1, row]
+        d = lambda a, b: 100 * abs(a / b - 1)  # noqa: E731
+        print(f"  mode {m + 1}, {f:.2f} Hz, {lv:g} N: CB+HBM {1e3 * t_hb[H]:.1f} ms/point "
+              f"({H} harmonics; {H_CHECK}: {1e3 * t_hb[H_CHECK]:.0f} ms, differs {d(p_hb[H], p_hb[H_CHECK]):.2f} %); "
+              f"unreduced HBM ({full.n} DOF) {t_full:.2f} s ({t_full / t_hb[H]:.0f}x), differs "
+              f"{d(p_full, p_hb[H]):.3f} %")
+        if m > 0:       # mode 2 settles over hundreds of periods: hours of Newmark steps
+            continue
+        t0 = time.perf_counter()
+        ss = steady_state(cb, lv, f, H_CHECK, steps_per_period=512, tol=1e-6, max_periods=4000)
+        t_ti = time.perf_counter() - t0
+        p_ti = ss.phasors[1, row]
+        print(f"    time integration ({ss.periods} periods, 512 steps each) {t_ti:.1f} s "
+              f"({t_ti / per_cb:.0f}x the set's time per point), differs {d(p_ti, p_hb[H_CHECK]):.3f} % "
+              f"from {H_CHECK} harmonics, {d(p_ti, p_hb[H]):.2f} % from {H}")
+
+
+if __name__ == "__main__":
+    main()

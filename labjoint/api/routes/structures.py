@@ -1,0 +1,267 @@
+"""Structures: modes, stage-1 and stage-2 updating, model FRFs, and model jobs on FRF sets.
+
+Structure files (TOML, :mod:`labjoint.structure.config`) live in the data directory's
+``structures/`` folder, FRF set files (JSON, :mod:`labjoint.signal.frfset`) in its
+``frf/`` folder; a request names them by file stem, which is looked up among the
+folder's files (nothing a client sends is joined into a path). Modes answer at once;
+updating, FRFs and the comparison (fit, diagnose, ladder of a joint model inside the
+structure, :mod:`labjoint.compare.frf_api`) are jobs: model jobs are listed, polled and
+cancelled with ``/models/jobs``, the others with ``/structures/jobs``. A ladder is saved
+beside its FRF files (``<stem>.model_ladder_<key>.json``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path as FsPath
+from typing import Annotated, Any, Callable, Literal
+
+from fastapi import APIRouter, Depends, Path, Query, Request
+from pydantic import BaseModel, ConfigDict, Field
+
+import labjoint.compare as compare
+from labjoint.api.auth import require_control, require_read, token_label
+from labjoint.api.errors import errors_doc, not_found
+from labjoint.api.routes.analyses import cancel_job, get_job, job_page, runner
+from labjoint.api.routes.models import as_result
+from labjoint.api.schemas import JOB_ID, MODEL_EXPR, RUN_NAME, Job, JobList
+from labjoint.compare.api import settings_from
+from labjoint.compare.kinds import FRF
+from labjoint.errors import InputError
+
+router = APIRouter(prefix="/structures", tags=["structures"])
+STRUCTURES, FRFSETS = "structures", "frf"
+KINDS = ("structure_update", "structure_frf", "structure_stage2")
+Name = Annotated[str, Field(pattern=RUN_NAME)]
+Hz = Annotated[float, Field(gt=0, le=1e5, allow_inf_nan=False)]
+
+
+class _In(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class UpdateRequest(_In):
+    measured_hz: list[Hz] = Field(min_length=1, max_length=20)
+    parameter: str = Field("E_e_pa", max_length=100, pattern=r"^[A-Za-z0-9_.]+$")
+
+
+class FrfRequest(_In):
+    force_n: float = Field(gt=0, le=1e5, allow_inf_nan=False)
+    band_hz: list[Hz] = Field(min_length=2, max_length=2)
+    harmonics: int = Field(3, ge=1, le=9)
+    modes: int = Field(10, ge=0, le=100)
+
+
+class Stage2Request(_In):
+    frfsets: list[Name] = Field(min_length=1, max_length=20)
+    parameters: list[Annotated[str, Field(max_length=100, pattern=r"^[a-z_]+\.[A-Za-z_]+$")]] | None = None
+    modes: int = Field(10, ge=0, le=100)
+
+
+class FrfModelOptions(_In):
+    validate_: list[Name] | None = Field(None, alias="validate", max_length=50)
+    seed: int = Field(0, ge=0, le=2**32 - 1)
+    full: bool = False
+    factor: float = Field(1.5, gt=0, allow_inf_nan=False)
+    alpha: float | None = Field(None, gt=0, lt=1)
+    candidates: list[Annotated[str, Field(max_length=40)]] | None = None
+    modes: int = Field(10, ge=0, le=100)
+    harmonics: int | None = Field(None, ge=1, le=3)
+    save: bool = True
+
+
+class FrfModelRequest(_In):
+    frfsets: list[Name] = Field(min_length=1, max_length=20)
+    model: str = Field("linear_stiffness", pattern=MODEL_EXPR, max_length=400)
+    max_steps: int = Field(3, ge=1, le=10)
+    options: FrfModelOptions = Field(default_factory=FrfModelOptions)
+
+
+def named_file(request: Request, folder: str, name: str, suffix: str) -> FsPath:
+    """The file ``<name><suffix>`` among the data directory's ``folder`` (404 if absent)."""
+    base = FsPath(request.app.state.resolver.data_dir) / folder
+    if base.is_dir():
+        for p in base.iterdir():
+            if p.is_file() and p.suffix == suffix and p.stem == name:
+                return p.resolve()
+    raise not_found(folder.rstrip("s") if folder == STRUCTURES else "frf set", name)
+
+
+def _listing(request: Request, folder: str, suffix: str) -> list[str]:
+    base = FsPath(request.app.state.resolver.data_dir) / folder
+    if not base.is_dir():
+        return []
+    return sorted(p.stem for p in base.iterdir() if p.is_file() and p.suffix == suffix
+                  and not p.name.startswith(".") and ".model_" not in p.name)
+
+
+@router.get("", responses=errors_doc(), summary="Structure and FRF set files",
+            dependencies=[Depends(require_read)])
+def listing(request: Request) -> dict[str, Any]:
+    """Names of the structure files (``structures/*.toml``) and FRF sets (``frf/*.json``)."""
+    return {"structures": _listing(request, STRUCTURES, ".toml"),
+            "frfsets": _listing(request, FRFSETS, ".json")}
+
+
+@router.get("/jobs", response_model=JobList, responses=errors_doc(),
+            summary="List structure jobs", dependencies=[Depends(require_read)])
+def list_jobs(request: Request, status: Literal["queued", "running", "complete", "failed",
+                                                "cancelled"] | None = Query(None),
+              limit: int = Query(50, ge=1, le=500),
+              offset: int = Query(0, ge=0, le=10**9)) -> dict[str, Any]:
+    return job_page(request, KINDS, status, limit, offset)
+
+
+@router.get("/jobs/{job_id}", response_model=Job, responses=errors_doc(),
+            summary="A structure job", dependencies=[Depends(require_read)])
+def get(request: Request, job_id: str = Path(pattern=JOB_ID)) -> dict[str, Any]:
+    return get_job(request, job_id, KINDS)
+
+
+@router.post("/jobs/{job_id}/cancel", response_model=Job, responses=errors_doc(409),
+             summary="Cancel a structure job", dependencies=[Depends(require_control)])
+def cancel(request: Request, job_id: str = Path(pattern=JOB_ID)) -> dict[str, Any]:
+    return cancel_job(request, job_id, KINDS)
+
+
+@router.get("/{name}/modes", responses=errors_doc(), summary="Natural frequencies",
+            dependencies=[Depends(require_read)])
+def modes(request: Request, name: str = Path(pattern=RUN_NAME),
+          count: int = Query(4, ge=1, le=50)) -> dict[str, Any]:
+    """Natural frequencies (Hz) and mode shapes at the sensors, joints stuck."""
+    from labjoint.structure import load_structure
+    from labjoint.structure.modal import modes as modal
+
+    s = load_structure(named_file(request, STRUCTURES, name, ".toml"))
+    m = modal(s, min(count, s.n))
+    return {"structure": s.name, "dofs": s.n, "frequencies_hz": m.frequencies_hz.tolist(),
+            "mode_shapes_at_sensors": {nm: (s.sensors[i] @ m.shapes).tolist()
+                                       for i, nm in enumerate(s.sensor_names)}}
+
+
+def _job(request: Request, kind: str, req: dict[str, Any], scope: str,
+         work: Callable[[Callable[[float, str], None]], dict[str, Any]], long: bool = True
+         ) -> dict[str, Any]:
+    return runner(request).submit(kind, req, lambda r, progress: work(progress),
+                                  submitted_by=token_label(scope), long=long).to_dict()
+
+
+@router.post("/{name}/update", response_model=Job, status_code=202, responses=errors_doc(),
+             summary="Stage-1 updating from natural frequencies (a job)")
+def update(request: Request, body: UpdateRequest, name: str = Path(pattern=RUN_NAME),
+           scope: str = Depends(require_control)) -> dict[str, Any]:
+    """The joint's E_e (or another stiffness parameter) from measured natural frequencies
+    (seed 000 Eqs. 7-8)."""
+    from labjoint.structure import load_structure, update_stiffness
+
+    path = named_file(request, STRUCTURES, name, ".toml")
+
+    def work(progress: Callable[[float, str], None]) -> dict[str, Any]:
+        s = load_structure(path)
+        return {"structure": s.name, **update_stiffness(s, body.measured_hz, body.parameter).to_dict()}
+
+    return _job(request, "structure_update", {"structure": name, **body.model_dump()}, scope, work, False)
+
+
+@router.post("/{name}/frf", response_model=Job, status_code=202, responses=errors_doc(),
+             summary="Model FRF at constant force (a job)")
+def frf(request: Request, body: FrfRequest, name: str = Path(pattern=RUN_NAME),
+        scope: str = Depends(require_control)) -> dict[str, Any]:
+    """Continuation over ``band_hz`` at force amplitude ``force_n`` (harmonic balance)."""
+    from labjoint.structure import load_structure
+    from labjoint.structure.frf import frf as model_frf
+
+    path = named_file(request, STRUCTURES, name, ".toml")
+    lo, hi = sorted(body.band_hz)
+    if not lo < hi:
+        raise InputError("the band needs two different frequencies", field="band_hz")
+
+    def work(progress: Callable[[float, str], None]) -> dict[str, Any]:
+        s = load_structure(path)
+        r = model_frf(s, body.force_n, (lo, hi), harmonics=body.harmonics, modes=body.modes)
+        return {"structure": s.name, **r.to_dict()}
+
+    return _job(request, "structure_frf", {"structure": name, **body.model_dump()}, scope, work)
+
+
+@router.post("/{name}/stage2", response_model=Job, status_code=202, responses=errors_doc(),
+             summary="Stage-2 updating on FRF sets (a job)")
+def stage2(request: Request, body: Stage2Request, name: str = Path(pattern=RUN_NAME),
+           scope: str = Depends(require_control)) -> dict[str, Any]:
+    """The joint law's nonlinear parameters (E_p, S_Y, n by default) on the FRF residual
+    (seed 000 Eq. 9): fitted around mode 1, validated around mode 2, with standard errors."""
+    from labjoint.signal.frfset import FrfSet
+    from labjoint.structure import load_structure
+    from labjoint.structure.predict import FrfPredictor
+    from labjoint.structure.stage2 import update_nonlinear
+
+    path = named_file(request, STRUCTURES, name, ".toml")
+    files = [named_file(request, FRFSETS, n, ".json") for n in dict.fromkeys(body.frfsets)]
+    structure = load_structure(path)
+    law = structure.joints[0].law if structure.joints else None
+    for p in body.parameters or ():
+        if law is None or p not in law.params:
+            known = ", ".join(law.params) if law else "none: the structure has no joint"
+            raise InputError(f"{p} is not a parameter of the joint law ({known})", field="parameters")
+
+    def work(progress: Callable[[float, str], None]) -> dict[str, Any]:
+        sets = [FrfSet.load(f) for f in files]
+        fs = sets[0] if len(sets) == 1 else _concat(sets)
+        pr = FrfPredictor(structure, body.modes, harmonics=1)
+        return update_nonlinear(pr, fs, body.parameters).to_dict()
+
+    return _job(request, "structure_stage2", {"structure": name, **body.model_dump()}, scope, work)
+
+
+def _concat(sets: list[Any]) -> Any:
+    import numpy as np
+
+    from labjoint.signal.frfset import FrfSet
+    H = min(s.harmonics for s in sets)
+    if len({s.sensors for s in sets}) > 1:
+        raise InputError("the FRF sets name different sensors", field="frfsets")
+    cat = lambda f: np.concatenate([f(s) for s in sets])  # noqa: E731
+    return FrfSet(cat(lambda s: s.frequencies_hz), cat(lambda s: s.level_n),
+                  cat(lambda s: s.direction), cat(lambda s: s.force), sets[0].sensors,
+                  cat(lambda s: s.response[:, :, :H]), cat(lambda s: s.response_std[:, :, :H]),
+                  sets[0].quantity)
+
+
+@router.post("/{name}/models/{operation}", response_model=Job, status_code=202,
+             responses=errors_doc(), summary="Fit, diagnose or ladder a joint model on FRF sets (a job)")
+def model_job(request: Request, body: FrfModelRequest, name: str = Path(pattern=RUN_NAME),
+              operation: Literal["fit", "diagnose", "ladder"] = Path(),
+              scope: str = Depends(require_control)) -> dict[str, Any]:
+    """The comparison loop with the joint model inside the structure (the ``frf`` kind):
+    residuals over frequency x level x harmonic, candidates ranked against the FRF's
+    noise floor; poll with ``/models/jobs/{id}``."""
+    from labjoint.models import Model
+
+    path = named_file(request, STRUCTURES, name, ".toml")
+    files = [str(named_file(request, FRFSETS, n, ".json")) for n in dict.fromkeys(body.frfsets)]
+    Model.parse(body.model)
+    o = body.options.model_dump(by_alias=True, exclude_unset=True)
+    kw: dict[str, Any] = {"structure": str(path), "modes": body.options.modes}
+    for k in ("seed", "full", "harmonics"):
+        if k in o:
+            kw[k] = o[k]
+    if operation != "fit":
+        kw.update({k: o[k] for k in ("factor", "alpha", "candidates") if k in o})
+    if operation == "ladder":
+        kw.update(max_steps=body.max_steps, save=body.options.save)
+    if body.options.validate_:
+        kw["validate"] = [named_file(request, FRFSETS, n, ".json").stem for n in body.options.validate_]
+    if "candidates" in kw:
+        try:
+            FRF.candidates(Model.parse(body.model), settings_from({"candidates": kw["candidates"]}).candidates)
+        except InputError as exc:
+            raise InputError(exc.message, field="options.candidates") from None
+
+    def work(progress: Callable[[float, str], None]) -> dict[str, Any]:
+        kw["progress"] = lambda message: progress(0.5, str(message)) if operation != "fit" else None
+        if operation == "fit":
+            kw.pop("progress")
+        return as_result(getattr(compare, operation)(files, body.model, **kw))
+
+    req = {"operation": operation, "structure": name, "frfsets": body.frfsets, "model": body.model,
+           "max_steps": body.max_steps, "options": o}
+    return _job(request, f"model_{operation}", req, scope, work, long=operation != "fit")

@@ -1,0 +1,116 @@
+"""FRF sets through the comparison functions the CLI and REST call (fit, diagnose, ladder).
+
+An FRF set file is a JSON file whose ``format`` key is ``labjoint.frfset/1``
+(:mod:`labjoint.signal.frfset`); it is compared inside a structure, given by the
+``structure`` option (a TOML path or a :class:`~labjoint.structure.Structure`), with
+``modes`` (Craig-Bampton kept modes, default 10) and ``harmonics`` (response harmonics
+compared, default all of the set's, at most 3). Results are saved beside the FRF files
+as ``<stem>.model_<operation>_<key>.json`` (the FRF file is never rewritten; key: 12 hex
+digits of the files, the model and the operation, so asking the same question again
+replaces the earlier answer).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from labjoint.compare.kinds.frf import FrfMeasurement, prepare_frfsets
+from labjoint.compare.jsonsafe import clean
+from labjoint.errors import InputError
+from labjoint.signal.frfset import FORMAT, FrfSet
+from labjoint.structure import Structure, load_structure
+from labjoint.structure.frf import DEFAULT_MODES
+from labjoint.structure.predict import FrfPredictor
+
+FRF_OPTIONS = ("structure", "modes", "harmonics")
+MAX_HARMONICS = 3
+_PREDICTORS: dict[tuple, FrfPredictor] = {}
+
+
+def is_frfset(item: Any) -> bool:
+    """An FrfSet, or a JSON file whose format key says it is one."""
+    if isinstance(item, (FrfSet, FrfMeasurement)):
+        return True
+    if not isinstance(item, (str, Path)) or Path(item).suffix.lower() != ".json":
+        return False
+    try:
+        with open(item, encoding="utf-8") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return False
+    return FORMAT in head
+
+
+def _predictor(structure: Any, modes: Any, harmonics: int) -> FrfPredictor:
+    if structure is None:
+        raise InputError("FRF sets are compared inside a structure: give the structure file "
+                         "(--structure STRUCTURE.toml)", field="structure")
+    if modes is not None and (isinstance(modes, bool) or not isinstance(modes, int) or modes < 0):
+        raise InputError(f"must be a whole number >= 0, got {modes!r}", field="modes")
+    if isinstance(structure, Structure):
+        return FrfPredictor(structure, DEFAULT_MODES if modes is None else modes, harmonics)
+    p = Path(str(structure))
+    try:
+        key = (str(p.resolve()), p.stat().st_mtime_ns, modes, harmonics)
+    except OSError:
+        raise InputError(f"{p}: no such structure file", field="structure") from None
+    if key not in _PREDICTORS:
+        _PREDICTORS.clear()
+        _PREDICTORS[key] = FrfPredictor(load_structure(p), DEFAULT_MODES if modes is None else modes,
+                                        harmonics)
+    return _PREDICTORS[key]
+
+
+def load_frf(items: Sequence[Any], validate: Sequence[Any] | None, options: dict[str, Any]
+             ) -> tuple[list[FrfMeasurement], list[str] | None]:
+    """Measurements of FRF set files or objects (and the validation names: measurements
+    whose name or file is in ``validate``)."""
+    h = options.get("harmonics")
+    if h is not None and (isinstance(h, bool) or not isinstance(h, int) or not 1 <= h <= MAX_HARMONICS):
+        raise InputError(f"must be a whole number in [1, {MAX_HARMONICS}], got {h!r}", field="harmonics")
+    sets = []
+    for i, it in enumerate(items):
+        if isinstance(it, FrfSet):
+            sets.append((str(it.metadata.get("name", f"frf{i}")), it))
+        elif isinstance(it, (str, Path)) and is_frfset(it):
+            fs = FrfSet.load(it)
+            fs.metadata["path"] = str(it)
+            sets.append((Path(it).stem, fs))
+        else:
+            raise InputError(f"{it}: not an FRF set; FRF sets and runs cannot be mixed", field="runs")
+    H = min(max(fs.harmonics for _, fs in sets), h or MAX_HARMONICS)
+    pr = _predictor(options.get("structure"), options.get("modes"), H)
+    ms = prepare_frfsets(sets, pr, H)
+    if not validate:
+        return ms, None
+    want = {str(v) for v in validate} | {Path(str(v)).stem for v in validate}
+    val = [m.name for m in ms if m.name in want or m.name.split("@")[0] in want]
+    if not val:
+        raise InputError(f"none of {sorted(map(str, validate))} names an FRF set or sweep given",
+                         field="validate")
+    return ms, val
+
+
+def result_key(paths: Sequence[str], model: str, operation: str) -> str:
+    h = hashlib.sha256(json.dumps([sorted(paths), model, operation]).encode()).hexdigest()
+    return h[:12]
+
+
+def save_beside(result: dict[str, Any], ms: Sequence[FrfMeasurement], model: str,
+                operation: str) -> list[str]:
+    """Write ``result`` beside each FRF file of ``ms`` (module docstring); the files written."""
+    paths = sorted({m.path for m in ms if m.path})
+    key = result_key(paths, model, operation)
+    out = []
+    for p in paths:
+        target = Path(p).with_name(f"{Path(p).stem}.model_{operation}_{key}.json")
+        tmp = target.with_name(f".{target.name}.tmp")
+        tmp.write_text(json.dumps(clean(result), allow_nan=False))
+        os.replace(tmp, target)
+        out.append(str(target))
+    return out

@@ -1,0 +1,150 @@
+"""Fitting a joint model inside a structure on FRF measurements (the ``frf`` kind's fitter).
+
+The search is :func:`labjoint.structure.stage2.fit_law` on the whitened residuals of the
+fit measurements (:mod:`labjoint.compare.kinds.frf`): weighted least squares, each
+phasor weighted by its measurement std, so the standard errors are those of the
+linearised estimate under the stated noise. Starts (no loop to guess from): a parameter
+the structure's own joint law has keeps its value (the structure file's law is the
+user's prior); ``init`` (a previous fit) overrides; an added effect starts from the
+joint's stuck stiffness k_j and the slip amplitude u_j the baseline predicts at the
+highest level (:func:`physical_start`): stiffnesses at ``ADDED_STIFFNESS`` of k_j (beside
+what the model already has), slip strengths at stiffness x u_j (so the effect slips
+within the measured range), a viscous term at 1 % critical of the joint on mode 1,
+shape parameters at mid values, linear terms (cubic, offset) at zero. A trial point
+Scale parameters stay within ``SCALE_RANGE`` of their start. A trial point
+where harmonic balance does not converge (e.g. a joint in full macro-slip) answers
+``NO_SOLUTION`` x the last residual, so the search steps back instead of failing.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from labjoint.compare.kinds.frf import FrfMeasurement, whiten
+from labjoint.errors import InputError
+from labjoint.models import FitResult, Model
+from labjoint.models.scores import nrmse_from_sums, pooled_nrmse
+from labjoint.structure.hbm import ConvergenceError
+from labjoint.structure.stage2 import fit_law
+
+ADDED_STIFFNESS = 0.2
+NO_SOLUTION = 3.0
+SCALE_RANGE = 1e3
+SHAPES = {"iwan.chi": -0.5, "iwan.beta": 0.1, "richard_abbott.n": 2.0, "asymmetric_slip.asym": 0.0}
+#: effects that can stand in a joint law inside a structure's harmonic balance
+FRF_EFFECTS = ("viscous", "iwan", "coulomb", "richard_abbott", "cubic_stiffness", "offset",
+               "asymmetric_slip", "linear_stiffness")
+
+
+def slip_amplitude(ms: Sequence[FrfMeasurement], model: Model, params: Mapping[str, float]) -> float:
+    """Largest tangential slip amplitude (m) of a joint patch over the measurements, as the
+    model predicts it (harmonic 1 of the joint rotation times the joint radius)."""
+    top = max(ms, key=lambda m: m.level_n)
+    pr = top.predictor
+    law = pr.law_of(model, {k: params[k] for k in model.param_names})
+    sysm = pr.system_with(law)
+    rot = pr.predict_rows(top.frfset, law, sysm.selectors)
+    r = max(e.joint.radius_m for e in sysm.elements)
+    return float(r * np.max(np.abs(rot))) if rot.size else 0.0
+
+
+def physical_start(model: Model, known: Mapping[str, float], k_joint: float, u_slip: float,
+                   f1_hz: float) -> dict[str, float]:
+    """Start values of ``model``'s parameters not in ``known`` (module docstring)."""
+    out = dict(known)
+    u = max(u_slip, 1e-12)
+    ka = ADDED_STIFFNESS * k_joint
+    for name in model.param_names:
+        if name in out:
+            continue
+        eff, p = name.split(".")
+        if name in SHAPES:
+            out[name] = SHAPES[name]
+        elif p in ("K_T", "k", "ke", "k0") and eff != "linear_stiffness":
+            out[name] = ka
+        elif eff == "linear_stiffness":
+            out[name] = k_joint
+        elif p == "kp":
+            out[name] = 0.05 * ka
+        elif p in ("F_S", "f_s", "F_y"):
+            out[name] = ka * u
+        elif eff == "viscous":
+            out[name] = 2 * 0.01 * k_joint / (2 * np.pi * f1_hz)
+        else:
+            out[name] = 0.0
+    return out
+
+
+def start_values(model: Model, ms: Sequence[FrfMeasurement],
+                 init: FitResult | Mapping[str, float] | None) -> dict[str, float]:
+    pr = ms[0].predictor
+    own = {k: v for k, v in pr.law.params.items() if k in model.param_names}
+    prev = init.params_.valuesdict() if isinstance(init, FitResult) else dict(init or {})
+    known = {**own, **{k: float(v) for k, v in prev.items() if k in model.param_names}}
+    missing = [n for n in model.param_names if n not in known]
+    if not missing:
+        return known
+    k_joint = pr.law.initial_stiffness()
+    base = Model.parse("+".join(n for n in model.names if all(
+        p in known for p in Model.parse(n).param_names)) or "linear_stiffness")
+    base_vals = physical_start(base, known, k_joint, 0.0, 1.0)
+    u = slip_amplitude(ms, base, base_vals)
+    return physical_start(model, known, k_joint, u, float(pr.natural_frequencies(1)[0]))
+
+
+def fit_frf(model: Model | str, fit_ms: Sequence[FrfMeasurement],
+            val_ms: Sequence[FrfMeasurement] = (), init: Any = None,
+            max_nfev: int | None = None) -> FitResult:
+    """Fit ``model`` (every joint's law) on the fit measurements (module docstring)."""
+    model = Model.parse(model)
+    bad = [n for n in model.names if n not in FRF_EFFECTS]
+    if bad:
+        raise InputError(f"{', '.join(bad)} cannot act as a joint law in the structure's harmonic "
+                         f"balance; use {', '.join(FRF_EFFECTS)}", field="model")
+    if not fit_ms:
+        raise InputError("no FRF measurements to fit", field="runs")
+    start = start_values(model, fit_ms, init)
+    pr = fit_ms[0].predictor
+    law0 = pr.law_of(model, start)
+    names = model.param_names
+
+    last: list[np.ndarray] = []
+
+    def residual(law) -> np.ndarray:
+        try:
+            r = np.concatenate([whitened_residual(m, law) for m in fit_ms])
+        except (ConvergenceError, ValueError, np.linalg.LinAlgError):
+            if not last:
+                raise
+            return NO_SOLUTION * last[0]      # a trial the solver cannot follow: rejected
+        last[:] = [r]
+        return r
+
+    lf = fit_law(law0, names, residual, None, max_nfev=max_nfev or 12 * len(names),
+                 scale_range=SCALE_RANGE)
+    params = model.make_params(values=lf.values)
+    for k in names:
+        params[k].stderr = lf.stderr[k]
+    sse = {m.name: _sse(m, lf.law) for m in (*fit_ms, *val_ms)}
+    ssf = {m.name: float(m.data.force @ m.data.force) for m in (*fit_ms, *val_ms)}
+    fn, vn = [m.name for m in fit_ms], [m.name for m in val_ms]
+    return FitResult(model, params, tuple(names), dict(lf.stderr), lf.correlation,
+                     pooled_nrmse([sse[n] for n in fn], [ssf[n] for n in fn]),
+                     {n: nrmse_from_sums(sse[n], ssf[n]) for n in fn},
+                     pooled_nrmse([sse[n] for n in vn], [ssf[n] for n in vn]) if vn else None,
+                     {n: nrmse_from_sums(sse[n], ssf[n]) for n in vn}, lf.n_evals, True,
+                     lf.message, int(sum(m.data.force.size for m in fit_ms)), 2 * lf.cost,
+                     (), tuple(fn), tuple(vn))
+
+
+def whitened_residual(m: FrfMeasurement, law) -> np.ndarray:
+    model = whiten(m.predictor.predict(m.frfset, law, m.frfset.harmonics), m.std)
+    return model - m.data.force
+
+
+def _sse(m: FrfMeasurement, law) -> float:
+    r = whitened_residual(m, law)
+    return float(r @ r)
