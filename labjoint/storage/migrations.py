@@ -58,6 +58,28 @@ _VERSION_TABLE = ("CREATE TABLE IF NOT EXISTS schema_version (version BIGINT PRI
                   "description TEXT, applied_at TEXT)")
 
 
+def _wal(db: Database, wait_s: float = 30.0) -> None:
+    """Put a SQLite file in WAL mode (it persists in the file). Switching takes the file's
+    exclusive lock and SQLite's busy handler does not wait for it, so a process opening a
+    new catalog while another creates it retries for up to ``wait_s`` ("database is
+    locked" otherwise failed one of four processes opening a new catalog at once)."""
+    import sqlite3
+    import time
+
+    deadline = time.monotonic() + wait_s
+    delay = 0.005
+    while True:
+        try:
+            with db.session() as s:       # outside any transaction
+                s.execute("PRAGMA journal_mode=WAL")
+            return
+        except sqlite3.OperationalError as exc:
+            if "locked" not in str(exc) or time.monotonic() > deadline:
+                raise
+            time.sleep(delay)
+            delay = min(2 * delay, 0.2)
+
+
 def current_version(db: Database) -> int:
     """The highest applied migration (0 for an empty database)."""
     if not db.has_table("schema_version"):
@@ -77,8 +99,7 @@ def migrate(db: Database, migrations: tuple[Migration, ...] = MIGRATIONS) -> lis
         raise ValueError(f"migration versions must increase: {versions}")
     latest = versions[-1] if versions else 0
     if db.dialect == "sqlite":
-        with db.session() as s:       # outside any transaction; persists in the file
-            s.execute("PRAGMA journal_mode=WAL")
+        _wal(db)
     have = current_version(db)
     if have == latest:
         return []
