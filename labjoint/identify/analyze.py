@@ -341,6 +341,7 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
             require_sine(found, PIPELINE, f"run {rf.name} ({xch})")
 
         def blocks() -> Iterator[np.ndarray]:
+            other = np.empty(min(step, rf.n_samples))       # the second displacement
             for a in range(0, rf.n_samples, step):
                 if detected.done():                        # refuse as soon as it is known
                     check_excitation(detected.result())
@@ -348,7 +349,7 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
                 blk = np.empty((2, b - a))
                 rf.physical(disp[0], a, b, out=blk[0])
                 if len(disp) == 2:
-                    blk[0] -= rf.physical(disp[1], a, b)
+                    blk[0] -= rf.physical(disp[1], a, b, out=other[:b - a])
                 rf.physical(fch, a, b, out=blk[1])
                 yield blk
 

@@ -11,11 +11,12 @@ paper this is 1 - 2e-9: the fundamental and loop area are untouched, harmonics u
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from scipy import signal as sps
 
 from labjoint.errors import InputError
 from labjoint.signal import validate
+from labjoint.signal.lanes import filtfilt_pieces
+from labjoint.signal.lanes import padlen as _padlen
 
 PAPER_CUTOFF_HZ = 3000.0
 PAPER_ORDER = 5
@@ -123,9 +124,8 @@ def filtfilt_rows(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
     """``sosfiltfilt`` along the last axis of a (rows, n) array, bit for bit.
 
     Same odd-extension padding, initial states and direct-form-II-transposed sections
-    as scipy's ``sosfiltfilt``, in one compiled pass per direction with the rows
-    interleaved sample by sample, so the same operations on every row run as one SIMD
-    instruction (:func:`filtfilt_pieces`).
+    as scipy's ``sosfiltfilt``, in one compiled pass per direction with the rows side by
+    side in SIMD lanes (:mod:`labjoint.signal.lanes`).
 
     >>> sos = butter_sos(50_000.0)
     >>> x = np.random.default_rng(0).standard_normal((2, 40_000))
@@ -135,100 +135,7 @@ def filtfilt_rows(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
     x = np.asarray(x, dtype=np.float64)
     if x.ndim != 2 or x.shape[1] <= _padlen(sos) or not np.all(sos[:, 3] == 1.0):
         return sps.sosfiltfilt(sos, x, axis=-1)
-    return filtfilt_pieces(sos, x, 1, 0)
-
-
-def filtfilt_pieces(sos: np.ndarray, x: np.ndarray, pieces: int, overlap: int) -> np.ndarray:
-    """Zero-phase filtering of the rows of ``x`` (rows, n), each cut into ``pieces``
-    stretches that reach ``overlap`` samples past their joins and are filtered
-    independently (as ``sosfiltfilt`` would each, odd extension at both ends), side by
-    side in the compiled pass; each stretch's output is kept up to its joins.
-
-    The recursion of one filter chain cannot be vectorised, but independent chains can:
-    a long row cut in pieces fills the SIMD lanes (about 3x the speed of four scalar
-    chains on two rows). With ``overlap`` at least :func:`settling_samples`, the result
-    equals filtering each row whole within its ``rtol``; ``pieces=1`` is ``sosfiltfilt``
-    bit for bit. Needs every stretch longer than the edge padding (callers check).
-    """
-    rows, n = x.shape
-    pad = _padlen(sos)
-    joins = np.round(np.arange(pieces + 1) * (n / pieces)).astype(np.int64)
-    width = min(int(np.max(np.diff(joins))) + 2 * overlap, n)
-    starts = np.clip(joins[:-1] - overlap, 0, n - width)
-    lanes = np.empty((width + 2 * pad, rows * pieces))
-    _to_lanes(x, starts, pad, lanes)
-    zi = sps.sosfilt_zi(sos)
-    sos = np.ascontiguousarray(sos, dtype=np.float64)
-    _lanes_pass(sos, zi, lanes, False)
-    _lanes_pass(sos, zi, lanes, True)
-    out = np.empty((rows, n))
-    _from_lanes(lanes, starts, joins, pad, out)
-    return out
-
-
-@njit(cache=True, nogil=True)
-def _to_lanes(x, starts, pad, lanes):  # pragma: no cover - compiled
-    """Lane ``r * pieces + p``: row r from ``starts[p]``, odd-extended by ``pad`` both
-    ends (scipy's ``odd_ext``); written row by row of ``lanes`` (contiguous)."""
-    rows = x.shape[0]
-    width = lanes.shape[0] - 2 * pad
-    pieces = starts.size
-    for i in range(pad):
-        for r in range(rows):
-            for p in range(pieces):
-                a = starts[p]
-                lanes[i, r * pieces + p] = 2.0 * x[r, a] - x[r, a + pad - i]
-    for i in range(width):
-        for r in range(rows):
-            for p in range(pieces):
-                lanes[pad + i, r * pieces + p] = x[r, starts[p] + i]
-    for i in range(pad):
-        for r in range(rows):
-            for p in range(pieces):
-                last = starts[p] + width - 1
-                lanes[pad + width + i, r * pieces + p] = 2.0 * x[r, last] - x[r, last - 1 - i]
-
-
-@njit(cache=True, nogil=True)
-def _from_lanes(lanes, starts, joins, pad, out):  # pragma: no cover - compiled
-    """Each lane's samples between its joins back into its row (read row by row)."""
-    rows = out.shape[0]
-    pieces = starts.size
-    for i in range(lanes.shape[0] - 2 * pad):
-        for r in range(rows):
-            for p in range(pieces):
-                j = starts[p] + i
-                if joins[p] <= j < joins[p + 1]:
-                    out[r, j] = lanes[pad + i, r * pieces + p]
-
-
-@njit(cache=True, nogil=True)
-def _lanes_pass(sos, zi, x, reverse):  # pragma: no cover - compiled
-    """One direction of ``sosfilt``, in place, with ``zi * x[first]`` initial states,
-    on every lane (column) of ``x`` at once."""
-    n, lanes = x.shape
-    ns = sos.shape[0]
-    z0 = np.empty((ns, lanes))
-    z1 = np.empty((ns, lanes))
-    v = np.empty(lanes)
-    first = n - 1 if reverse else 0
-    for s in range(ns):
-        for q in range(lanes):
-            z0[s, q] = zi[s, 0] * x[first, q]
-            z1[s, q] = zi[s, 1] * x[first, q]
-    for k in range(n):
-        i = n - 1 - k if reverse else k
-        for q in range(lanes):
-            v[q] = x[i, q]
-        for s in range(ns):
-            b0, b1, b2, a1, a2 = sos[s, 0], sos[s, 1], sos[s, 2], sos[s, 4], sos[s, 5]
-            for q in range(lanes):
-                y = b0 * v[q] + z0[s, q]
-                z0[s, q] = b1 * v[q] - a1 * y + z1[s, q]
-                z1[s, q] = b2 * v[q] - a2 * y
-                v[q] = y
-        for q in range(lanes):
-            x[i, q] = v[q]
+    return filtfilt_pieces(sos, x)[0]
 
 
 def _zpk(sos: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, int]:
@@ -247,12 +154,6 @@ def _zpk(sos: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, int]:
         zeros.append(np.roots(b))
         poles.append(np.roots(a))
     return np.concatenate(zeros), np.concatenate(poles), gain, delay
-
-
-def _padlen(sos: np.ndarray) -> int:
-    """The default edge padding of scipy's ``sosfiltfilt`` for these sections."""
-    zeros = min(int((sos[:, 2] == 0).sum()), int((sos[:, 5] == 0).sum()))
-    return 3 * (2 * len(sos) + 1 - zeros)
 
 
 class ZeroPhaseStream:
@@ -274,10 +175,15 @@ class ZeroPhaseStream:
         self._pending_n = 0
         self._buf_start = 0          # absolute index of the first raw sample held
         self._out = 0                # absolute index of the next output sample
+        self._work: np.ndarray | None = None      # the lanes' scratch, reused
+        self._raw: np.ndarray | None = None       # chunks joined here, reused
+        self._rows = 0
+        self._zi = sps.sosfilt_zi(self.sos)
 
     def push(self, block: np.ndarray) -> np.ndarray:
         """Add a block (n_channels, n); return the filtered samples that are now final."""
         block = np.atleast_2d(block)
+        self._rows = block.shape[0]
         self._pending.append(block)
         self._pending_n += block.shape[1]
         end = self._buf_start + self._pending_n
@@ -295,11 +201,16 @@ class ZeroPhaseStream:
         return self._emit(final=True)
 
     def _emit(self, *, final: bool) -> np.ndarray:
-        raw = np.concatenate(self._pending, axis=1) if len(self._pending) > 1 else self._pending[0]
-        end = self._buf_start + raw.shape[1]
-        y = self._filter(raw)
+        n = self._pending_n
+        if len(self._pending) == 1:
+            raw = self._pending[0]
+        else:                                   # joined in a reused buffer
+            if self._raw is None or self._raw.shape[1] < n or self._raw.shape[0] != self._rows:
+                self._raw = np.empty((self._rows, n))
+            raw = np.concatenate(self._pending, axis=1, out=self._raw[:, :n])
+        end = self._buf_start + n
         stop = end if final else end - self.overlap
-        out = y[:, self._out - self._buf_start: stop - self._buf_start]
+        out = self._filter(raw, (self._out - self._buf_start, stop - self._buf_start))
         self._out = stop
         keep_from = max(stop - self.overlap, self._buf_start)
         tail = raw[:, keep_from - self._buf_start:].copy()
@@ -308,13 +219,17 @@ class ZeroPhaseStream:
         self._buf_start = keep_from
         return out
 
-    def _filter(self, raw: np.ndarray) -> np.ndarray:
-        """Zero-phase filtering of the chunk ``raw``: its rows cut into pieces that
-        overlap by twice the settling length (at least 8 settling lengths long), so
-        :data:`LANES` chains run side by side (:func:`filtfilt_pieces`); equal to
-        filtering the chunk whole within ``rtol``, like the stream's joints."""
+    def _filter(self, raw: np.ndarray, keep: tuple[int, int]) -> np.ndarray:
+        """Samples ``keep`` of the zero-phase filtered chunk ``raw``: its rows cut into
+        pieces that overlap by twice the settling length (each at least 8 settling
+        lengths long), so up to :data:`LANES` chains run side by side
+        (:func:`labjoint.signal.lanes.filtfilt_pieces`); equal to filtering the chunk
+        whole within ``rtol``, like the stream's joints."""
         rows, n = raw.shape
+        if not np.all(self.sos[:, 3] == 1.0):       # not from butter_sos: scipy's own
+            return sps.sosfiltfilt(self.sos, raw, axis=-1)[:, keep[0]:keep[1]]
         pieces = max(1, min(LANES // rows, n // (8 * self.overlap)))
-        if pieces == 1:
-            return filtfilt_rows(self.sos, raw)
-        return filtfilt_pieces(self.sos, raw, pieces, self.overlap)
+        out, self._work = filtfilt_pieces(self.sos, raw, pieces,
+                                          self.overlap if pieces > 1 else 0, keep=keep,
+                                          zi=self._zi, work=self._work)
+        return out
