@@ -241,9 +241,21 @@ class _LoopStream:
     def _take(self, y: np.ndarray, bounds: np.ndarray, settled: float) -> None:
         if y.size == 0:
             return
-        self.buf = np.concatenate([self.buf, y], axis=1) if self.buf.shape[1] else y
         self.pending = np.concatenate([self.pending, bounds])
         self._settled = settled
+        if self.buf.shape[1]:
+            # the cycles that straddle the held samples and y are measured on a short
+            # joined copy; what is still needed then usually lies in y alone (no copy)
+            y_start = self.buf_start + self.buf.shape[1]
+            head = min(y.shape[1], 2 * int(np.ceil(self.fs / self.f)) + 8)
+            self.buf = np.concatenate([self.buf, y[:, :head]], axis=1)
+            self._process()
+            if self.buf_start >= y_start:
+                self.buf = y[:, self.buf_start - y_start:]
+            else:
+                self.buf = np.concatenate([self.buf, y[:, head:]], axis=1)
+        else:
+            self.buf = y
         self._process()
 
     def _process(self) -> None:
@@ -260,7 +272,7 @@ class _LoopStream:
         keep = self._settled if self.pending.size == 0 else self.pending[0]
         cut = int(np.floor(keep)) - 2 - self.buf_start
         if cut > 0:
-            self.buf = self.buf[:, cut:].copy()
+            self.buf = self.buf[:, cut:]
             self.buf_start += cut
 
 
