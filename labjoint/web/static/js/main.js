@@ -1,7 +1,7 @@
 // The dashboard's entry: a hash router over the views, the control-token box and the
 // service line in the header.
 
-import { api, setToken, token } from './api.js';
+import { api, forget, prefetch, setToken, token } from './api.js';
 
 // Each view's module and every module it imports (under /static/js/), loaded only when
 // the view is shown: the first page fetches its own few files, not all twenty. All of a
@@ -19,6 +19,11 @@ export const VIEWS = {
     'plot/axes.js', 'plot/svg.js'],
   trends: ['views/trends.js', 'dom.js', 'plot/plot.js', 'plot/axes.js', 'plot/svg.js',
     'units.js', 'views/runs.js', 'views/trendexport.js'],
+};
+// The first requests of a view that takes a while to load, asked for while its modules
+// load (the view's own identical requests take these replies).
+const FIRST = {
+  run: (r) => [`/runs/${encodeURIComponent(r.arg)}`, `/runs/${encodeURIComponent(r.arg)}/channels`],
 };
 const preloaded = new Set(['main.js', ...[...document.querySelectorAll('link[rel=modulepreload]')]
   .map((l) => new URL(l.href).pathname.replace('/static/js/', ''))]);
@@ -62,6 +67,7 @@ async function route() {
   document.getElementById('view').replaceChildren(box);
   let shown = null;
   try {
+    if (FIRST[name]) FIRST[name](r).forEach((path) => prefetch(path));
     const mod = await loadView(name);
     shown = (await mod.show(box, r)) || null;
   } catch (err) {
@@ -70,6 +76,7 @@ async function route() {
     p.textContent = `This view failed: ${err.message}`;
     box.append(p);
   }
+  if (mine === generation) forget();
   if (mine === generation) current = shown;
   else if (shown && shown.leave) shown.leave();
 }
