@@ -39,10 +39,12 @@ const early = new Map();
 
 export function prefetch(path, query = {}) {
   const key = url(path, query).href;
-  if (early.has(key)) return;
-  const reply = api(path, { query });
-  reply.catch(() => {});             // reported by the view's own request, if it is made
-  early.set(key, reply);
+  if (!early.has(key)) {
+    const reply = api(path, { query });
+    reply.catch(() => {});           // reported by the view's own request, if it is made
+    early.set(key, reply);
+  }
+  return early.get(key);
 }
 
 export function forget() {

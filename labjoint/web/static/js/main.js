@@ -21,9 +21,18 @@ export const VIEWS = {
     'units.js', 'views/runs.js', 'views/trendexport.js'],
 };
 // The first requests of a view that takes a while to load, asked for while its modules
-// load (the view's own identical requests take these replies).
+// load (the view's own identical requests take these replies; a reply the view does not
+// ask for, such as the steady loops of a run still being recorded, is dropped). The
+// queries are the views' own (run.js: 8 loops of 200 points, the whole run's signals
+// at 1500 points); if they ever differ, the view simply asks again.
 const FIRST = {
-  run: (r) => [`/runs/${encodeURIComponent(r.arg)}`, `/runs/${encodeURIComponent(r.arg)}/channels`],
+  run: (r) => {
+    const run = `/runs/${encodeURIComponent(r.arg)}`;
+    prefetch(run);
+    prefetch(`${run}/loops`, { max_cycles: 8, points_per_cycle: 200 });
+    prefetch(`${run}/channels`).then((c) => prefetch(`${run}/data`,
+      { start: 0, stop: c.duration_s, max_points: 1500 }), () => {});
+  },
 };
 const preloaded = new Set(['main.js', ...[...document.querySelectorAll('link[rel=modulepreload]')]
   .map((l) => new URL(l.href).pathname.replace('/static/js/', ''))]);
@@ -67,7 +76,7 @@ async function route() {
   document.getElementById('view').replaceChildren(box);
   let shown = null;
   try {
-    if (FIRST[name]) FIRST[name](r).forEach((path) => prefetch(path));
+    if (FIRST[name]) FIRST[name](r);
     const mod = await loadView(name);
     shown = (await mod.show(box, r)) || null;
   } catch (err) {
