@@ -94,7 +94,9 @@ def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None 
     _check_int(n_points, "n_points", 8)
     _check_int(n_harmonics, "n_harmonics", 1, n_points // 2 - 1)
     stream = _LoopStream(fs, f, cutoff, order, n_points, n_harmonics)
-    stream.run(chain(head, prefetch(it)))
+    # two blocks read ahead: the reader keeps up with the filter and the loop kernel on
+    # two cores (one ahead left both waiting for it; one more block of memory)
+    stream.run(chain(head, prefetch(it, depth=2)))
     per_cycle, bounds = stream.finish()
     if per_cycle:
         correct_phase(per_cycle, float(phase_correction_rad), f)
