@@ -85,11 +85,41 @@ def test_every_module_import_resolves_to_a_shipped_file():
             assert (m.parent / spec).resolve().is_file(), f"{m.name}: {spec} is missing"
 
 
-def test_the_page_preloads_every_module_it_imports_and_nothing_else():
+def _closure(module, seen=None):
+    """``module`` (a path under static/js) and every module it imports, in import order."""
+    seen = [] if seen is None else seen
+    if module not in seen:
+        seen.append(module)
+        path = STATIC / "js" / module
+        for spec in IMPORT.findall(path.read_text()):
+            _closure((path.parent / spec).resolve().relative_to(STATIC / "js").as_posix(), seen)
+    return seen
+
+
+def test_each_view_preloads_exactly_the_modules_it_imports():
+    """main.js loads a view's modules when the view is shown, all of them preloaded at
+    once: each list must be the view's import closure (a module missing from it would
+    be fetched one import level later; an extra one fetched for nothing)."""
+    main = (STATIC / "js" / "main.js").read_text()
+    table = main[main.index("export const VIEWS = {"):]
+    table = table[:table.index("};")]
+    views = {name: re.findall(r"'([^']+)'", files)
+             for name, files in re.findall(r"(\w+): \[([^\]]*)\]", table)}
+    shipped_views = {m.stem for m in (STATIC / "js" / "views").glob("*.js")}
+    nav = set(re.findall(r'data-view="(\w+)"', (STATIC / "index.html").read_text()))
+    assert set(views) == nav | {"run"} and set(views) <= shipped_views   # every page, and a run's
+    static_imports = set(_closure("main.js")) - {"main.js"}
+    for name, files in views.items():
+        assert files[0] == f"views/{name}.js"
+        assert set(files) == set(_closure(files[0])) - static_imports, name
+        assert len(files) == len(set(files)), name
     html = (STATIC / "index.html").read_text()
-    preloaded = set(re.findall(r'rel="modulepreload" href="/static/([^"]+)"', html))
-    shipped = {m.relative_to(STATIC).as_posix() for m in (STATIC / "js").rglob("*.js")}
-    assert preloaded == shipped - {"js/main.js"}
+    preloaded = set(re.findall(r'rel="modulepreload" href="/static/js/([^"]+)"', html))
+    # the page itself preloads main.js's imports and the first page's (the runs list)
+    assert static_imports == {"api.js"}
+    assert preloaded == static_imports | set(views["runs"])
+    every = {m.relative_to(STATIC / "js").as_posix() for m in (STATIC / "js").rglob("*.js")}
+    assert every == {"main.js"} | static_imports | {f for fs in views.values() for f in fs}
 
 
 def test_scripts_styles_and_json_are_gzipped_for_clients_that_accept_it(client):

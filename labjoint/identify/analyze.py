@@ -94,7 +94,9 @@ def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None 
     _check_int(n_points, "n_points", 8)
     _check_int(n_harmonics, "n_harmonics", 1, n_points // 2 - 1)
     stream = _LoopStream(fs, f, cutoff, order, n_points, n_harmonics)
-    stream.run(chain(head, prefetch(it)))
+    # two blocks read ahead: the reader keeps up with the filter and the loop kernel on
+    # two cores (one ahead left both waiting for it; one more block of memory)
+    stream.run(chain(head, prefetch(it, depth=2)))
     per_cycle, bounds = stream.finish()
     if per_cycle:
         correct_phase(per_cycle, float(phase_correction_rad), f)
@@ -241,9 +243,21 @@ class _LoopStream:
     def _take(self, y: np.ndarray, bounds: np.ndarray, settled: float) -> None:
         if y.size == 0:
             return
-        self.buf = np.concatenate([self.buf, y], axis=1) if self.buf.shape[1] else y
         self.pending = np.concatenate([self.pending, bounds])
         self._settled = settled
+        if self.buf.shape[1]:
+            # the cycles that straddle the held samples and y are measured on a short
+            # joined copy; what is still needed then usually lies in y alone (no copy)
+            y_start = self.buf_start + self.buf.shape[1]
+            head = min(y.shape[1], 2 * int(np.ceil(self.fs / self.f)) + 8)
+            self.buf = np.concatenate([self.buf, y[:, :head]], axis=1)
+            self._process()
+            if self.buf_start >= y_start:
+                self.buf = y[:, self.buf_start - y_start:]
+            else:
+                self.buf = np.concatenate([self.buf, y[:, head:]], axis=1)
+        else:
+            self.buf = y
         self._process()
 
     def _process(self) -> None:
@@ -260,7 +274,7 @@ class _LoopStream:
         keep = self._settled if self.pending.size == 0 else self.pending[0]
         cut = int(np.floor(keep)) - 2 - self.buf_start
         if cut > 0:
-            self.buf = self.buf[:, cut:].copy()
+            self.buf = self.buf[:, cut:]
             self.buf_start += cut
 
 
@@ -341,6 +355,7 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
             require_sine(found, PIPELINE, f"run {rf.name} ({xch})")
 
         def blocks() -> Iterator[np.ndarray]:
+            other = np.empty(min(step, rf.n_samples))       # the second displacement
             for a in range(0, rf.n_samples, step):
                 if detected.done():                        # refuse as soon as it is known
                     check_excitation(detected.result())
@@ -348,7 +363,7 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
                 blk = np.empty((2, b - a))
                 rf.physical(disp[0], a, b, out=blk[0])
                 if len(disp) == 2:
-                    blk[0] -= rf.physical(disp[1], a, b)
+                    blk[0] -= rf.physical(disp[1], a, b, out=other[:b - a])
                 rf.physical(fch, a, b, out=blk[1])
                 yield blk
 

@@ -108,7 +108,8 @@ def detect_excitation(x: np.ndarray, fs: float, metadata: dict[str, Any] | None 
     x = x - np.mean(x)
     if not np.any(x):
         return Excitation("none", evidence="the signal is constant")
-    win = _envelope_window(x, fs)
+    spectrum = _spectrum(x, fs)
+    win = _envelope_window(x, fs, spectrum)
     n_win = x.size // win
     rms = np.sqrt(np.mean(x[: n_win * win].reshape(n_win, win) ** 2, axis=1))
     peak = float(rms.max())
@@ -133,7 +134,8 @@ def detect_excitation(x: np.ndarray, fs: float, metadata: dict[str, Any] | None 
     if core.size > MAX_SAMPLES:
         mid = core.size // 2
         core = core[mid - MAX_SAMPLES // 2: mid + MAX_SAMPLES // 2]
-    found = _sine_or_sweep(core, fs)
+    # the core is often the whole signal: its spectrum is then the one already taken
+    found = _sine_or_sweep(core, fs, spectrum if core.size == x.size else None)
     if found is None or found.kind == "swept_sine":   # a periodic record is never a sweep
         found = _periodic(core, fs) or found or _random(core, fs)
     found.active_s = span
@@ -155,9 +157,10 @@ def require_sine(found: Excitation, pipeline: str, source: str = "the record") -
                      f"needs a steady sine ({found.evidence}): {handler}", field="excitation")
 
 
-def _envelope_window(x: np.ndarray, fs: float) -> int:
+def _envelope_window(x: np.ndarray, fs: float,
+                     spectrum: tuple[np.ndarray, np.ndarray] | None = None) -> int:
     """RMS window: two periods of the lowest frequency carrying power (5 % quantile)."""
-    freqs, p = _spectrum(x, fs)
+    freqs, p = _spectrum(x, fs) if spectrum is None else spectrum
     c = np.cumsum(p) / p.sum()
     f_low = max(float(freqs[int(np.searchsorted(c, 0.05))]), freqs[1])
     return int(np.clip(round(2.0 * fs / f_low), 16, max(16, x.size // 8)))
@@ -202,8 +205,9 @@ def _line_power(freqs: np.ndarray, p: np.ndarray, f: float, lobe: int = 3) -> fl
     return float(p[max(k - lobe, 1): k + lobe + 1].sum())
 
 
-def _sine_or_sweep(core: np.ndarray, fs: float) -> Excitation | None:
-    freqs, p = _spectrum(core, fs)
+def _sine_or_sweep(core: np.ndarray, fs: float,
+                   spectrum: tuple[np.ndarray, np.ndarray] | None = None) -> Excitation | None:
+    freqs, p = _spectrum(core, fs) if spectrum is None else spectrum
     # broadband noise is not part of the excitation: the median bin (chi^2, 2 dof, of a
     # Hann-windowed spectrum) / ln 2 is its mean level per bin
     noise_bin = float(np.median(p[1:])) / np.log(2.0)

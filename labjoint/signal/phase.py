@@ -15,6 +15,8 @@ true fundamental even when ``frequency_hz`` is slightly off (theta then drifts).
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from numba import njit
 
@@ -52,6 +54,8 @@ class CycleSegmenter:
         self._m = -np.inf                                # running max of the cycle coordinate
         self._last_index = -1.0                          # sample index of self._m
         self._rot = np.empty(0, dtype=complex)
+        self._w = np.empty(0, dtype=complex)
+        self._c2 = np.empty(0, dtype=complex)
 
     def push(self, x: np.ndarray) -> np.ndarray:
         """Add samples; return the boundaries that are now known."""
@@ -63,24 +67,27 @@ class CycleSegmenter:
         self._n += x.size
         start = np.exp(-2j * np.pi * ((first * self._cps) % 1.0))
         if self._rot.size < x.size:
-            self._rot = np.exp(-2j * np.pi * ((np.arange(x.size) * self._cps) % 1.0))
-        w, c2 = _demodulate_sums(self._tail, x, self._rot, start)
+            self._rot = _rotation(self._cps, 1 << max(int(x.size - 1).bit_length(), 10))
+        n = self._tail.size + x.size
+        if self._w.size < n:                             # work arrays, reused
+            self._w = np.empty(n, dtype=np.complex128)
+            self._c2 = np.empty(n + 2, dtype=np.complex128)
+        w, c2 = self._w[:n], self._c2[:n + 2]
+        _demodulate_sums(self._tail, x, self._rot, start, w, c2)
         w_start = self._n - w.size
         L, D = self.period_samples, self.step
         c_first = -(-(w_start + L - 1) // D) * D         # first grid centre with a full window
         c_last = self._n - L                             # last centre with a full window
         if c_last < c_first:
-            self._tail = w
+            self._tail = w.copy()
             return np.empty(0)
-        centres = np.arange(c_first, c_last + 1, D)
+        count = (c_last - c_first) // D + 1
+        centres = c_first + D * np.arange(count, dtype=np.float64)
         # two cascaded L-sample boxcars = triangle: sum via a double cumulative sum
-        p = centres - (L - 1) - w_start
-        theta = np.angle(c2[p + 2 * L] - 2 * c2[p + L] + c2[p])
-        nxt = int(centres[-1]) + D
+        theta = _grid_phase(c2, c_first - (L - 1) - w_start, count, D, L,
+                            self._theta if self._theta is not None else np.nan)
+        nxt = c_first + (count - 1) * D + D
         self._tail = w[nxt - (L - 1) - w_start:].copy()
-        centres = centres.astype(np.float64)
-        ref = self._theta if self._theta is not None else theta[0]
-        theta = np.unwrap(np.concatenate([[ref], theta]))[1:]
         if self._theta is None:                          # extrapolate the phase back to t=0
             head = np.arange(0.0, centres[0], D)
             rate = self._rate(centres, theta, first=True)
@@ -115,30 +122,78 @@ class CycleSegmenter:
         return out[out <= self._n - 3]
 
     def _crossings(self, centres: np.ndarray, theta: np.ndarray) -> np.ndarray:
-        coord = centres * self._cps + (theta + np.pi / 2) / (2 * np.pi)
-        prev_m, prev_i = self._m, self._last_index
-        m = np.maximum.accumulate(np.concatenate([[prev_m], coord]))
-        idx = np.concatenate([[prev_i], centres])
-        self._m, self._last_index = float(m[-1]), float(idx[-1])
-        level = np.floor(m)
-        step = np.flatnonzero(level[1:] > level[:-1]) + 1
-        step = step[np.isfinite(m[step - 1])]
-        lo, hi = m[step - 1], m[step]
-        frac = np.clip((level[step] - lo) / (hi - lo), 0.0, 1.0)
-        bounds = idx[step - 1] + frac * (idx[step] - idx[step - 1])
-        return bounds[bounds >= 1.0]
+        bounds, self._m, self._last_index = _crossing_bounds(centres, theta, self._cps,
+                                                             self._m, self._last_index)
+        return bounds
+
+
+@lru_cache(maxsize=8)
+def _rotation(cps: float, n: int) -> np.ndarray:
+    """exp(-i 2 pi cps j), j < n (read-only, shared by segmenters of the same ratio)."""
+    rot = np.exp(-2j * np.pi * ((np.arange(n) * cps) % 1.0))
+    rot.flags.writeable = False
+    return rot
 
 
 @njit(cache=True, nogil=True)
-def _demodulate_sums(tail, x, rot, start):  # pragma: no cover - compiled
+def _grid_phase(c2, p0, count, step, L, ref):  # pragma: no cover - compiled
+    """Unwrapped phase of the triangle-window sums at ``count`` grid centres.
+
+    Centre k's window starts at ``p0 + k step`` in ``c2`` (the double cumulative sum);
+    the phase is unwrapped as ``np.unwrap`` does, continuing from ``ref`` (NaN: from
+    the first centre itself).
+    """
+    theta = np.empty(count)
+    for k in range(count):
+        p = p0 + k * step
+        z = c2[p + 2 * L] - 2 * c2[p + L] + c2[p]
+        theta[k] = np.arctan2(z.imag, z.real)
+    prev = theta[0] if np.isnan(ref) else ref
+    shift = 0.0                                  # np.unwrap: the corrections' running sum
+    for k in range(count):
+        raw = theta[k]
+        dd = raw - prev
+        if abs(dd) >= np.pi:
+            dmod = (dd + np.pi) % (2 * np.pi) - np.pi
+            if dmod == -np.pi and dd > 0:
+                dmod = np.pi
+            shift += dmod - dd
+        prev = raw
+        theta[k] = raw + shift
+    return theta
+
+
+@njit(cache=True, nogil=True)
+def _crossing_bounds(centres, theta, cps, prev_m, prev_i):  # pragma: no cover - compiled
+    """Boundaries where the running maximum of the cycle coordinate passes an integer,
+    interpolated linearly between centres; with the running maximum and its index."""
+    n = centres.size
+    out = np.empty(n + 1)
+    found = 0
+    m_prev, i_prev = prev_m, prev_i
+    for k in range(n):
+        coord = centres[k] * cps + (theta[k] + np.pi / 2) / (2 * np.pi)
+        m = coord if coord > m_prev else m_prev
+        lo_level = np.floor(m_prev)
+        level = np.floor(m)
+        if level > lo_level and np.isfinite(m_prev):
+            frac = min(max((level - m_prev) / (m - m_prev), 0.0), 1.0)
+            b = i_prev + frac * (centres[k] - i_prev)
+            if b >= 1.0:
+                out[found] = b
+                found += 1
+        m_prev, i_prev = m, centres[k]
+    return out[:found], m_prev, i_prev
+
+
+@njit(cache=True, nogil=True)
+def _demodulate_sums(tail, x, rot, start, w, c2):  # pragma: no cover - compiled
     """``w`` = tail + x demodulated (x exp(-i 2 pi f t)), and ``c2`` its double
     cumulative sum with leading zeros (``c2[q] = sum_{r<q} sum_{j<r} w[j]``, q <= n + 1),
-    in one pass.
+    in one pass, into the given arrays (n and n + 2 long).
     """
     nt = tail.size
     n = nt + x.size
-    w = np.empty(n, dtype=np.complex128)
-    c2 = np.empty(n + 2, dtype=np.complex128)
     w[:nt] = tail
     for j in range(x.size):
         w[nt + j] = x[j] * (start * rot[j])
@@ -150,7 +205,6 @@ def _demodulate_sums(tail, x, rot, start):  # pragma: no cover - compiled
         c2[q + 1] = acc
         c1 += w[q]
     c2[n + 1] = acc + c1
-    return w, c2
 
 
 def segment_cycles(displacement: np.ndarray, fs: float, frequency_hz: float) -> np.ndarray:

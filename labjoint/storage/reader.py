@@ -193,10 +193,26 @@ class RunFile:
     def physical(self, channel: str, start: int = 0, stop: int | None = None, *,
                  out: np.ndarray | None = None) -> np.ndarray:
         """``channel`` in its physical unit: volts times the calibration at the run's
-        frequency (written into ``out`` if given, e.g. a row of a block being filled)."""
+        frequency (written into ``out`` if given, e.g. a row of a block being filled: the
+        samples are then read straight into it, without a temporary array)."""
         spec = self.channel(channel)
-        return np.multiply(self.volts(channel, start, stop), spec.units_per_volt(self.frequency_hz),
-                           out=out)
+        scale = spec.units_per_volt(self.frequency_hz)
+        if out is not None and self._read_into(channel, start, stop, out):
+            return np.multiply(out, scale, out=out)
+        return np.multiply(self.volts(channel, start, stop), scale, out=out)
+
+    @layout.locked
+    def _read_into(self, channel: str, start: int, stop: int | None, out: np.ndarray) -> bool:
+        """Read samples ``start:stop`` of a float64 channel into ``out`` (same length,
+        contiguous float64); False (nothing read) when that does not apply."""
+        ds = self._ds[channel]
+        sel = self._slice(start, stop)
+        if ds.dtype != np.float64 or out.dtype != np.float64 or out.ndim != 1 \
+                or not out.flags.c_contiguous or out.size != sel.stop - sel.start:
+            return False
+        if out.size:
+            ds.read_direct(out, source_sel=np.s_[sel.start:sel.stop])
+        return True
 
     def iter_blocks(self, block_samples: int, channels: list[str] | None = None,
                     overlap: int = 0, physical: bool = True) -> Iterator[DataBlock]:

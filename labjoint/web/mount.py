@@ -1,5 +1,6 @@
 """Serve the dashboard from package files: ``/`` (the page), ``/static/...`` (its scripts
-and styles) and ``/web/effects.json`` (the effect vocabulary the model editor offers).
+and styles, from memory: :mod:`labjoint.web.assets`) and ``/web/effects.json`` (the
+effect vocabulary the model editor offers).
 
 Everything the page needs ships in ``labjoint/web/static`` (no CDN, no build step), and a
 Content-Security-Policy of ``'self'`` makes the browser refuse anything from elsewhere.
@@ -9,17 +10,16 @@ JSON errors.
 
 from __future__ import annotations
 
-import mimetypes
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from fastapi import FastAPI
-from fastapi.responses import FileResponse, JSONResponse
-from fastapi.staticfiles import StaticFiles
+from fastapi import FastAPI, Request
+from fastapi.responses import JSONResponse, Response
 from starlette.routing import Mount
 
 from labjoint.vocabulary import EFFECTS
+from labjoint.web.assets import MemoryAssets
 
 #: Headers of every dashboard response: nothing may load from another origin.
 SECURITY_HEADERS = {
@@ -34,24 +34,11 @@ SECURITY_HEADERS = {
 
 EFFECTS_ROUTE = "web-effects"
 
-# ES modules must be served with a JavaScript MIME type whatever /etc/mime.types says.
-mimetypes.add_type("text/javascript", ".js")
-mimetypes.add_type("text/css", ".css")
-mimetypes.add_type("image/svg+xml", ".svg")
 
 
 def static_dir() -> Path:
     """The dashboard's files inside the installed package."""
     return Path(str(resources.files("labjoint.web").joinpath("static")))
-
-
-class _Static(StaticFiles):
-    """StaticFiles with the dashboard's security and cache headers on every file."""
-
-    def file_response(self, *args: Any, **kwargs: Any) -> Any:
-        resp = super().file_response(*args, **kwargs)
-        resp.headers.update(SECURITY_HEADERS)
-        return resp
 
 
 def effects_catalog() -> list[dict[str, Any]]:
@@ -84,14 +71,18 @@ def mount_web(app: FastAPI) -> bool:
     app.router.routes[:] = [r for r in app.router.routes
                             if not (isinstance(r, Mount) and r.path == "" and r.name == "web")]
 
+    assets = MemoryAssets(root, SECURITY_HEADERS)   # from memory, gzipped once, ETags
+
     @app.get("/", include_in_schema=False)
-    def dashboard() -> FileResponse:
-        return FileResponse(index, media_type="text/html; charset=utf-8",
-                            headers=SECURITY_HEADERS)
+    async def dashboard(request: Request) -> Response:
+        page = assets.asset("index.html")
+        if page is None:
+            return JSONResponse({"detail": "the dashboard page is missing"}, status_code=404)
+        return assets.response(page, request.headers)
 
     @app.get("/web/effects.json", include_in_schema=False, name=EFFECTS_ROUTE)
     def effects() -> JSONResponse:
         return JSONResponse(effects_catalog(), headers=SECURITY_HEADERS)
 
-    app.mount("/static", _Static(directory=str(root)), name="web-static")
+    app.mount("/static", assets, name="web-static")
     return True

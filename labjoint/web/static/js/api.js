@@ -33,7 +33,33 @@ export function url(path, query = {}) {
   return u;
 }
 
+// Replies asked for ahead of the view that needs them (prefetch), by URL; each is
+// handed to the first identical GET and dropped once the view has shown (forget).
+const early = new Map();
+
+export function prefetch(path, query = {}) {
+  const key = url(path, query).href;
+  if (!early.has(key)) {
+    const reply = api(path, { query });
+    reply.catch(() => {});           // reported by the view's own request, if it is made
+    early.set(key, reply);
+  }
+  return early.get(key);
+}
+
+export function forget() {
+  early.clear();
+}
+
 export async function api(path, { method = 'GET', body, query } = {}) {
+  if (method === 'GET' && body === undefined) {
+    const key = url(path, query).href;
+    const reply = early.get(key);
+    if (reply) {
+      early.delete(key);
+      return reply;
+    }
+  }
   const headers = { Accept: 'application/json' };
   const t = token();
   if (t) headers.Authorization = `Bearer ${t}`;

@@ -33,7 +33,7 @@ function conditions(r, ch) {
 // The raw signals over a time window [t0, t1] (s) of the run, fetched at screen
 // resolution for that window: zoom (buttons or the mouse wheel) and pan (buttons or a
 // drag) ask the server again, so a long run shows its cycles, not a solid band.
-function rawSignals(name, into, duration) {
+function rawSignals(name, into, duration, firstData = null) {
   const whole = [0, duration];
   let win = whole.slice();
   let asked = 0;
@@ -59,8 +59,9 @@ function rawSignals(name, into, duration) {
     const ask = ++asked;
     const [a, b] = win;
     span.textContent = `${fmt(a, 4)}–${fmt(b, 4)} s of ${fmt(duration, 4)} s`;
-    const data = await api(`/runs/${encodeURIComponent(name)}/data`,
-      { query: { start: a, stop: b, max_points: SCREEN_POINTS } });
+    const reply = firstData || signalData(name, a, b);
+    firstData = null;
+    const data = await reply;
     if (ask !== asked) return;
     const ms = b - a < 2 ? 1e3 : 1;
     const t0 = (data.series[0]?.time_s || []).find((t) => t != null);
@@ -101,6 +102,11 @@ function rawSignals(name, into, duration) {
   }
   into.replaceChildren(tools, plots, caption);
   return draw();
+}
+
+function signalData(name, a, b) {
+  return api(`/runs/${encodeURIComponent(name)}/data`,
+    { query: { start: a, stop: b, max_points: SCREEN_POINTS } });
 }
 
 async function latestAnalysis(name) {
@@ -174,8 +180,8 @@ function cycleCount(body, ch) {
     + `(a recording that starts and ends mid-cycle has one fewer whole cycle than it holds)`;
 }
 
-async function steadyLoopsSection(name, ch) {
-  const body = await steadyLoops(name, LOOP_CYCLES);
+async function steadyLoopsSection(name, ch, asked) {
+  const body = await asked;
   const n = body.cycles.length;
   if (!n) {
     return [loopPlot(body, { id: 'loop' }), h('p', { class: 'note', id: 'loop-reason' },
@@ -215,8 +221,14 @@ async function recordedLoops(name, rec, ch) {
 
 export async function show(el, routeInfo) {
   const name = routeInfo.arg;
-  const [rec, ch] = await Promise.all([api(`/runs/${encodeURIComponent(name)}`),
-    api(`/runs/${encodeURIComponent(name)}/channels`)]);
+  const recP = api(`/runs/${encodeURIComponent(name)}`);
+  const chP = api(`/runs/${encodeURIComponent(name)}/channels`);
+  // the loops and the signals are asked for as soon as what they need is in
+  const loopsP = recP.then((r) => (r.status === 'running' ? null : steadyLoops(name, LOOP_CYCLES)));
+  const dataP = chP.then((c) => signalData(name, 0, c.duration_s));
+  loopsP.catch(() => {});
+  dataP.catch(() => {});
+  const [rec, ch] = await Promise.all([recP, chP]);
   const raw = h('div', { id: 'raw' }, h('p', { class: 'note busy' }, 'Loading signals…'));
   const loops = h('div', { id: 'loops' }, h('p', { class: 'note busy' }, 'Finding the steady cycles…'));
   const state = stateNote(rec, ch);
@@ -226,8 +238,8 @@ export async function show(el, routeInfo) {
     section('Hysteresis loops of the steady cycles', loops)),
     identifySection(name),
     section('Raw signals', raw));
-  rawSignals(name, raw, ch.duration_s).catch((err) => raw.replaceChildren(h('p', { class: 'note error' }, err.message)));
-  const pending = rec.status === 'running' ? recordedLoops(name, rec, ch) : steadyLoopsSection(name, ch);
+  rawSignals(name, raw, ch.duration_s, dataP).catch((err) => raw.replaceChildren(h('p', { class: 'note error' }, err.message)));
+  const pending = rec.status === 'running' ? recordedLoops(name, rec, ch) : steadyLoopsSection(name, ch, loopsP);
   pending.then((parts) => loops.replaceChildren(...parts.filter(Boolean)))
     .catch((err) => loops.replaceChildren(h('p', { class: 'note error' }, err.message)));
   return null;

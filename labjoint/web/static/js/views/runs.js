@@ -87,6 +87,10 @@ export async function show(el, routeInfo) {
   const count = h('span', { class: 'count' });
   const compare = h('button', { id: 'compare-selected' }, 'Compare models on ticked runs');
   const selCount = h('span', { class: 'count' });
+  let offset = 0;
+  const listPage = () => api('/runs', { query: { ...apiQuery(query), order: '-start_time', limit: PAGE, offset } });
+  let first = listPage();               // the first page is asked for with the plan types
+  first.catch(() => {});                // (its error is shown by load)
   let plans = [];
   try {
     plans = (await api('/plan-types')).map((p) => p.name);
@@ -106,12 +110,13 @@ export async function show(el, routeInfo) {
       body)),
     more));
   showSel();
-  let offset = 0;
   let shown = 0;
   async function load() {
     note(msg, 'Loading runs…', 'busy');
     try {
-      const page = await api('/runs', { query: { ...apiQuery(query), order: '-start_time', limit: PAGE, offset } });
+      const asked = first || listPage();
+      first = null;
+      const page = await asked;
       const selected = new Set(selectedRuns());
       page.items.forEach((r) => body.append(row(r, selected)));
       shown += page.items.length;
