@@ -19,7 +19,8 @@ from labjoint.batch.pipelines import pipeline_version
 from labjoint.batch.reprocess import SerialRunner, execute, plan_reprocess
 from labjoint.cli.main import main
 from labjoint.storage import Catalog, read_processed
-from labjoint.storage.results import Results, file_sha256, options_hash
+from labjoint.storage.checksum import raw_sha256
+from labjoint.storage.results import Results, options_hash
 from test_api_helpers import write_linear_run
 from test_storage_fixtures import write_run
 
@@ -43,7 +44,7 @@ def _reprocess(cat, pipeline="analyze", options=None, **kw):
 
 def test_results_carry_the_physics_and_the_provenance(lab):
     d, cat = lab
-    shas = {n: file_sha256(d / f"{n}.h5") for n in CASES}     # the files as the task reads them
+    shas = {n: raw_sha256(d / f"{n}.h5") for n in CASES}
     plan, rep = _reprocess(cat)
     assert (rep["computed"], rep["skipped"], rep["failed"]) == (3, 0, 0)
     by = {r["run"]: r for r in rep["runs"]}
@@ -57,7 +58,8 @@ def test_results_carry_the_physics_and_the_provenance(lab):
         row = res.get(name, "analyze", options_hash({"force": "joint"}))
         assert row.status == "complete" and row.version == pipeline_version("analyze")
         assert row.labjoint_version == __version__ and row.options == {"force": "joint"}
-        assert row.input_sha256 == shas[name]
+        # the measurement's checksum, unchanged by the result now stored in the file
+        assert row.input_sha256 == shas[name] == raw_sha256(d / f"{name}.h5")
         assert row.summary["damping_ns_per_m"] == pytest.approx(c, rel=0.01)
 
 

@@ -18,7 +18,7 @@ from labjoint import __version__
 from labjoint.batch.pipelines import get_pipeline, pipeline_version
 from labjoint.documents import utc_now
 from labjoint.errors import LabjointError
-from labjoint.storage.results import file_sha256
+from labjoint.storage.checksum import raw_sha256
 
 
 @dataclass(frozen=True)
@@ -50,7 +50,7 @@ def run_task(task: Task, executor: Any = None) -> dict[str, Any]:
             if not Path(p).is_file():
                 out["error"] = f"run {name}: file disappeared ({p})"
                 return out
-            out["input_sha256"][name] = file_sha256(p)
+            out["input_sha256"][name] = raw_sha256(p)
         opts = {**task.options, "pipeline": task.pipeline, "options_hash": task.options_hash}
         pipe = get_pipeline(task.pipeline)
         out["summary"] = pipe.run([Path(p) for p in task.paths], opts, executor)

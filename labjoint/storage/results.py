@@ -2,9 +2,10 @@
 
 A result is keyed by (run, pipeline, options hash) and records the pipeline version
 (a content hash of the code and settings that produce it, :mod:`labjoint.batch.pipelines`),
-the labjoint version, the options (JSON), the sha256 of the run file as the pipeline read
-it, its status (``complete`` or ``failed``), when it was computed, a small JSON summary and
-the error of a failed run. The processed arrays themselves live in the run file
+the labjoint version, the options (JSON), the sha256 of the run's measurement
+(:func:`labjoint.storage.checksum.raw_sha256`, unchanged when results are stored in the
+file), its status (``complete`` or ``failed``), when it was computed, a small JSON
+summary and the error of a failed run. The processed arrays themselves live in the run file
 (``/entry/processed/<name>``); this table is what a reprocess plans from without opening a
 single run file.
 
@@ -27,7 +28,6 @@ import hashlib
 import json
 import math
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
 from typing import Any, Iterable
 
 from labjoint import __version__
@@ -35,8 +35,6 @@ from labjoint.documents import utc_now
 from labjoint.errors import InputError
 
 STATUSES = ("complete", "failed")
-#: Bytes read at a time when a run file is checksummed (the file never sits in memory).
-CHUNK_BYTES = 1 << 20
 
 COLUMNS = ("run", "pipeline", "options_hash", "version", "status", "computed_at",
            "labjoint_version", "input_sha256", "options", "summary", "error")
@@ -62,18 +60,6 @@ def options_hash(options: dict[str, Any]) -> str:
     16
     """
     return hashlib.sha256(options_json(options).encode()).hexdigest()[:16]
-
-
-def file_sha256(path: str | Path, chunk: int = CHUNK_BYTES) -> str:
-    """sha256 of a file's bytes, read in ``chunk``-byte pieces; a missing file is named."""
-    h = hashlib.sha256()
-    try:
-        with open(path, "rb") as f:
-            while block := f.read(chunk):
-                h.update(block)
-    except FileNotFoundError:
-        raise InputError("run file disappeared (no such file)", file=str(path)) from None
-    return h.hexdigest()
 
 
 @dataclass
