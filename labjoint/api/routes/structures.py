@@ -30,6 +30,8 @@ from labjoint.errors import InputError
 
 router = APIRouter(prefix="/structures", tags=["structures"])
 STRUCTURES, FRFSETS = "structures", "frf"
+#: names a file cannot have: ``/structures/jobs/{id}`` would shadow ``/structures/{name}/...``
+RESERVED = frozenset({"jobs"})
 KINDS = ("structure_update", "structure_frf", "structure_stage2")
 Name = Annotated[str, Field(pattern=RUN_NAME)]
 Hz = Annotated[float, Field(gt=0, le=1e5, allow_inf_nan=False)]
@@ -78,6 +80,9 @@ class FrfModelRequest(_In):
 
 def named_file(request: Request, folder: str, name: str, suffix: str) -> FsPath:
     """The file ``<name><suffix>`` among the data directory's ``folder`` (404 if absent)."""
+    if name in RESERVED:
+        raise InputError(f"{name!r} is a reserved name (the /structures/{name}/ routes); rename "
+                         f"{folder}/{name}{suffix}", field="name")
     base = FsPath(request.app.state.resolver.data_dir) / folder
     if base.is_dir():
         for p in base.iterdir():
@@ -91,15 +96,24 @@ def _listing(request: Request, folder: str, suffix: str) -> list[str]:
     if not base.is_dir():
         return []
     return sorted(p.stem for p in base.iterdir() if p.is_file() and p.suffix == suffix
-                  and not p.name.startswith(".") and ".model_" not in p.name)
+                  and not p.name.startswith(".") and ".model_" not in p.name
+                  and p.stem not in RESERVED)
 
 
 @router.get("", responses=errors_doc(), summary="Structure and FRF set files",
             dependencies=[Depends(require_read)])
 def listing(request: Request) -> dict[str, Any]:
-    """Names of the structure files (``structures/*.toml``) and FRF sets (``frf/*.json``)."""
-    return {"structures": _listing(request, STRUCTURES, ".toml"),
-            "frfsets": _listing(request, FRFSETS, ".json")}
+    """Names of the structure files (``structures/*.toml``) and FRF sets (``frf/*.json``);
+    files with a reserved name (``jobs``) are listed under ``refused`` with the reason."""
+    out: dict[str, Any] = {"structures": _listing(request, STRUCTURES, ".toml"),
+                           "frfsets": _listing(request, FRFSETS, ".json")}
+    base = FsPath(request.app.state.resolver.data_dir)
+    refused = {f"{d}/{n}{x}": f"{n!r} is a reserved name (the /structures/{n}/ routes): rename it"
+               for d, x in ((STRUCTURES, ".toml"), (FRFSETS, ".json")) for n in sorted(RESERVED)
+               if (base / d / f"{n}{x}").is_file()}
+    if refused:
+        out["refused"] = refused
+    return out
 
 
 @router.get("/jobs", response_model=JobList, responses=errors_doc(),
