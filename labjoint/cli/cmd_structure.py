@@ -14,6 +14,7 @@ import argparse
 import numpy as np
 
 from labjoint.cli.cmd_structure_measured import add_measured_parsers, run_measured, run_ema
+from labjoint.cli.cmd_structure_stage2 import add_stage2_parser, run_stage2
 from labjoint.cli.output import emit_json, table
 from labjoint.errors import InputError
 
@@ -52,9 +53,11 @@ def add_structure_arguments(p: argparse.ArgumentParser) -> None:
                            help="Craig-Bampton kept modes (default 10; -1: unreduced)")
             q.add_argument("--samples", type=int, default=None, help="AFT samples per period (default 256)")
     add_measured_parsers(sub)
+    add_stage2_parser(sub)
 
 
-def _load(args: argparse.Namespace):
+def load_with_sets(args: argparse.Namespace):
+    """The structure file of ``args`` with its ``--set`` parameters applied."""
     from labjoint.structure import load_structure
     from labjoint.structure.modal import with_parameter
 
@@ -69,13 +72,13 @@ def _load(args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     return {"modes": _modes, "update": _update, "frf": _frf, "measured": run_measured,
-            "ema": run_ema}[args.action](args)
+            "ema": run_ema, "stage2": run_stage2}[args.action](args)
 
 
 def _modes(args: argparse.Namespace) -> int:
     from labjoint.structure.modal import modes
 
-    s = _load(args)
+    s = load_with_sets(args)
     if args.count < 1:
         raise InputError(f"must be >= 1, got {args.count}", field="--count")
     m = modes(s, args.count)
@@ -95,7 +98,7 @@ def _modes(args: argparse.Namespace) -> int:
 def _update(args: argparse.Namespace) -> int:
     from labjoint.structure.modal import update_stiffness
 
-    s = _load(args)
+    s = load_with_sets(args)
     r = update_stiffness(s, _floats(args.measured_hz, "--measured-hz"), args.parameter)
     res = {"structure": s.name, **r.to_dict()}
     if getattr(args, "json", False):
@@ -110,7 +113,7 @@ def _update(args: argparse.Namespace) -> int:
 def _frf(args: argparse.Namespace) -> int:
     from labjoint.structure.frf import frf
 
-    s = _load(args)
+    s = load_with_sets(args)
     band = _floats(args.band, "--band", ":")
     if len(band) != 2:
         raise InputError(f"expected START:END in Hz, got '{args.band}'", field="--band")

@@ -203,7 +203,7 @@ def stage2(request: Request, body: Stage2Request, name: str = Path(pattern=RUN_N
            scope: str = Depends(require_control)) -> dict[str, Any]:
     """The joint law's nonlinear parameters (E_p, S_Y, n by default) on the FRF residual
     (seed 000 Eq. 9): fitted around mode 1, validated around mode 2, with standard errors."""
-    from labjoint.signal.frfset import FrfSet
+    from labjoint.signal.frfset import FrfSet, concat
     from labjoint.structure import load_structure
     from labjoint.structure.predict import FrfPredictor
     from labjoint.structure.stage2 import update_nonlinear
@@ -218,26 +218,11 @@ def stage2(request: Request, body: Stage2Request, name: str = Path(pattern=RUN_N
             raise InputError(f"{p} is not a parameter of the joint law ({known})", field="parameters")
 
     def work(progress: Callable[[float, str], None]) -> dict[str, Any]:
-        sets = [FrfSet.load(f) for f in files]
-        fs = sets[0] if len(sets) == 1 else _concat(sets)
+        fs = concat([FrfSet.load(f) for f in files])
         pr = FrfPredictor(structure, body.modes, harmonics=1)
         return update_nonlinear(pr, fs, body.parameters).to_dict()
 
     return _job(request, "structure_stage2", {"structure": name, **body.model_dump()}, scope, work)
-
-
-def _concat(sets: list[Any]) -> Any:
-    import numpy as np
-
-    from labjoint.signal.frfset import FrfSet
-    H = min(s.harmonics for s in sets)
-    if len({s.sensors for s in sets}) > 1:
-        raise InputError("the FRF sets name different sensors", field="frfsets")
-    cat = lambda f: np.concatenate([f(s) for s in sets])  # noqa: E731
-    return FrfSet(cat(lambda s: s.frequencies_hz), cat(lambda s: s.level_n),
-                  cat(lambda s: s.direction), cat(lambda s: s.force), sets[0].sensors,
-                  cat(lambda s: s.response[:, :, :H]), cat(lambda s: s.response_std[:, :, :H]),
-                  sets[0].quantity)
 
 
 @router.post("/{name}/models/{operation}", response_model=Job, status_code=202,
