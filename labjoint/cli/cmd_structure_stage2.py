@@ -50,7 +50,7 @@ def law_parameters(text: str | None, known: list[str]) -> list[str] | None:
 
 
 def run_stage2(args: argparse.Namespace) -> int:
-    from labjoint.cli.cmd_structure import load_with_sets
+    from labjoint.cli.structure_inputs import load_with_sets
     from labjoint.signal.frfset import FrfSet, concat
     from labjoint.structure.predict import FrfPredictor
     from labjoint.structure.stage2 import update_nonlinear
