@@ -9,6 +9,8 @@ nonlinear law must be seen above."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 
 import pytest
@@ -66,8 +68,6 @@ def structure(tmp_path_factory):
     raw = d / "lin0.toml"
     write_linear_structure(raw)
     out = d / "lin.toml"
-    import contextlib
-    import io
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf):
         assert main(["structure", "update", str(raw), "--measured-hz", "28.5",

@@ -4,7 +4,9 @@ An FRF set file is a JSON file whose ``format`` key is ``labjoint.frfset/1``
 (:mod:`labjoint.signal.frfset`); it is compared inside a structure, given by the
 ``structure`` option (a TOML path or a :class:`~labjoint.structure.Structure`), with
 ``modes`` (Craig-Bampton kept modes, default 10) and ``harmonics`` (response harmonics
-compared, default all of the set's, at most 3). Results are saved beside the FRF files
+compared, default all of the set's, at most 3). Step-sine run files given with a
+structure are made into one FRF set first (:func:`from_runs`); FRF set files and runs
+cannot be mixed in one call. Results are saved beside the FRF files
 as ``<stem>.model_<operation>_<key>.json`` (the FRF file is never rewritten; key: 12 hex
 digits of the files, the model and the operation, so asking the same question again
 replaces the earlier answer).
@@ -70,8 +72,8 @@ def _predictor(structure: Any, modes: Any, harmonics: int) -> FrfPredictor:
 
 def load_frf(items: Sequence[Any], validate: Sequence[Any] | None, options: dict[str, Any]
              ) -> tuple[list[FrfMeasurement], list[str] | None]:
-    """Measurements of FRF set files or objects (and the validation names: measurements
-    whose name or file is in ``validate``)."""
+    """Measurements of FRF set files or objects, or of step-sine run files (one set named
+    ``runs``), and the validation names (measurements whose name or file is in ``validate``)."""
     h = options.get("harmonics")
     if h is not None and (isinstance(h, bool) or not isinstance(h, int) or not 1 <= h <= MAX_HARMONICS):
         raise InputError(f"must be a whole number in [1, {MAX_HARMONICS}], got {h!r}", field="harmonics")
