@@ -20,13 +20,13 @@ from labjoint.acquisition.engine import RunEngine
 from labjoint.acquisition.plans import step_sine
 from labjoint.acquisition.rig import open_rig
 from labjoint.cli.main import main
-from labjoint.compare.api import diagnose_report, fit_runs
+from labjoint.compare.api import fit_runs, ladder_report
 from labjoint.config import CONFIG_DIR, load_config
 from labjoint.errors import InputError
 from labjoint.signal.frf_steps import frfset_from_runs
 from labjoint.storage.writer import RunWriter
 
-pytestmark = pytest.mark.slow
+pytestmark = pytest.mark.slow          # about 90 s on the shared machine (the ladder: three fits of the hidden set)
 
 FREQS = [27.0, 27.4, 27.8, 28.2, 28.6, 29.0]
 #: steps of 0.1 Hz (a third of the half-power band at low level): the paired test over the
@@ -114,12 +114,14 @@ def test_linear_rig_against_the_linear_model_the_model_gap(structure, linear_run
     assert k == pytest.approx(start, rel=0.05)       # stage 1 already placed mode 1
 
 
-def test_hidden_iwan_viscous_joint_against_the_linear_baseline(structure, hidden_runs):
+def test_hidden_iwan_viscous_joint_against_the_linear_baseline(structure, hidden_runs, linear_runs):
     """The baseline fails where the joint is nonlinear (mode 1, at the resonance, the
-    highest level first, harmonic 3 as well) and the diagnosis adds a dissipative effect
-    that lowers the validation error several times (the ladder then adds Iwan: README)."""
-    dg = diagnose_report([str(p) for p in hidden_runs], "linear_stiffness", structure=str(structure),
-                         candidates=["viscous", "iwan"])
+    highest level first, harmonic 3 as well); the diagnosis adds a dissipative effect
+    (significant), the ladder adds the other, and the validation error falls to the
+    model gap a linear rig shows (the floor a joint law can reach in this structure model)."""
+    lad, _, _ = ladder_report([str(p) for p in hidden_runs], "linear_stiffness", max_steps=3,
+                              structure=str(structure), candidates=["viscous", "iwan"], save=False)
+    dg = lad.steps[0].diagnosis
     assert not dg.adequate
     d = dg.to_dict()
     texts = [f["text"] for f in d["failures"]]
@@ -131,7 +133,12 @@ def test_hidden_iwan_viscous_joint_against_the_linear_baseline(structure, hidden
     assert d["verdict"].startswith(f"add {dg.best.effect}")
     best = next(c for c in d["candidates"] if c["effect"] == dg.best.effect)
     assert best["significant"] and best["p_value"] < 0.01
-    assert best["nrmse_after_validation"] < 0.5 * d["nrmse_validation"]
+    steps = lad.to_dict()["steps"]
+    assert [s["added"] for s in steps[1:]] in (["viscous", "iwan"], ["iwan", "viscous"])
+    val = [s["nrmse_validation"] for s in steps]
+    assert all(b < 0.5 * a for a, b in zip(val, val[1:]))
+    gap = fit_runs([str(p) for p in linear_runs], "linear_stiffness", structure=str(structure))["nrmse"]
+    assert val[-1] < 3 * gap < 0.1 * val[0]
 
 
 def test_cli_takes_run_files_with_structure_and_refuses_a_mix(structure, linear_runs, tmp_path, capsys):
