@@ -97,3 +97,19 @@ def test_stage2_job(http):
     assert res["fit_steps"] == 15 and res["validation_steps"] == 0 and res["error_validation_rms"] is None
     bad = http.post("/structures/lin/stage2", json={"frfsets": ["sweep"], "parameters": ["iwan.F_S"]})
     assert bad.status_code == 422 and "iwan.F_S" in bad.text and "linear_stiffness.k" in bad.text
+
+
+def test_a_structure_named_jobs_is_refused_not_shadowed(http):
+    """/structures/jobs/{id} would shadow /structures/jobs/modes: the name is refused."""
+    p = http.data / "structures" / "jobs.toml"
+    p.write_text((http.data / "structures" / "lin.toml").read_text())
+    try:
+        listing = http.get("/structures").json()
+        assert listing["structures"] == ["lin"]
+        assert "reserved" in listing["refused"]["structures/jobs.toml"]
+        r = http.post("/structures/jobs/update", json={"measured_hz": [28.5]})
+        assert r.status_code == 422 and "reserved" in r.text and "jobs" in r.text
+        assert http.get("/structures/jobs").status_code == 200   # the job list stays reachable
+    finally:
+        p.unlink()
+    assert "refused" not in http.get("/structures").json()

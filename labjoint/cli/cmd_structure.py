@@ -14,15 +14,10 @@ import argparse
 import numpy as np
 
 from labjoint.cli.cmd_structure_measured import add_measured_parsers, run_measured, run_ema
+from labjoint.cli.cmd_structure_stage2 import add_stage2_parser, run_stage2
+from labjoint.cli.structure_inputs import floats, load_with_sets
 from labjoint.cli.output import emit_json, table
 from labjoint.errors import InputError
-
-
-def _floats(text: str, field: str, sep: str = ",") -> list[float]:
-    try:
-        return [float(x) for x in text.split(sep) if x.strip()]
-    except ValueError:
-        raise InputError(f"expected numbers separated by '{sep}', got '{text}'", field=field) from None
 
 
 def add_structure_arguments(p: argparse.ArgumentParser) -> None:
@@ -52,30 +47,18 @@ def add_structure_arguments(p: argparse.ArgumentParser) -> None:
                            help="Craig-Bampton kept modes (default 10; -1: unreduced)")
             q.add_argument("--samples", type=int, default=None, help="AFT samples per period (default 256)")
     add_measured_parsers(sub)
-
-
-def _load(args: argparse.Namespace):
-    from labjoint.structure import load_structure
-    from labjoint.structure.modal import with_parameter
-
-    s = load_structure(args.structure)
-    for item in args.set:
-        key, sep, val = item.partition("=")
-        if not sep:
-            raise InputError(f"expected PARAM=VALUE, got '{item}'", field="--set")
-        s = with_parameter(s, key.strip(), _floats(val, f"--set {key}")[0])
-    return s
+    add_stage2_parser(sub)
 
 
 def run(args: argparse.Namespace) -> int:
     return {"modes": _modes, "update": _update, "frf": _frf, "measured": run_measured,
-            "ema": run_ema}[args.action](args)
+            "ema": run_ema, "stage2": run_stage2}[args.action](args)
 
 
 def _modes(args: argparse.Namespace) -> int:
     from labjoint.structure.modal import modes
 
-    s = _load(args)
+    s = load_with_sets(args)
     if args.count < 1:
         raise InputError(f"must be >= 1, got {args.count}", field="--count")
     m = modes(s, args.count)
@@ -95,8 +78,8 @@ def _modes(args: argparse.Namespace) -> int:
 def _update(args: argparse.Namespace) -> int:
     from labjoint.structure.modal import update_stiffness
 
-    s = _load(args)
-    r = update_stiffness(s, _floats(args.measured_hz, "--measured-hz"), args.parameter)
+    s = load_with_sets(args)
+    r = update_stiffness(s, floats(args.measured_hz, "--measured-hz"), args.parameter)
     res = {"structure": s.name, **r.to_dict()}
     if getattr(args, "json", False):
         emit_json(res)
@@ -110,8 +93,8 @@ def _update(args: argparse.Namespace) -> int:
 def _frf(args: argparse.Namespace) -> int:
     from labjoint.structure.frf import frf
 
-    s = _load(args)
-    band = _floats(args.band, "--band", ":")
+    s = load_with_sets(args)
+    band = floats(args.band, "--band", ":")
     if len(band) != 2:
         raise InputError(f"expected START:END in Hz, got '{args.band}'", field="--band")
     r = frf(s, args.force_n, (band[0], band[1]), harmonics=args.harmonics,

@@ -54,7 +54,7 @@ def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | s
     if not items:
         raise InputError("no runs given", field="runs")
     frf = {k: v for k, v in (frf or {}).items() if v is not None}
-    if any(is_frfset(x) for x in items):
+    if any(is_frfset(x) for x in items) or (frf.get("structure") is not None and kind in ("auto", "frf")):
         if kind not in ("auto", "frf"):
             raise InputError(f"FRF sets are the frf kind, not {kind}", field="kind")
         return load_frf(items, validate, frf)

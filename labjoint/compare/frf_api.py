@@ -4,7 +4,9 @@ An FRF set file is a JSON file whose ``format`` key is ``labjoint.frfset/1``
 (:mod:`labjoint.signal.frfset`); it is compared inside a structure, given by the
 ``structure`` option (a TOML path or a :class:`~labjoint.structure.Structure`), with
 ``modes`` (Craig-Bampton kept modes, default 10) and ``harmonics`` (response harmonics
-compared, default all of the set's, at most 3). Results are saved beside the FRF files
+compared, default all of the set's, at most 3). Step-sine run files given with a
+structure are made into one FRF set first (:func:`from_runs`); FRF set files and runs
+cannot be mixed in one call. Results are saved beside the FRF files
 as ``<stem>.model_<operation>_<key>.json`` (the FRF file is never rewritten; key: 12 hex
 digits of the files, the model and the operation, so asking the same question again
 replaces the earlier answer).
@@ -22,7 +24,9 @@ from typing import Any
 from labjoint.compare.kinds.frf import FrfMeasurement, prepare_frfsets
 from labjoint.compare.jsonsafe import clean
 from labjoint.errors import InputError
+from labjoint.signal.frf_steps import frfset_from_runs
 from labjoint.signal.frfset import FORMAT, FrfSet
+from labjoint.storage.reader import open_run
 from labjoint.structure import Structure, load_structure
 from labjoint.structure.frf import DEFAULT_MODES
 from labjoint.structure.predict import FrfPredictor
@@ -68,21 +72,29 @@ def _predictor(structure: Any, modes: Any, harmonics: int) -> FrfPredictor:
 
 def load_frf(items: Sequence[Any], validate: Sequence[Any] | None, options: dict[str, Any]
              ) -> tuple[list[FrfMeasurement], list[str] | None]:
-    """Measurements of FRF set files or objects (and the validation names: measurements
-    whose name or file is in ``validate``)."""
+    """Measurements of FRF set files or objects, or of step-sine run files (one set named
+    ``runs``), and the validation names (measurements whose name or file is in ``validate``)."""
     h = options.get("harmonics")
     if h is not None and (isinstance(h, bool) or not isinstance(h, int) or not 1 <= h <= MAX_HARMONICS):
         raise InputError(f"must be a whole number in [1, {MAX_HARMONICS}], got {h!r}", field="harmonics")
+    frf = [it for it in items if is_frfset(it)]
+    runs = [it for it in items if not is_frfset(it)]
+    if frf and runs:
+        raise InputError(f"FRF sets ({', '.join(map(str, frf[:3]))}) and step-sine runs "
+                         f"({', '.join(map(str, runs[:3]))}) cannot be mixed: give either FRF set "
+                         "files or the runs to make one of", field="runs")
     sets = []
-    for i, it in enumerate(items):
+    for i, it in enumerate(frf):
         if isinstance(it, FrfSet):
             sets.append((str(it.metadata.get("name", f"frf{i}")), it))
-        elif isinstance(it, (str, Path)) and is_frfset(it):
+        else:
             fs = FrfSet.load(it)
             fs.metadata["path"] = str(it)
             sets.append((Path(it).stem, fs))
-        else:
-            raise InputError(f"{it}: not an FRF set; FRF sets and runs cannot be mixed", field="runs")
+    if runs:
+        H0 = h or MAX_HARMONICS
+        pr = _predictor(options.get("structure"), options.get("modes"), H0)
+        sets.append(("runs", from_runs(runs, pr.system.output_names, H0)))
     H = min(max(fs.harmonics for _, fs in sets), h or MAX_HARMONICS)
     pr = _predictor(options.get("structure"), options.get("modes"), H)
     ms = prepare_frfsets(sets, pr, H)
@@ -94,6 +106,28 @@ def load_frf(items: Sequence[Any], validate: Sequence[Any] | None, options: dict
         raise InputError(f"none of {sorted(map(str, validate))} names an FRF set or sweep given",
                          field="validate")
     return ms, val
+
+
+def from_runs(runs: Sequence[Any], sensors: Sequence[str], harmonics: int) -> FrfSet:
+    """The FRF set of step-sine run files, responses at the structure's ``sensors`` that the
+    runs record (InputError naming them if none does)."""
+    paths = [Path(str(r)) for r in runs]
+    bad = [str(p) for p in paths if p.suffix.lower() not in (".h5", ".hdf5")]
+    if bad:
+        raise InputError(f"{', '.join(bad[:3])}: neither an FRF set (JSON) nor a step-sine run "
+                         "file (.h5)", field="runs")
+    missing = [str(p) for p in paths if not p.is_file()]
+    if missing:
+        raise InputError(f"{', '.join(missing[:3])}: no such file", field="runs")
+    with open_run(paths[0]) as rf:
+        have = set(rf.channel_names)
+    use = [s for s in sensors if s in have]
+    if not use:
+        raise InputError(f"{paths[0]}: records none of the structure's sensors "
+                         f"({', '.join(sensors)}); channels: {', '.join(sorted(have))}", field="sensors")
+    fs = frfset_from_runs(paths, sensors=use, harmonics=harmonics)
+    fs.metadata["name"] = "runs"
+    return fs
 
 
 def result_key(paths: Sequence[str], model: str, operation: str) -> str:

@@ -53,6 +53,20 @@ def phasors(x: np.ndarray, fs: float, f: float, harmonics: int = 1, segments: in
     return mean, sd
 
 
+#: a record is clipped when more than this fraction of its samples sit at its largest |V|
+CLIPPED_FRACTION = 0.01
+
+
+def _clipped(volts: np.ndarray) -> bool:
+    """More than ``CLIPPED_FRACTION`` of the samples sit at the largest |V|: the input range
+    was exceeded (a sine has about one sample per cycle within 1e-6 of its peak, a clipped
+    one a plateau), and its phasors would be wrong."""
+    a = np.abs(np.asarray(volts, float))
+    top = float(a.max()) if a.size else 0.0
+    n = int(np.count_nonzero(a >= top * (1 - 1e-6))) if top > 0 else 0
+    return n > max(3, CLIPPED_FRACTION * a.size)
+
+
 def _step(path: Path, sensors: Sequence[str] | None, harmonics: int, segments: int,
           settle_fraction: float) -> dict[str, Any]:
     with open_run(path) as rf:
@@ -73,6 +87,11 @@ def _step(path: Path, sensors: Sequence[str] | None, harmonics: int, segments: i
             raise InputError(f"{path}: no response channel(s) {missing or '(acceleration)'}; channels: {names}",
                              field="sensors")
         volt = [c for c in names if rf.channel(c).quantity == "voltage"]
+        for c in (ref, *resp):
+            if _clipped(rf.volts(c)):
+                raise InputError(f"{path}: channel {c!r} is clipped at the input range: use a less "
+                                 "sensitive sensor or a lower level", field="sensors")
+        volt = [c for c in volt[:1] if not _clipped(rf.volts(c))]   # a clipped drive: no per-volt FRF
         f, fs = float(md["frequency_hz"]), rf.sample_rate_hz
         n = int(rf.time().size)
         start = int(settle_fraction * n)

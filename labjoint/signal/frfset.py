@@ -192,3 +192,19 @@ class FrfSet:
         return True
 
     __hash__ = None  # type: ignore[assignment]
+
+
+def concat(sets: "list[FrfSet]") -> FrfSet:
+    """One FrfSet of several (their common harmonics; the sensors must be the same)."""
+    if len(sets) == 1:
+        return sets[0]
+    if len({s.sensors for s in sets}) > 1:
+        raise InputError("the FRF sets name different sensors", field="frfsets")
+    if len({s.quantity for s in sets}) > 1:
+        raise InputError("the FRF sets measure different quantities", field="frfsets")
+    H = min(s.harmonics for s in sets)
+    cat = lambda f: np.concatenate([f(s) for s in sets])  # noqa: E731
+    return FrfSet(cat(lambda s: s.frequencies_hz), cat(lambda s: s.level_n),
+                  cat(lambda s: s.direction), cat(lambda s: s.force), sets[0].sensors,
+                  cat(lambda s: s.response[:, :, :H]), cat(lambda s: s.response_std[:, :, :H]),
+                  sets[0].quantity)

@@ -30,6 +30,8 @@ from labjoint.errors import InputError
 
 router = APIRouter(prefix="/structures", tags=["structures"])
 STRUCTURES, FRFSETS = "structures", "frf"
+#: names a file cannot have: ``/structures/jobs/{id}`` would shadow ``/structures/{name}/...``
+RESERVED = frozenset({"jobs"})
 KINDS = ("structure_update", "structure_frf", "structure_stage2")
 Name = Annotated[str, Field(pattern=RUN_NAME)]
 Hz = Annotated[float, Field(gt=0, le=1e5, allow_inf_nan=False)]
@@ -78,6 +80,9 @@ class FrfModelRequest(_In):
 
 def named_file(request: Request, folder: str, name: str, suffix: str) -> FsPath:
     """The file ``<name><suffix>`` among the data directory's ``folder`` (404 if absent)."""
+    if name in RESERVED:
+        raise InputError(f"{name!r} is a reserved name (the /structures/{name}/ routes); rename "
+                         f"{folder}/{name}{suffix}", field="name")
     base = FsPath(request.app.state.resolver.data_dir) / folder
     if base.is_dir():
         for p in base.iterdir():
@@ -91,15 +96,24 @@ def _listing(request: Request, folder: str, suffix: str) -> list[str]:
     if not base.is_dir():
         return []
     return sorted(p.stem for p in base.iterdir() if p.is_file() and p.suffix == suffix
-                  and not p.name.startswith(".") and ".model_" not in p.name)
+                  and not p.name.startswith(".") and ".model_" not in p.name
+                  and p.stem not in RESERVED)
 
 
 @router.get("", responses=errors_doc(), summary="Structure and FRF set files",
             dependencies=[Depends(require_read)])
 def listing(request: Request) -> dict[str, Any]:
-    """Names of the structure files (``structures/*.toml``) and FRF sets (``frf/*.json``)."""
-    return {"structures": _listing(request, STRUCTURES, ".toml"),
-            "frfsets": _listing(request, FRFSETS, ".json")}
+    """Names of the structure files (``structures/*.toml``) and FRF sets (``frf/*.json``);
+    files with a reserved name (``jobs``) are listed under ``refused`` with the reason."""
+    out: dict[str, Any] = {"structures": _listing(request, STRUCTURES, ".toml"),
+                           "frfsets": _listing(request, FRFSETS, ".json")}
+    base = FsPath(request.app.state.resolver.data_dir)
+    refused = {f"{d}/{n}{x}": f"{n!r} is a reserved name (the /structures/{n}/ routes): rename it"
+               for d, x in ((STRUCTURES, ".toml"), (FRFSETS, ".json")) for n in sorted(RESERVED)
+               if (base / d / f"{n}{x}").is_file()}
+    if refused:
+        out["refused"] = refused
+    return out
 
 
 @router.get("/jobs", response_model=JobList, responses=errors_doc(),
@@ -189,7 +203,7 @@ def stage2(request: Request, body: Stage2Request, name: str = Path(pattern=RUN_N
            scope: str = Depends(require_control)) -> dict[str, Any]:
     """The joint law's nonlinear parameters (E_p, S_Y, n by default) on the FRF residual
     (seed 000 Eq. 9): fitted around mode 1, validated around mode 2, with standard errors."""
-    from labjoint.signal.frfset import FrfSet
+    from labjoint.signal.frfset import FrfSet, concat
     from labjoint.structure import load_structure
     from labjoint.structure.predict import FrfPredictor
     from labjoint.structure.stage2 import update_nonlinear
@@ -204,26 +218,11 @@ def stage2(request: Request, body: Stage2Request, name: str = Path(pattern=RUN_N
             raise InputError(f"{p} is not a parameter of the joint law ({known})", field="parameters")
 
     def work(progress: Callable[[float, str], None]) -> dict[str, Any]:
-        sets = [FrfSet.load(f) for f in files]
-        fs = sets[0] if len(sets) == 1 else _concat(sets)
+        fs = concat([FrfSet.load(f) for f in files])
         pr = FrfPredictor(structure, body.modes, harmonics=1)
         return update_nonlinear(pr, fs, body.parameters).to_dict()
 
     return _job(request, "structure_stage2", {"structure": name, **body.model_dump()}, scope, work)
-
-
-def _concat(sets: list[Any]) -> Any:
-    import numpy as np
-
-    from labjoint.signal.frfset import FrfSet
-    H = min(s.harmonics for s in sets)
-    if len({s.sensors for s in sets}) > 1:
-        raise InputError("the FRF sets name different sensors", field="frfsets")
-    cat = lambda f: np.concatenate([f(s) for s in sets])  # noqa: E731
-    return FrfSet(cat(lambda s: s.frequencies_hz), cat(lambda s: s.level_n),
-                  cat(lambda s: s.direction), cat(lambda s: s.force), sets[0].sensors,
-                  cat(lambda s: s.response[:, :, :H]), cat(lambda s: s.response_std[:, :, :H]),
-                  sets[0].quantity)
 
 
 @router.post("/{name}/models/{operation}", response_model=Job, status_code=202,

@@ -31,6 +31,7 @@ from labjoint.structure.hbm import ConvergenceError
 from labjoint.structure.stage2 import fit_law
 
 ADDED_STIFFNESS = 0.2
+STIFFNESSES = ("K_T", "k", "ke", "k0")
 NO_SOLUTION = 3.0
 SCALE_RANGE = 1e3
 SHAPES = {"iwan.chi": -0.5, "iwan.beta": 0.1, "richard_abbott.n": 2.0, "asymmetric_slip.asym": 0.0}
@@ -63,7 +64,7 @@ def physical_start(model: Model, known: Mapping[str, float], k_joint: float, u_s
         eff, p = name.split(".")
         if name in SHAPES:
             out[name] = SHAPES[name]
-        elif p in ("K_T", "k", "ke", "k0") and eff != "linear_stiffness":
+        elif p in STIFFNESSES and eff != "linear_stiffness":
             out[name] = ka
         elif eff == "linear_stiffness":
             out[name] = k_joint
@@ -92,7 +93,26 @@ def start_values(model: Model, ms: Sequence[FrfMeasurement],
         p in known for p in Model.parse(n).param_names)) or "linear_stiffness")
     base_vals = physical_start(base, known, k_joint, 0.0, 1.0)
     u = slip_amplitude(ms, base, base_vals)
-    return physical_start(model, known, k_joint, u, float(pr.natural_frequencies(1)[0]))
+    out = physical_start(model, known, k_joint, u, float(pr.natural_frequencies(1)[0]))
+    return split_stiffness(out, missing)
+
+
+def split_stiffness(start: dict[str, float], added: Sequence[str]) -> dict[str, float]:
+    """An added effect's stiffness is taken from a known linear stiffness rather than put
+    beside it, so that the stuck joint (and the baseline's resonance) stays where the
+    data put it; with a sharp resonance a start shifted by a few bandwidths leaves the
+    least-squares search no slope to follow.
+
+    >>> split_stiffness({"linear_stiffness.k": 1e8, "iwan.K_T": 2e7, "iwan.F_S": 5.0}, ["iwan.K_T", "iwan.F_S"])
+    {'linear_stiffness.k': 80000000.0, 'iwan.K_T': 20000000.0, 'iwan.F_S': 5.0}
+    """
+    k = start.get("linear_stiffness.k")
+    if k is None or "linear_stiffness.k" in added:
+        return start
+    extra = sum(start[n] for n in added if n.split(".")[1] in STIFFNESSES and not n.startswith("linear_stiffness."))
+    if extra > 0:
+        start = {**start, "linear_stiffness.k": max(k - extra, (1 - ADDED_STIFFNESS) * k)}
+    return start
 
 
 def fit_frf(model: Model | str, fit_ms: Sequence[FrfMeasurement],
