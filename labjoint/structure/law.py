@@ -76,14 +76,18 @@ class JointLaw:
         ``u``, ``v``, ``a`` may be 2-D (batch, samples): each row is a separate history.
         """
         u, v, a = (np.atleast_2d(np.asarray(x, float)) for x in (u, v, a))
-        n = u.shape[1]
+        rows, n = u.shape
+        # every row started at its maximum (index arithmetic for the whole batch at once:
+        # a roll and a tile per row had cost more than the law itself)
+        i0 = np.argmax(u, axis=1)
+        idx = (np.arange(n)[None, :] + i0[:, None]) % n
+        r = np.arange(rows)[:, None]
+        hist = [np.concatenate([np.zeros((rows, 1)), np.tile(x[r, idx], PRIME_PERIODS)], axis=1)
+                for x in (u, v, a)]
         out = np.empty_like(u)
-        for r in range(u.shape[0]):
-            i0 = int(np.argmax(u[r]))
-            hist = [np.tile(np.roll(x[r], -i0), PRIME_PERIODS) for x in (u, v, a)]
-            h = [np.concatenate([[0.0], x]) for x in hist]
-            f = self._eval(h[0], h[1], h[2], fs, 1 + (PRIME_PERIODS - 1) * n)
-            out[r] = np.roll(f, i0)
+        n_prime = 1 + (PRIME_PERIODS - 1) * n
+        for k in range(rows):
+            out[k, idx[k]] = self._eval(hist[0][k], hist[1][k], hist[2][k], fs, n_prime)
         return out
 
     def initial_stiffness(self, du: float = 1e-12) -> float:
