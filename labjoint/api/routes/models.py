@@ -23,7 +23,7 @@ import labjoint.compare as compare
 from labjoint.api.auth import require_control, require_read, token_label
 from labjoint.api.errors import errors_doc
 from labjoint.api.progress import ModelProgress
-from labjoint.api.routes.analyses import cancel_job, get_job, job_page, runner
+from labjoint.api.routes.analyses import JobStatus, cancel_job, get_job, job_page, runner
 from labjoint.api.schemas import JOB_ID, Job, JobList, ModelRequest, RunName
 from labjoint.compare.api import settings_from
 from labjoint.compare.candidates import candidate_effects
@@ -38,7 +38,6 @@ OPERATIONS = ("fit", "diagnose", "ladder")
 KINDS = tuple(f"model_{op}" for op in OPERATIONS)
 #: operations that may take minutes: they run in their own worker, so fits never wait
 LONG = ("diagnose", "ladder")
-JobStatus = Literal["queued", "running", "complete", "failed", "cancelled"]
 Auto = Literal["auto"]
 
 

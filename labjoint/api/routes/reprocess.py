@@ -17,7 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from labjoint.api.auth import require_control, require_read, token_label
 from labjoint.api.errors import errors_doc
-from labjoint.api.routes.analyses import cancel_job, get_job, job_page, runner
+from labjoint.api.routes.analyses import JobStatus, cancel_job, get_job, job_page, runner
 from labjoint.api.schemas import JOB_ID, Job, JobList
 from labjoint.batch.options import check_options
 from labjoint.batch.reprocess import SerialRunner, execute, plan_reprocess
@@ -26,7 +26,6 @@ from labjoint.storage.results import Results
 
 router = APIRouter(prefix="/reprocess", tags=["reprocess"])
 KINDS = ("reprocess",)
-JobStatus = Literal["queued", "running", "complete", "failed", "cancelled"]
 Range = float | tuple[float | None, float | None]
 
 

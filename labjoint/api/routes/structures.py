@@ -21,7 +21,7 @@ from pydantic import BaseModel, ConfigDict, Field
 import labjoint.compare as compare
 from labjoint.api.auth import require_control, require_read, token_label
 from labjoint.api.errors import errors_doc, not_found
-from labjoint.api.routes.analyses import cancel_job, get_job, job_page, runner
+from labjoint.api.routes.analyses import JobStatus, cancel_job, get_job, job_page, runner
 from labjoint.api.routes.models import as_result
 from labjoint.api.schemas import JOB_ID, MODEL_EXPR, RUN_NAME, Job, JobList
 from labjoint.compare.api import settings_from
@@ -118,8 +118,7 @@ def listing(request: Request) -> dict[str, Any]:
 
 @router.get("/jobs", response_model=JobList, responses=errors_doc(),
             summary="List structure jobs", dependencies=[Depends(require_read)])
-def list_jobs(request: Request, status: Literal["queued", "running", "complete", "failed",
-                                                "cancelled"] | None = Query(None),
+def list_jobs(request: Request, status: JobStatus | None = Query(None),
               limit: int = Query(50, ge=1, le=500),
               offset: int = Query(0, ge=0, le=10**9)) -> dict[str, Any]:
     return job_page(request, KINDS, status, limit, offset)
