@@ -53,3 +53,26 @@ def test_closing_early_stops_the_reader_thread():
     assert next(it) == 0
     it.close()
     assert "labjoint-prefetch" not in {t.name for t in threading.enumerate()} - before
+
+
+def test_without_threads_the_items_are_read_in_the_callers_thread_when_asked_for():
+    readers = []
+
+    def source():
+        for i in range(3):
+            readers.append(threading.current_thread())
+            yield i
+
+    it = prefetch(source(), depth=2, threads=False)
+    assert readers == []
+    assert list(it) == [0, 1, 2]
+    assert readers == [threading.main_thread()] * 3
+
+
+def test_the_inline_pool_hands_an_error_to_whoever_takes_the_result():
+    from labjoint.signal.prefetch import helper_pool
+
+    with helper_pool(False, "x") as pool:
+        fut = pool.submit(int, "not a number")
+    with pytest.raises(ValueError):
+        fut.result()

@@ -13,7 +13,10 @@ options; they return small dicts.
 
 from __future__ import annotations
 
+import ctypes
+import functools
 import os
+import sys
 from contextlib import contextmanager
 from typing import Any, Iterator
 
@@ -28,6 +31,10 @@ MAX_CHUNK = 16
 CHUNKS_PER_WORKER = 8
 #: seconds to wait for a scheduler before saying it cannot be reached
 CONNECT_TIMEOUT_S = 5.0
+#: glibc's mallopt parameters (malloc.h) and the limits a worker sets
+M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3
+MMAP_THRESHOLD_BYTES = 32 << 20
+TRIM_THRESHOLD_BYTES = 64 << 20
 
 
 @contextmanager
@@ -42,9 +49,11 @@ def dask_client(scheduler: str = "local", n_workers: int | None = None,
         n = int(n_workers or os.cpu_count() or 1)
         if n < 1:
             raise InputError(f"must be >= 1, got {n_workers}", field="workers")
+        kwargs: dict[str, Any] = {"allowed_failures": ALLOWED_FAILURES}
+        if dashboard is None:     # its HTTP server (metrics) still listens: on any port,
+            kwargs.update(dashboard=False, dashboard_address=":0")   # not on 8787
         with LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                          dashboard_address=dashboard,
-                          scheduler_kwargs={"allowed_failures": ALLOWED_FAILURES}) as cluster, \
+                          dashboard_address=dashboard, scheduler_kwargs=kwargs) as cluster, \
                 Client(cluster) as client:
             yield client
         return
@@ -153,15 +162,38 @@ def worker_executor() -> Iterator[DaskExecutor]:
         yield DaskExecutor(client)
 
 
+@functools.cache
+def tune_allocator() -> bool:
+    """Let this process's allocator reuse freed blocks of up to 32 MB (glibc; once).
+
+    A Dask nanny starts its workers with ``MALLOC_TRIM_THRESHOLD_=65536``, and a fixed
+    trim threshold also freezes glibc's mmap threshold at 128 kB: every array of a
+    record block is then mapped afresh and its pages faulted in again, which nearly
+    doubled a run's analysis in a worker (62 -> 110 ms for a 10 s record). These are
+    the limits glibc's own dynamic rule reaches (32 MB; trim at twice that), made fixed.
+    False where there is no glibc ``mallopt``."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        mallopt = ctypes.CDLL("libc.so.6").mallopt
+    except (OSError, AttributeError):
+        return False
+    mallopt.argtypes, mallopt.restype = [ctypes.c_int, ctypes.c_int], ctypes.c_int
+    return bool(mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES)) and \
+        bool(mallopt(M_TRIM_THRESHOLD, TRIM_THRESHOLD_BYTES))
+
+
 def run_chunk(tasks: list[Task]) -> list[dict[str, Any]]:
     """:func:`run_on_worker` on each task of a chunk, in order."""
     return [run_on_worker(t) for t in tasks]
 
 
 def run_on_worker(task: Task) -> dict[str, Any]:
-    """:func:`~labjoint.batch.tasks.run_task` as a Dask task: a diagnosis or ladder with
-    ``spread`` sends its candidate refits to the cluster's workers."""
+    """:func:`~labjoint.batch.tasks.run_task` as a Dask task, one record per worker
+    thread (no helper threads of its own); a diagnosis or ladder with ``spread`` sends
+    its candidate refits to the cluster's workers."""
+    tune_allocator()
     if not task.spread:
-        return run_task(task)
+        return run_task(task, threads=False)
     with worker_executor() as ex:
-        return run_task(task, ex)
+        return run_task(task, ex, threads=False)

@@ -58,7 +58,8 @@ def _analyze(paths: list[Path], options: dict[str, Any], executor: Any = None) -
     from labjoint.storage.processed import write_processed
 
     (path,) = paths
-    res = analyze_file(path, force=options.get("force", "joint"))
+    res = analyze_file(path, force=options.get("force", "joint"),
+                       threads=bool(options.get("threads", True)))
     write_processed(path, "loop", *loop_processed(res))
     return {k: _plain(res.summary.get(k)) for k in LOOP_KEYS}
 

@@ -35,8 +35,12 @@ class Task:
     spread: bool = field(default=False, compare=False)
 
 
-def run_task(task: Task, executor: Any = None) -> dict[str, Any]:
-    """Run ``task`` here; the small result dict (see the module docstring)."""
+def run_task(task: Task, executor: Any = None, threads: bool = True) -> dict[str, Any]:
+    """Run ``task`` here; the small result dict (see the module docstring).
+
+    ``threads=False``: each record's pipeline stays in this thread (a worker of a
+    cluster with a worker per core; the record's own helper threads would only compete
+    with the other workers for the cores)."""
     out: dict[str, Any] = {"key": task.key, "runs": list(task.names), "status": "failed",
                            "summary": {}, "input_sha256": {}, "error": "",
                            "version": task.version, "labjoint_version": __version__}
@@ -51,7 +55,8 @@ def run_task(task: Task, executor: Any = None) -> dict[str, Any]:
                 out["error"] = f"run {name}: file disappeared ({p})"
                 return out
             out["input_sha256"][name] = raw_sha256(p)
-        opts = {**task.options, "pipeline": task.pipeline, "options_hash": task.options_hash}
+        opts = {**task.options, "pipeline": task.pipeline, "options_hash": task.options_hash,
+                "threads": threads}
         pipe = get_pipeline(task.pipeline)
         out["summary"] = pipe.run([Path(p) for p in task.paths], opts, executor)
     except LabjointError as exc:

@@ -10,7 +10,7 @@ sits in memory; per-cycle results (a few hundred bytes a cycle) are kept.
 
 from __future__ import annotations
 
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future
 from itertools import chain
 from typing import Any, Iterable, Iterator
 
@@ -26,7 +26,7 @@ from labjoint.signal.excitation import (Excitation, detect_excitation, detect_st
 from labjoint.signal.filter import PAPER_CUTOFF_HZ, PAPER_ORDER, ZeroPhaseStream, analysis_cutoff
 from labjoint.signal.frequency import estimate_frequency
 from labjoint.signal.phase import CycleSegmenter
-from labjoint.signal.prefetch import prefetch
+from labjoint.signal.prefetch import helper_pool, prefetch
 from labjoint.signal.steady import detect_steady
 from labjoint.storage.roles import channel_roles
 
@@ -48,13 +48,15 @@ def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None 
                    n_points: int = DEFAULT_POINTS, n_harmonics: int = 5,
                    rel_tol: float = 0.01, min_cycles: int = 3,
                    phase_correction_rad: float = 0.0, phase_uncertainty_rad: float = 0.0,
-                   phase_note: str = "") -> LoopResult:
+                   phase_note: str = "", threads: bool = True) -> LoopResult:
     """Hysteresis-loop results of a record given as blocks of (displacement m, force N).
 
     ``phase_correction_rad`` rotates the force's fundamental (the force sensor's
     calibrated phase lead over the displacement's); ``phase_uncertainty_rad`` is that
     phase's standard uncertainty, propagated into W and C with the noise
-    (:mod:`labjoint.identify.resolution`).
+    (:mod:`labjoint.identify.resolution`). ``threads=False`` keeps the whole pipeline
+    in the calling thread (a batch that runs one record per core); by default reading
+    and filtering overlap the loop measurements in helper threads.
 
     Each block is a pair of equal-length 1-D arrays or a (2, n) array. Without
     ``frequency_hz`` the frequency is estimated from the first ``PROBE_SAMPLES``. The
@@ -93,10 +95,10 @@ def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None 
     _check_int(min_cycles, "min_cycles", 1)
     _check_int(n_points, "n_points", 8)
     _check_int(n_harmonics, "n_harmonics", 1, n_points // 2 - 1)
-    stream = _LoopStream(fs, f, cutoff, order, n_points, n_harmonics)
+    stream = _LoopStream(fs, f, cutoff, order, n_points, n_harmonics, threads)
     # two blocks read ahead: the reader keeps up with the filter and the loop kernel on
     # two cores (one ahead left both waiting for it; one more block of memory)
-    stream.run(chain(head, prefetch(it, depth=2)))
+    stream.run(chain(head, prefetch(it, depth=2, threads=threads)))
     per_cycle, bounds = stream.finish()
     if per_cycle:
         correct_phase(per_cycle, float(phase_correction_rad), f)
@@ -189,8 +191,9 @@ class _LoopStream:
     """Filter -> segment -> resample -> per-cycle metrics, one block at a time."""
 
     def __init__(self, fs: float, f: float, cutoff: float | None, order: int,
-                 n_points: int, n_harmonics: int) -> None:
+                 n_points: int, n_harmonics: int, threads: bool = True) -> None:
         self.fs, self.f, self.n_points, self.n_harmonics = fs, f, n_points, n_harmonics
+        self.threads = threads
         self.filter = ZeroPhaseStream(fs, cutoff, order) if cutoff is not None else None
         self.seg = CycleSegmenter(fs, f)
         self.buf = np.empty((2, 0))
@@ -206,7 +209,7 @@ class _LoopStream:
         runs in a second thread while the cycles of block k are measured (the compiled
         filter and demodulation release the GIL), so the two halves overlap on a
         multi-core machine. At most two blocks are in flight, so memory stays bounded."""
-        with ThreadPoolExecutor(1, thread_name_prefix="labjoint-loop") as pool:
+        with helper_pool(self.threads, "labjoint-loop") as pool:
             pending: Future | None = None
             for blk in blocks:
                 self.n_samples += blk.shape[1]
@@ -335,11 +338,13 @@ RUN_KEYS = ("excitation_vpp", "torque_nm", "normal_force_n", "plan", "plan_step"
 
 
 def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = None,
-                 cutoff_hz: float | None = PAPER_CUTOFF_HZ, **kwargs: Any) -> LoopResult:
+                 cutoff_hz: float | None = PAPER_CUTOFF_HZ, threads: bool = True,
+                 **kwargs: Any) -> LoopResult:
     """:func:`analyze_blocks` streamed from a run file, so memory stays bounded.
 
     Displacement is ``disp_1 - disp_2`` (or the single imported ``displacement``
     channel), force the joint sensor (``force="joint"``) or the reference sensor.
+    ``threads=False``: the excitation check, reading and filtering in this thread too.
     """
     from labjoint.storage import open_run
 
@@ -374,11 +379,12 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
         # the excitation is identified alongside the analysis (its spectra overlap the
         # filtering); a record that is not a steady sine is refused either way, and its
         # refusal takes precedence over any error the analysis ran into
-        with ThreadPoolExecutor(1, thread_name_prefix="labjoint-detect") as pool:
+        with helper_pool(threads, "labjoint-detect") as pool:
             detected = pool.submit(detect_streamed, lambda a, b: rf.physical(xch, a, b),
                                    rf.n_samples, rf.sample_rate_hz, rf.metadata)
             try:
-                result = analyze_blocks(blocks(), rf.sample_rate_hz, f, cutoff_hz, **kwargs)
+                result = analyze_blocks(blocks(), rf.sample_rate_hz, f, cutoff_hz,
+                                        threads=threads, **kwargs)
             except InputError:
                 check_excitation(detected.result())
                 raise
