@@ -13,8 +13,8 @@ the no-op second reprocess; a diagnose over 12 run groups, serial vs distributed
     diagnosed with ``linear_stiffness`` against three candidates, one task per group:
     serial vs the 2-worker cluster with the candidate refits spread over the workers.
 
-The issue's figures: ``--runs 1000 --seconds 10`` (8 GB of run files, about an hour on
-2 cores); the default is a reduced N. Goals: >= 1.8x on 2 cores, <= 5 ms per task,
+The issue's figures: ``--runs 1000 --seconds 10`` (16 GB of run files, about 6 minutes
+on 2 cores); the default is a reduced N. Goals: >= 1.8x on 2 cores, <= 5 ms per task,
 <= 2 s for the no-op over 1,000 runs.
 Usage: ``python -m benchmarks.bench_reprocess [--runs N] [--seconds S] [--no-diagnose]``.
 """
