@@ -56,7 +56,7 @@ class RunResolver:
                            "outside the data directory; it is not served")
         if not p.is_file():
             raise ApiError(404, "file_missing", f"run {name!r} is in the catalog but its file "
-                           "is gone (rebuild the catalog)")
+                           "is gone (`labjoint recover` brings the catalog in line with the files)")
         return p
 
     def open(self, name: str) -> RunFile:

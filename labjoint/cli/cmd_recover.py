@@ -1,6 +1,7 @@
 """`labjoint recover [--data DIR]`: close run files whose writer died (marked "incomplete"
 with the samples all channels reached), delete temporary files of dead writers and
-imports, and bring the catalog in line with the files (the daemon does the same at start)."""
+imports, and bring the catalog in line with the files: runs whose files are gone are
+dropped, run files it lacks are indexed (the daemon closes dead writers' files at start)."""
 
 from __future__ import annotations
 
@@ -34,7 +35,10 @@ def run(args: argparse.Namespace) -> int:
             stale.append(rec.name)
         elif p.parent.resolve() == data.resolve():
             catalog.add(p)             # re-read the file's own status
+    synced = catalog.sync(data)
+    stale += synced["removed"]
     res = {"recovered": [str(p) for p in done], "removed_from_catalog": stale,
+           "added_to_catalog": synced["added"], "not_indexed": synced["skipped"],
            "still_running": [r.name for r in catalog.query(status="running")]}
     if args.json:
         emit_json(res)
@@ -43,8 +47,12 @@ def run(args: argparse.Namespace) -> int:
         print(f"recovered {p}: marked incomplete")
     for n in stale:
         print(f"catalog: removed {n} (its file is gone)")
+    for n in synced["added"]:
+        print(f"catalog: added {n} (a run file it did not hold)")
+    for f, why in synced["skipped"].items():
+        print(f"catalog: not indexed {f}: {why}")
     for n in res["still_running"]:
         print(f"{n}: still being written by a live process")
-    if not (done or stale or res["still_running"]):
+    if not (done or stale or synced["added"] or synced["skipped"] or res["still_running"]):
         print("nothing to recover")
     return 0

@@ -1,7 +1,7 @@
 """Catalog of run files, so "all runs at 5 Nm between 1 and 20 Vpp" is one query.
 
 The run files are the truth; the catalog is an index that :meth:`Catalog.rebuild`
-recreates from them. It lives in an embedded SQLite file (WAL mode lets readers query
+recreates from them and :meth:`Catalog.sync` (``labjoint recover``) brings in line. It lives in an embedded SQLite file (WAL mode lets readers query
 while the daemon writes) or, for several machines sharing one archive, in PostgreSQL
 (``catalog_url`` in the config; :func:`catalog_for`). All SQL goes through
 :class:`~labjoint.storage.sqldb.Database`; the schema is versioned
@@ -16,13 +16,9 @@ filters and ordering come from a fixed list, never from the caller's text.
 
 from __future__ import annotations
 
-import json
 import logging
-import math
-from dataclasses import dataclass, field
-from datetime import datetime, timezone
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterable
+from typing import TYPE_CHECKING, Any, Iterable, Iterator
 
 from labjoint.errors import ConfigError, InputError
 from labjoint.storage.layout import to_json
@@ -31,7 +27,9 @@ from labjoint.storage.sqldb import Database, Session, is_postgres_url, redact_ur
 
 if TYPE_CHECKING:
     from labjoint.config import RigConfig
-from labjoint.storage.reader import RunFile, open_run
+from labjoint.storage.reader import open_run
+from labjoint.storage.run_record import (RunRecord, _num, _timestamp, record_from_row,
+                                         record_from_run)
 
 log = logging.getLogger(__name__)
 
@@ -44,79 +42,6 @@ CATALOG_FILE = "catalog.sqlite"
 _NUMERIC = ("frequency_hz", "excitation_vpp", "torque_nm", "normal_force_n", "sample_rate_hz",
             "n_samples", "plan_step")
 _TEXT = ("status", "plan", "source", "name", "uid")
-
-
-@dataclass
-class RunRecord:
-    """One catalog row; ``metadata`` holds every other metadata key of the run."""
-
-    name: str
-    path: str
-    uid: str = ""
-    plan: str = ""
-    plan_step: Any = None
-    frequency_hz: float | None = None
-    excitation_vpp: float | None = None
-    torque_nm: float | None = None
-    normal_force_n: float | None = None
-    sample_rate_hz: float | None = None
-    n_samples: int | None = None
-    status: str = ""
-    start_time: str = ""
-    start_ts: float | None = None
-    end_time: str = ""
-    source: str = ""
-    metadata: dict[str, Any] = field(default_factory=dict)
-
-
-def _timestamp(value: Any, *, field: str = "start_time") -> float | None:
-    """Seconds since the epoch of an ISO 8601 string, datetime or number (naive = UTC)."""
-    if value is None or value == "":
-        return None
-    if isinstance(value, (int, float)):
-        return float(value)
-    if isinstance(value, str):
-        try:
-            value = datetime.fromisoformat(value)
-        except ValueError:
-            raise InputError(f"not an ISO 8601 time: {value!r}", field=field) from None
-    if isinstance(value, datetime):
-        if value.tzinfo is None:
-            value = value.replace(tzinfo=timezone.utc)
-        return value.timestamp()
-    raise InputError(f"not a time: {value!r}", field=field)
-
-
-def _num(v: Any) -> float | None:
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        return None
-    return x if math.isfinite(x) else None
-
-
-def record_from_run(rf: RunFile) -> RunRecord:
-    """The catalog record of an open run file."""
-    md = dict(rf.metadata)
-    rec = RunRecord(
-        name=rf.name, path=str(Path(rf.path).resolve()), uid=rf.uid,
-        plan=str(md.pop("plan", "") or ""), plan_step=md.pop("plan_step", None),
-        frequency_hz=_num(md.pop("frequency_hz", None)),
-        excitation_vpp=_num(md.pop("excitation_vpp", None)),
-        torque_nm=_num(md.pop("torque_nm", None)),
-        normal_force_n=_num(md.pop("normal_force_n", None)),
-        sample_rate_hz=_num(md.pop("sample_rate_hz", None)),
-        n_samples=rf.n_samples, status=rf.status,
-        start_time=str(md.pop("start_time", "") or ""), end_time=rf.end_time,
-        source=rf.source)
-    for k in ("name", "uid", "status", "end_time", "n_samples", "source"):
-        md.pop(k, None)
-    try:
-        rec.start_ts = _timestamp(rec.start_time)
-    except InputError:
-        rec.start_ts = None
-    rec.metadata = md
-    return rec
 
 
 class Catalog:
@@ -196,21 +121,62 @@ class Catalog:
         return self.sql.execute("DELETE FROM runs WHERE name = ?", [name]).rowcount > 0
 
     def rebuild(self, data_dir: str | Path) -> int:
-        """Re-create the index from every ``*.h5`` run file in ``data_dir``; returns the count.
-
-        Files that are not readable run files are skipped (and logged)."""
-        recs = []
-        for p in sorted(Path(data_dir).glob("*.h5")):
-            try:
-                with open_run(p) as rf:
-                    recs.append(record_from_run(rf))
-            except InputError as exc:
-                log.warning("catalog rebuild: skipping %s: %s", p, exc)
+        """Re-create the index of the runs in ``data_dir`` from its ``*.h5`` run files;
+        returns their count. Runs catalogued in other directories (other machines' on a
+        shared catalog) are kept. Files that are not readable run files are skipped
+        (and logged)."""
+        recs = [rec for _, rec in self._read_dir(Path(data_dir), log_skips=True)]
         with self.sql.transaction() as tx:
-            tx.execute("DELETE FROM runs")
+            for name in self._names_in(tx, data_dir):
+                tx.execute("DELETE FROM runs WHERE name = ?", [name])
             for rec in recs:
                 self.put(rec, tx)
         return len(recs)
+
+    def sync(self, data_dir: str | Path) -> dict[str, Any]:
+        """Bring the index of ``data_dir`` in line with its files: index the run files it
+        lacks, drop the runs whose files are gone; other directories are left alone.
+        Returns {"added": names, "removed": names, "skipped": {file: why}}."""
+        d = Path(data_dir).resolve()
+        known = {Path(r["path"]).resolve() for r in
+                 self.sql.fetchall("SELECT path FROM runs")}
+        out: dict[str, Any] = {"added": [], "removed": [], "skipped": {}}
+        for name in self._names_in(self.sql, d):
+            rec = self.get(name)
+            if rec is not None and not Path(rec.path).exists() and self.remove(name):
+                out["removed"].append(name)
+        for p, rec in self._read_dir(d, skip=known, skipped=out["skipped"]):
+            try:
+                self.put(rec)
+            except InputError as exc:            # another file holds the name
+                out["skipped"][str(p)] = exc.message
+                continue
+            out["added"].append(rec.name)
+        return out
+
+    @staticmethod
+    def _read_dir(d: Path, skip: set[Path] = frozenset(), skipped: dict | None = None,
+                  log_skips: bool = False) -> Iterator[tuple[Path, RunRecord]]:
+        for p in sorted(d.glob("*.h5")):
+            if p.resolve() in skip:
+                continue
+            try:
+                with open_run(p) as rf:
+                    rec = record_from_run(rf)
+            except InputError as exc:
+                if log_skips:
+                    log.warning("catalog rebuild: skipping %s: %s", p, exc)
+                if skipped is not None:
+                    skipped[str(p)] = exc.message
+                continue
+            yield p, rec
+
+    @staticmethod
+    def _names_in(con: Database | Session, data_dir: str | Path) -> list[str]:
+        """Names of the runs catalogued at files directly in ``data_dir``."""
+        d = Path(data_dir).resolve()
+        return [r["name"] for r in con.execute("SELECT name, path FROM runs").rows
+                if Path(r["path"]).parent.resolve() == d]
 
     # -- reading -----------------------------------------------------------------
     def get(self, name: str) -> RunRecord | None:
@@ -301,13 +267,6 @@ class Catalog:
 
     def _select(self, sql: str, args: Iterable[Any]) -> list[RunRecord]:
         return [record_from_row(r) for r in self.sql.fetchall(sql, list(args))]
-
-
-def record_from_row(row: dict[str, Any]) -> RunRecord:
-    """The record of a ``SELECT * FROM runs`` row."""
-    d = {k: v for k, v in row.items() if k != "extra"}
-    d["metadata"] = json.loads(row["extra"]) if row["extra"] else {}
-    return RunRecord(**d)
 
 
 def _step(v: Any) -> int | None:
