@@ -229,8 +229,8 @@ def _band(exc: Excitation) -> tuple[float | None, float | None]:
         return exc.frequency_hz, exc.frequency_hz
     if exc.lines_hz:
         return min(exc.lines_hz), max(exc.lines_hz)
-    if exc.band_hz:
-        return exc.band_hz
+    if exc.band_hz:       # a sweep's (start, end): downward sweeps start at the top
+        return min(exc.band_hz), max(exc.band_hz)
     return None, None
 
 
