@@ -90,6 +90,22 @@ def test_record_from_rest_hidden_viscous_found(tmp_path, sweep):
     assert best["parameters"]["viscous.c"]["value"] == pytest.approx(2000.0, rel=0.05)
 
 
+def test_ladder_on_random_records_adds_slip_then_the_sensor_offset(tmp_path):
+    # three records (validation: the middle rms), Jenkins joint, a 3 N force-sensor offset
+    files = []
+    for i, rms in enumerate((3e-6, 5e-6, 8e-6)):
+        t, u, F = random_run(rms, (5.0, 60.0), FS, 3.0, JENKINS, 0.02, seed=i)
+        files.append(str(write_csv(tmp_path / f"r{i}.csv", t, u, F + 3.0, sample_rate_hz=FS)))
+    lad = ladder_runs(files, "linear_stiffness", candidates="viscous,coulomb,offset",
+                      save=False, max_steps=3)
+    assert [s["added"] for s in lad["steps"][1:]] == ["coulomb", "offset"]
+    assert lad["adequate"]
+    v = [s["nrmse_validation"] for s in lad["steps"]]
+    assert v[0] > v[1] > v[2]
+    assert lad["steps"][-1]["nrmse"] <= 1.5 * lad["noise_floor"]
+    assert lad["steps"][-1]["parameters"]["offset.F0"]["value"] == pytest.approx(3.0, rel=0.05)
+
+
 @pytest.mark.parametrize("noise, fs", [(0.01, 5000.0), (0.05, 2000.0)])
 def test_record_exact_model_adequate(tmp_path, noise, fs):
     f = one_record(tmp_path, {"k": 2e6, "c": 2000.0}, noise, fs=fs)
