@@ -39,7 +39,7 @@ from labjoint.compare.measurement import Kind, Measurement, NoiseFloor, noise_fl
 from labjoint.compare.metrics import Evaluation, evaluate
 from labjoint.compare.runs import split_by_names
 from labjoint.compare.significance import (PairedTest, SignificanceSettings, correlation,
-                                           is_significant, nrmse_se, paired_test)
+                                           is_significant, noise_test, nrmse_se, paired_test)
 from labjoint.compare.ties import tie_reason
 from labjoint.models import FitResult, Model, ModelFitter
 from labjoint.models.effects import get_effect
@@ -207,8 +207,13 @@ class Baseline:
         ref = base_ev
         if ablated is not None and ablated.nrmse(val) < base_ev.nrmse(val):
             ref = ablated
-        test = paired_test(np.concatenate([r.unit_sse() for r in ref.subset(val)]),
-                           np.concatenate([r.unit_sse() for r in ev.subset(val)]))
+        rv, cv = ref.subset(val), ev.subset(val)
+        dforce = sum(float(np.sum((c.model_force - r.model_force)[r.run.data.steady] ** 2))
+                     for r, c in zip(rv, cv))
+        n_samples = sum(int(np.count_nonzero(r.run.data.steady)) for r in rv)
+        noise_var = self.floor ** 2 * sum(r.ssf for r in rv) / max(n_samples, 1)
+        test = noise_test(np.concatenate([r.unit_sse() for r in rv]),
+                          np.concatenate([r.unit_sse() for r in cv]), dforce, noise_var)
         nv_base, nv = ref.nrmse(val), ev.nrmse(val)
         sig, reason = is_significant(test, nv_base, nv, self.floor, self.significance)
         maps = self.kind.maps(ev.runs, {})

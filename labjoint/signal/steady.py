@@ -76,10 +76,7 @@ def detect_steady(displacement_amplitude: np.ndarray, force_amplitude: np.ndarra
     if w < 1:
         raise InputError(f"must be >= 1, got {window!r}", field="window")
     if idx.size < 4 * w:
-        mask = ok.copy()
-        start, stop = _segment(mask, max_gap)
-        return SteadyState(start, stop, mask & _span(n, start, stop), w,
-                           note=f"only {idx.size} valid cycles: too few to judge, all kept")
+        return _few(arrays, ok, idx, rel_tol, phase_tol, w, max_gap)
     band = np.ones(idx.size, bool)
     noise = {}
     for name, arr in arrays.items():
@@ -93,6 +90,36 @@ def detect_steady(displacement_amplitude: np.ndarray, force_amplitude: np.ndarra
     full[idx] = band
     start, stop = _segment(full, max_gap)
     return SteadyState(start, stop, full & _span(n, start, stop), w, noise)
+
+
+def _few(arrays: dict[str, np.ndarray], ok: np.ndarray, idx: np.ndarray, rel_tol: float,
+         phase_tol: float | None, w: int, max_gap: int) -> SteadyState:
+    """Too few cycles for the windows: each cycle against the median of all valid ones
+    (the settled cycles are the majority), tolerance max(rel_tol |median|, n_sigma x the
+    cycles' robust scatter about it); a start-up ramp's cycles are out of band, a steady
+    run's (however noisy) are all in. Keeping every cycle instead let a short record's
+    ramp-up pass as steady: its off-centre loop moved the displacement zero and the
+    record was primed as if steady from its start."""
+    n = ok.size
+    full = np.zeros(n, bool)
+    if idx.size < 3:
+        full[idx] = True
+    else:
+        band = np.ones(idx.size, bool)
+        for name, arr in arrays.items():
+            is_phase = name == "phase"
+            a = np.unwrap(arr[idx]) if is_phase else arr[idx]
+            level = float(np.median(a))
+            sigma = 1.4826 * float(np.median(np.abs(a - level)))   # the cycles' own scatter
+            noise_tol = (np.sqrt(2.0 * np.log(max(a.size, 2))) + 1.0) * sigma
+            tol = (rel_tol if phase_tol is None else float(phase_tol)) if is_phase \
+                else rel_tol * abs(level)
+            band &= np.abs(a - level) <= max(tol, noise_tol)
+        full[idx] = band
+    start, stop = _segment(full, max_gap)
+    return SteadyState(start, stop, full & _span(n, start, stop), w,
+                       note=f"only {idx.size} valid cycles: too few for the windows, each judged "
+                            "against their median")
 
 
 def _in_band(a: np.ndarray, rel_tol: float, abs_tol: float, w: int) -> tuple[np.ndarray, float]:

@@ -58,7 +58,15 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
     if not items:
         raise InputError("no runs given", field="runs")
     found = {id(r): detect_excitation(r.excitation, r.sample_rate_hz, dict(r.metadata))
-             for r in items if isinstance(r, Run) and kind == "auto"}
+             for r in items if isinstance(r, Run) and kind in ("auto", "sine")}
+    if kind == "sine":
+        for r in items:
+            e = found.get(id(r))
+            if e is not None and e.kind != "sine":
+                raise InputError(f"run '{r.name}' holds {e.describe()}, not a steady sine, so it "
+                                 "cannot be judged as the sine kind; judge it along its history "
+                                 "with kind='record' (CLI --kind record) or let kind='auto' "
+                                 "choose", file=r.path, field="kind")
     if kind == "auto":
         given = {r.kind for r in items if isinstance(r, (PreparedRun, RecordMeasurement))}
         sine = all(e.kind == "sine" for e in found.values())

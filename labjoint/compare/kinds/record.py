@@ -14,7 +14,11 @@ Preparation (:func:`prepare_record`):
   unless the record starts at rest. A Masing-type hysteretic state is wiped once the
   motion has reached both of its extremes, so judging starts where the displacement has
   first reached both its 1st and 99th percentiles (``warmup="auto"``; a number of
-  seconds or 0 instead, when the record is known to start at rest).
+  seconds or 0 instead, when the record is known to start at rest). A record that
+  visibly begins at rest (a quiet lead-in of displacement and force before the
+  excitation, :func:`starts_at_rest`) is judged from the excitation's start under
+  "auto": the joint's states start where the model's do (a random record's extremes
+  come late, and waiting for them had refused records of seconds).
 - units (the paired significance test and the over-time map work on them): whole
   periods of a periodic excitation from the judging start; otherwise blocks of
   max(4 / lowest excited frequency, 1/64 of the judged span), at least ``MIN_UNITS``.
@@ -64,6 +68,7 @@ BLOCK_PERIODS = 4.0
 MAX_BLOCKS = 64
 REST_FRACTION = 0.02
 REST_SAMPLES = 8
+REST_STD = 0.15
 EXTREME_PCT = 1.0
 MAX_DIFF_ORDER = 6
 METHOD = ("periodic excitation: period-to-period scatter of the judged periods; otherwise "
@@ -188,6 +193,18 @@ def difference_variance(x: np.ndarray) -> float:
     return best if np.isfinite(best) else float("nan")
 
 
+def starts_at_rest(u: np.ndarray, F: np.ndarray, a0: int, a1: int) -> bool:
+    """Whether the record begins at rest: a lead-in of ``REST_SAMPLES`` or more before the
+    excitation over which displacement and force each scatter by less than
+    ``REST_STD`` of their standard deviation while excited (a standard deviation, not a
+    range: sensor noise alone spans several of them). The joint sat still there, its
+    states where the model starts them (relaxed at the first sample), so no warm-up is
+    needed."""
+    if a0 < REST_SAMPLES or a1 <= a0:
+        return False
+    return all(np.std(x[:a0]) < REST_STD * np.std(x[a0:a1]) for x in (u, F))
+
+
 def _warmup_start(u: np.ndarray, a0: int, a1: int, warmup: str | float, fs: float) -> int:
     if warmup == "auto":
         lo, hi = np.percentile(u[a0:a1], [EXTREME_PCT, 100.0 - EXTREME_PCT])
@@ -212,8 +229,8 @@ def _band(exc: Excitation) -> tuple[float | None, float | None]:
         return exc.frequency_hz, exc.frequency_hz
     if exc.lines_hz:
         return min(exc.lines_hz), max(exc.lines_hz)
-    if exc.band_hz:
-        return exc.band_hz
+    if exc.band_hz:       # a sweep's (start, end): downward sweeps start at the top
+        return min(exc.band_hz), max(exc.band_hz)
     return None, None
 
 
@@ -237,7 +254,8 @@ def prepare_record(run: Run | str | Path, *, band_hz: float | None = None,
                          file=where, field="force")
     span = exc.active_s or (0.0, n / fs)
     a0, a1 = max(0, int(span[0] * fs)), min(n, int(np.ceil(span[1] * fs)))
-    j0 = _warmup_start(u_raw, a0, a1, warmup, fs)
+    at_rest = starts_at_rest(u_raw, F, a0, a1)
+    j0 = a0 if warmup == "auto" and at_rest else _warmup_start(u_raw, a0, a1, warmup, fs)
     periodic = exc.kind in ("sine", "multisine")
     per = (fs / exc.frequency_hz if exc.kind == "sine" else
            exc.period_s * fs if exc.kind == "multisine" and exc.period_s else None)
@@ -260,7 +278,7 @@ def prepare_record(run: Run | str | Path, *, band_hz: float | None = None,
     keep = np.zeros(n, bool)
     keep[int(spans[0, 0]):int(spans[-1, 1])] = True
     head = u_raw[:a0]
-    if a0 >= REST_SAMPLES and np.ptp(head) < REST_FRACTION * np.ptp(u_raw[keep]):
+    if at_rest or (a0 >= REST_SAMPLES and np.ptp(head) < REST_FRACTION * np.ptp(u_raw[keep])):
         ref = float(np.mean(head))
     else:
         ref = float(np.mean(u_raw[keep]))
