@@ -175,3 +175,22 @@ def test_generator_law_is_the_textbook_jenkins():
     F = law(u, np.zeros_like(u), {"jenkins": (5e6, 10.0)})
     assert F.max() == pytest.approx(10.0) and F.min() == pytest.approx(-10.0)
     assert F[1] == pytest.approx(5e6 * u[1])
+
+
+@pytest.mark.parametrize("hidden", [JENKINS, {"k": 2e6, "k3": 5e16}])
+def test_noise_floor_at_few_samples_per_cycle(tmp_path, hidden):
+    # 22.2 samples per cycle: resampled cycles read their interpolation error as noise
+    t, u, F0 = sine_run(6e-6, 45.0, 1000.0, hidden, 0.0)
+    _, _, F = sine_run(6e-6, 45.0, 1000.0, hidden, 0.01)
+    m = prepare([str(write_csv(tmp_path / "f.csv", t, u, F, sample_rate_hz=1000.0,
+                               frequency_hz=45.0))])[0]
+    st = m.data.steady
+    true = np.sqrt(np.mean(((F - F0)[m.offset:][st]) ** 2) / np.mean(m.data.force[st] ** 2))
+    assert m.noise().nrmse == pytest.approx(true, rel=0.2)
+
+
+def test_small_missing_damping_not_hidden_by_an_inflated_floor(tmp_path):
+    files = sines(tmp_path, {**JENKINS, "c": 200.0}, 0.01, fs=1000.0, freq=45.0)
+    d = diagnose_runs(files, "linear_stiffness+coulomb", candidates="viscous,cubic_stiffness")
+    assert not d["adequate"], d["verdict"]
+    assert d["candidates"][0]["effect"] == "viscous" and d["candidates"][0]["significant"]

@@ -14,7 +14,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from labjoint.compare.measurement import RunNoise
-from labjoint.compare.noise import METHOD, quietest_variance, scatter_variance
+from labjoint.compare.noise import METHOD, lag_variance, quietest_variance, scatter_variance
 from labjoint.identify import LoopResult
 from labjoint.identify.loop import loop_metrics
 from labjoint.models import RunData
@@ -81,6 +81,9 @@ class PreparedRun:
         loop stiffness (:mod:`labjoint.compare.noise`)."""
         groups = self.cycle_bounds()
         var_f, n_cyc, n_win = scatter_variance(self.data.force, groups)
+        lag = lag_variance(self.data.force, groups)     # few samples per cycle: see there
+        if np.isfinite(lag) and np.isfinite(var_f) and lag < var_f:
+            var_f = lag
         var_u = quietest_variance(self.data.inputs.u, groups)
         k = float(self.loop.summary["stiffness_n_per_m"])
         var_eq = var_f + (k * k * var_u if np.isfinite(var_u) else 0.0)

@@ -46,7 +46,6 @@ k the least-squares stiffness of F on (u, v, 1).
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from math import comb
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -54,7 +53,8 @@ import numpy as np
 
 from labjoint.compare.kinds.record_maps import RecordKind
 from labjoint.compare.measurement import RunNoise
-from labjoint.compare.noise import (MIN_WINDOW_CYCLES, interpolation_gain, quietest_variance,
+from labjoint.compare.noise import (MIN_WINDOW_CYCLES, difference_variance, interpolation_gain,
+                                   quietest_variance,
                                     scatter_variance)
 from labjoint.errors import InputError
 from labjoint.models import RunData
@@ -70,7 +70,6 @@ REST_FRACTION = 0.02
 REST_SAMPLES = 8
 REST_STD = 0.15
 EXTREME_PCT = 1.0
-MAX_DIFF_ORDER = 6
 METHOD = ("periodic excitation: period-to-period scatter of the judged periods; otherwise "
           "the difference method (robust variance of the d-th difference / C(2d, d), smallest "
           "over d = 1..6); force noise plus displacement noise times the least-squares stiffness")
@@ -176,21 +175,6 @@ def period_scatter(x: np.ndarray, bounds: np.ndarray) -> float:
         # along it leaves that out (the ringing read 400x a 1e-7 m noise)
         best = min(best, min(difference_variance(row) for row in d) / 2.0)
     return best
-
-
-def difference_variance(x: np.ndarray) -> float:
-    """White-noise variance by the difference method: min over d of the robust variance
-    (1.4826 x the median absolute deviation, squared) of diff^d x, divided by C(2d, d).
-    The median ignores the sparse spikes a stick-slip kink puts into the differences."""
-    x = np.asarray(x, dtype=float)
-    best = float("inf")
-    for d in range(1, MAX_DIFF_ORDER + 1):
-        if x.size <= d + 8:
-            break
-        dx = np.diff(x, d)
-        mad = 1.4826 * float(np.median(np.abs(dx - np.median(dx))))
-        best = min(best, mad * mad / comb(2 * d, d))
-    return best if np.isfinite(best) else float("nan")
 
 
 def starts_at_rest(u: np.ndarray, F: np.ndarray, a0: int, a1: int) -> bool:
