@@ -50,6 +50,8 @@ MAX_DIFF_ORDER = 6
 #: the lag method needs this many cycles of overlap and a lag within this of whole samples
 LAG_OVERLAP = 3
 LAG_TOL = 0.25
+#: a period within this of whole samples is left to the scatter (no interpolation error)
+WHOLE_TOL = 0.01
 
 
 def interpolation_gain(bounds: np.ndarray, m: int) -> float:
@@ -172,7 +174,10 @@ def lag_variance(x: np.ndarray, groups: Sequence[np.ndarray]) -> float:
     leaving ``LAG_OVERLAP`` cycles of overlap, |qP - L| <= ``LAG_TOL`` samples), the
     difference x[i + L] - x[i] (the noise times sqrt(2), plus what a fraction of a sample
     of shift leaves of the signal: smooth, or sparse spikes at a slip law's kinks) by the
-    difference method, halved; pooled over the groups by their samples.
+    difference method, halved; pooled over the groups by their samples. Groups of a
+    whole number of samples per cycle are left out (NaN if all are): resampling is exact
+    there and the scatter is the better estimate (the difference method's median is
+    less efficient, and its minimum over orders reads low by 5-15 %).
 
     At few samples per cycle the cycle-to-cycle scatter reads the resampling's error as
     noise (a Jenkins force at 22 samples per cycle: 1.5x the noise, enough to call a model
@@ -183,6 +188,8 @@ def lag_variance(x: np.ndarray, groups: Sequence[np.ndarray]) -> float:
     for g in groups:
         n = g.size - 1
         per = float(np.mean(np.diff(g)))
+        if abs(per - round(per)) <= WHOLE_TOL:
+            continue                # whole samples per cycle: resampling is exact there
         best = None
         for q in range(1, n - LAG_OVERLAP + 1):
             lag = int(round(q * per))
