@@ -51,7 +51,8 @@ def test_null_lab_records_are_adequate_without_fitting_candidates(tmp_path, seed
     d = diagnose_report(LabCase.draw(seed).write(tmp_path), BASELINE)
     assert d.adequate, d.verdict
     assert d.candidates == [] and "no candidate fitted" in d.verdict
-    assert d.nrmse_validation <= d.noise_floor_validation
+    # no candidate fitted: within half the significance test's min_rel (0.2) of the floor
+    assert d.nrmse_validation <= 1.1 * d.noise_floor_validation
 
 
 @pytest.mark.slow

@@ -15,10 +15,11 @@
    the baseline's own parameters); flag ties, attach evidence and explanation
    (:mod:`labjoint.compare.evidence`).
 4. Adequate: pooled NRMSE <= ``factor`` x noise floor (default 1.5) and no significant
-   candidate. When the baseline is already at or below the noise floor of the validation
-   runs (and within the factor overall), no candidate is fitted: on data it was not
-   fitted on, nothing can do better than the noise, so the model is adequate and the
-   diagnosis says so at the cost of one fit. Otherwise the verdict names the best significant candidate, or says that
+   candidate. When the baseline is already within ``QUIET_SHARE`` of the significance
+   test's ``min_rel`` of the noise floor of the validation runs (and within the factor
+   overall), no candidate is fitted: on data it was not fitted on, nothing does better
+   than the noise, so no effect could gain the ``min_rel`` x floor a significant one
+   must; the model is adequate and the diagnosis says so at the cost of one fit. Otherwise the verdict names the best significant candidate, or says that
    structure remains that no known effect explains (only when every registered candidate
    that applies was tried; else that the missing effect is not among the N tried).
 """
@@ -46,6 +47,8 @@ from labjoint.models.effects import get_effect
 
 DEFAULT_FACTOR = 1.5
 CONTENDER_RATIO = 1.5
+#: no candidate is fitted within this share of ``min_rel`` above the validation floor
+QUIET_SHARE = 0.5
 
 
 def unexplained(model: Model, tried: Sequence[str]) -> str:
@@ -334,7 +337,7 @@ def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
     names, skipped = (kind.candidates(model, settings.candidates) if hasattr(kind, "candidates")
                       else candidate_effects(model, settings.candidates))
     near = ev.nrmse() <= settings.factor * noise.nrmse
-    quiet = near and ev.nrmse(val_names) <= floor_val
+    quiet = near and ev.nrmse(val_names) <= (1 + QUIET_SHARE * settings.significance.min_rel) * floor_val
     if quiet:
         names = []
     if own is not None:
@@ -373,9 +376,10 @@ def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
     adequate = near and best is None
     ratio = ev.nrmse() / noise.nrmse if noise.nrmse > 0 else float("inf")
     if quiet:
-        verdict = (f"adequate: the validation NRMSE {100 * ev.nrmse(val_names):.3g} % is at or "
-                   f"below the validation runs' noise floor {100 * floor_val:.3g} %, so no "
-                   "effect can improve it beyond the noise (no candidate fitted)")
+        verdict = (f"adequate: the validation NRMSE {100 * ev.nrmse(val_names):.3g} % is "
+                   f"within {100 * QUIET_SHARE * settings.significance.min_rel:.3g} % of the validation "
+                   f"runs' noise floor {100 * floor_val:.3g} %, less than the significance test "
+                   "asks any effect to gain (no candidate fitted)")
     elif adequate:
         verdict = (f"adequate: NRMSE {100 * ev.nrmse():.3g} % is {ratio:.3g}x the noise floor "
                    f"(<= {settings.factor:g}x) and no candidate improves it significantly")
