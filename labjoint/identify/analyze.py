@@ -20,6 +20,7 @@ from labjoint.errors import InputError
 from labjoint.identify.loop import DEFAULT_STIFFNESS, PER_CYCLE, LoopResult, loop_metrics, summarize
 from labjoint.identify.resolution import correct_phase, resolution, sensor_phase
 from labjoint.signal import validate
+from labjoint.signal.clipping import refuse_clipped
 from labjoint.signal.cycles import DEFAULT_POINTS
 from labjoint.signal.excitation import (Excitation, detect_excitation, detect_streamed,
                                          require_sine)
@@ -166,7 +167,8 @@ def _check_int(value: Any, name: str, lo: int, hi: int | None = None) -> None:
 
 
 def _checked(blocks: Iterable[Any]) -> Iterator[np.ndarray]:
-    """Each block as a validated float (2, n) array; errors name the block."""
+    """Each block as a validated float (2, n) array; errors name the block. A clipped
+    channel (flat tops, :mod:`labjoint.signal.clipping`) is refused: its loop is cut."""
     for i, blk in enumerate(blocks):
         if isinstance(blk, np.ndarray) and blk.ndim == 2:
             if blk.shape[0] != 2:
@@ -182,6 +184,8 @@ def _checked(blocks: Iterable[Any]) -> Iterator[np.ndarray]:
         u = validate.signal(u, f"blocks[{i}].displacement", min_samples=0)
         F = validate.signal(F, f"blocks[{i}].force", min_samples=0)
         validate.same_length(F, u, f"blocks[{i}].force", "displacement")
+        refuse_clipped(u, "displacement")
+        refuse_clipped(F, "force", reference=u)
         if u.size:
             yield blk if isinstance(blk, np.ndarray) and blk.dtype == np.float64 \
                 else np.stack([u, F])
