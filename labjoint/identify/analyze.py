@@ -18,6 +18,7 @@ import numpy as np
 
 from labjoint.errors import InputError
 from labjoint.identify.loop import DEFAULT_STIFFNESS, PER_CYCLE, LoopResult, loop_metrics, summarize
+from labjoint.identify.plausible import refuse_impossible
 from labjoint.identify.resolution import correct_phase, resolution, sensor_phase
 from labjoint.signal import validate
 from labjoint.signal.clipping import refuse_clipped
@@ -167,8 +168,7 @@ def _check_int(value: Any, name: str, lo: int, hi: int | None = None) -> None:
 
 
 def _checked(blocks: Iterable[Any]) -> Iterator[np.ndarray]:
-    """Each block as a validated float (2, n) array; errors name the block. A clipped
-    channel (flat tops, :mod:`labjoint.signal.clipping`) is refused: its loop is cut."""
+    """Each block as a validated float (2, n) array, not clipped; errors name the block."""
     for i, blk in enumerate(blocks):
         if isinstance(blk, np.ndarray) and blk.ndim == 2:
             if blk.shape[0] != 2:
@@ -184,8 +184,7 @@ def _checked(blocks: Iterable[Any]) -> Iterator[np.ndarray]:
         u = validate.signal(u, f"blocks[{i}].displacement", min_samples=0)
         F = validate.signal(F, f"blocks[{i}].force", min_samples=0)
         validate.same_length(F, u, f"blocks[{i}].force", "displacement")
-        refuse_clipped(u, "displacement")
-        refuse_clipped(F, "force", reference=u)
+        refuse_clipped(u, "displacement"), refuse_clipped(F, "force", reference=u)
         if u.size:
             yield blk if isinstance(blk, np.ndarray) and blk.dtype == np.float64 \
                 else np.stack([u, F])
@@ -315,6 +314,7 @@ def _assemble(per_cycle: dict[str, np.ndarray], bounds: np.ndarray, fs: float, f
     extra["damping_ns_per_m_uncertainty"] = extra["energy_loss_j_uncertainty"] / (
         np.pi * 2 * np.pi * f * u_amp ** 2) if u_amp > 0 else float("nan")
     result.summary.update(extra)
+    refuse_impossible(result.summary)
     span = bounds[steady.stop] - bounds[steady.start]
     measured = float(fs * (steady.stop - steady.start) / span) if span > 0 else float("nan")
     warnings = []
@@ -353,11 +353,12 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
     from labjoint.storage import open_run
 
     with open_run(path) as rf:
-        disp, fch = _roles(rf, force)
+        roles = channel_roles(rf.metadata, rf.channel_names)
+        disp, fch = roles.require(force, str(rf.path))
         f = frequency_hz if frequency_hz is not None else rf.frequency_hz
         step = FILE_BLOCK_SAMPLES
 
-        ref = channel_roles(rf.metadata, rf.channel_names).reference_force
+        ref = roles.reference_force
         xch = ref if ref in rf.channel_names else fch
 
         def check_excitation(found: Excitation) -> None:
@@ -396,8 +397,3 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
         result.metadata.update(run=rf.name, path=str(rf.path), force_channel=fch,
                                **{k: rf.metadata.get(k) for k in RUN_KEYS if k in rf.metadata})
         return result
-
-
-def _roles(rf: Any, force: str) -> tuple[list[str], str]:
-    """Displacement channel(s) and the force channel of an open run file."""
-    return channel_roles(rf.metadata, rf.channel_names).require(force, str(rf.path))
