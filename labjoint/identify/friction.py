@@ -333,9 +333,9 @@ def identify_friction(run: Any, *, torque_to_normal_n_per_nm: float | None = Non
     u = validate.signal(run.displacement, "displacement", min_samples=16)
     F = validate.signal(run.force, "force", min_samples=16)
     validate.same_length(F, u, "force", "displacement")
-    what = "its sliding force and friction coefficient"
-    refuse_clipped(u, "displacement", what=what)
-    refuse_clipped(F, "force", reference=u, what=what)     # a clip looks like a plateau
+    # a clipped force looks like a sliding plateau; a clipped displacement (the rig's
+    # probes at their range in gross slip) still marks the cycles and the slip direction
+    refuse_clipped(F, "force", reference=u, what="its sliding force and friction coefficient")
     x = F if getattr(run, "excitation", None) is None else run.excitation
     require_sine(detect_excitation(x, fs), FRICTION_PIPELINE, f"run {run.name}")
     f = run.frequency_hz or estimate_frequency(u, fs, min_hz=3.0 * fs / u.size)
