@@ -357,7 +357,6 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
         disp, fch = roles.require(force, str(rf.path))
         f = frequency_hz if frequency_hz is not None else rf.frequency_hz
         step = FILE_BLOCK_SAMPLES
-
         ref = roles.reference_force
         xch = ref if ref in rf.channel_names else fch
 
@@ -372,8 +371,10 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
                 b = min(a + step, rf.n_samples)
                 blk = np.empty((2, b - a))
                 rf.physical(disp[0], a, b, out=blk[0])
-                if len(disp) == 2:
-                    blk[0] -= rf.physical(disp[1], a, b, out=other[:b - a])
+                if len(disp) == 2:      # a clipped probe does not show in the difference
+                    o = rf.physical(disp[1], a, b, out=other[:b - a])
+                    refuse_clipped(blk[0], disp[0]), refuse_clipped(o, disp[1])
+                    blk[0] -= o
                 rf.physical(fch, a, b, out=blk[1])
                 yield blk
 
