@@ -18,7 +18,8 @@ import numpy as np
 
 from labjoint.errors import InputError
 from labjoint.identify.loop import DEFAULT_STIFFNESS, PER_CYCLE, LoopResult, loop_metrics, summarize
-from labjoint.identify.plausible import refuse_impossible
+from labjoint.identify.plausible import (refuse_frequency_mismatch, refuse_impossible,
+                                         refuse_unresolved)
 from labjoint.identify.resolution import correct_phase, resolution, sensor_phase
 from labjoint.signal import validate
 from labjoint.signal.clipping import refuse_clipped
@@ -91,9 +92,7 @@ def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None 
         raise InputError(f"{f:g} Hz is at or above the Nyquist frequency {fs / 2:g} Hz of "
                          f"the {fs:g} Hz sampling", field="frequency_hz")
     cutoff, rule = analysis_cutoff(fs, cutoff_hz)
-    if cutoff is not None and cutoff <= f:
-        raise InputError(f"low-pass cutoff {cutoff:g} Hz would remove the {f:g} Hz "
-                         "fundamental: pass a cutoff well above it (or None)", field="cutoff_hz")
+    refuse_unresolved(f, fs, cutoff, order)
     _check_int(min_cycles, "min_cycles", 1)
     _check_int(n_points, "n_points", 8)
     _check_int(n_harmonics, "n_harmonics", 1, n_points // 2 - 1)
@@ -317,10 +316,8 @@ def _assemble(per_cycle: dict[str, np.ndarray], bounds: np.ndarray, fs: float, f
     refuse_impossible(result.summary)
     span = bounds[steady.stop] - bounds[steady.start]
     measured = float(fs * (steady.stop - steady.start) / span) if span > 0 else float("nan")
+    refuse_frequency_mismatch(f, measured, meta["frequency_source"])
     warnings = []
-    if abs(measured - f) > 0.005 * f:
-        warnings.append(f"measured cycle frequency {measured:g} Hz differs from the "
-                        f"{f:g} Hz used in Eq. 1 by more than 0.5 %")
     if steady.n_steady < 0.5 * n:
         warnings.append(f"only {steady.n_steady} of {n} cycles are steady")
     result.metadata = {

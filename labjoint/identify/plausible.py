@@ -13,8 +13,19 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from labjoint.errors import InputError
 from labjoint.identify.resolution import COVERAGE
+
+#: Fewer samples per period leave a bias in W above 0.5 % from resampling each cycle
+#: (measured on exact records: -0.4 % at 10, -0.9 % at 8, -2.8 % at 6, -5.6 % at 5).
+MIN_SAMPLES_PER_PERIOD = 10.0
+#: Largest loss of W to the low-pass's gain at the fundamental (zero-phase: |H|^2 per
+#: channel, W scales with its square).
+MAX_FILTER_LOSS = 0.002
+#: Largest difference between the frequency used in Eq. 1 and the cycles' own.
+MAX_FREQUENCY_MISMATCH = 0.005
 
 #: A joint's relative tangential displacement beyond this amplitude (m) is not one: the
 #: column is in other units, or holds the force (displacement and force swapped).
@@ -41,3 +52,36 @@ def refuse_impossible(s: dict[str, Any]) -> None:
                          "displacement's) is inverted; force and displacement must be positive "
                          "in the same direction (a passive joint dissipates energy)",
                          field="force")
+
+
+def refuse_unresolved(f: float, fs: float, cutoff: float | None, order: int) -> None:
+    """Refuse a fundamental the loop cannot resolve: too few samples per period, at or
+    near the low-pass cutoff (its gain shrinks W and the amplitudes, not C or k)."""
+    if fs / f < MIN_SAMPLES_PER_PERIOD:
+        raise InputError(f"{f:g} Hz leaves {fs / f:.3g} samples per period at fs = {fs:g} Hz; "
+                         f"the loop needs at least {MIN_SAMPLES_PER_PERIOD:g} (below, "
+                         "resampling each cycle biases W by more than 0.5 %)",
+                         field="frequency_hz")
+    if cutoff is None:
+        return
+    if cutoff <= f:
+        raise InputError(f"low-pass cutoff {cutoff:g} Hz would remove the {f:g} Hz "
+                         "fundamental: pass a cutoff well above it (or None)", field="cutoff_hz")
+    gain = 1.0 / (1.0 + (f / cutoff) ** (2 * order))    # sosfiltfilt: |H|^2
+    if 1.0 - gain ** 2 > MAX_FILTER_LOSS:
+        raise InputError(f"low-pass cutoff {cutoff:g} Hz (order {order}, zero-phase) passes "
+                         f"only {100 * gain:.2f} % of the {f:g} Hz fundamental: W would be "
+                         f"{100 * (1 - gain ** 2):.2g} % low; pass a cutoff above "
+                         f"{f / (MAX_FILTER_LOSS / 2) ** (1 / (2 * order)):.0f} Hz (cutoff_hz, "
+                         "or None for no filter; it is capped at 0.45 fs)", field="cutoff_hz")
+
+
+def refuse_frequency_mismatch(used: float, measured: float, source: str) -> None:
+    """Refuse when the cycles' own frequency is not the one Eq. 1 would use (C = W /
+    (pi omega U^2) would be off by the same fraction)."""
+    if np.isfinite(measured) and abs(measured - used) > MAX_FREQUENCY_MISMATCH * used:
+        raise InputError(f"{used:g} Hz ({source}) differs from the measured cycle frequency "
+                         f"{measured:.6g} Hz by {100 * abs(measured / used - 1):.2g} % (more "
+                         f"than {100 * MAX_FREQUENCY_MISMATCH:g} %): the damping would be off "
+                         "by as much; correct the frequency_hz metadata or leave it out "
+                         "(it is then estimated)", field="frequency_hz")
