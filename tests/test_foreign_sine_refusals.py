@@ -6,7 +6,9 @@ What a file can and cannot tell:
   unit headers, too few cycles, a swept sine or broadband record, a clipped channel
   (flat tops at its extreme), a force sensor of inverted sign (the loop runs backwards
   with negative stiffness), displacement and force swapped when the "displacement" then
-  has an amplitude above 1 cm (a force of more than 0.01 N);
+  has an amplitude above 1 cm (a force of more than 0.01 N), a stated frequency 0.5 % or
+  more off the cycles' own, a fundamental with fewer than 10 samples per period or within
+  reach of the low-pass;
 - not detected: millimetres written in a metre column (5 um as 0.005: a 5 mm amplitude is
   still a possible slip), displacement and force swapped with tiny forces, a clip at
   10 samples per cycle or just below a Coulomb slider's plateau (too few samples
@@ -142,3 +144,32 @@ def test_what_the_file_cannot_tell_is_documented_by_a_result(tmp_path, capsys):
     assert main(["analyze", str(path), "--json"]) == 0
     row = json.loads(capsys.readouterr().out)["runs"][0]
     assert row["displacement_amplitude_m"] == pytest.approx(5e-3, rel=1e-3)
+
+
+@pytest.mark.parametrize("stated, refused", [(100.0, True), (101.0, True), (103.3, False)])
+def test_a_stated_frequency_off_the_cycles_is_refused(tmp_path, capsys, stated, refused):
+    # the cycles run at 103 Hz; before, 100 Hz in the metadata gave C +3 % silently
+    r = BASE.but(f=103.0)
+    path = write_csv(tmp_path / "freq.csv", *r.arrays(), {"frequency_hz": stated})
+    code = main(["analyze", str(path), "--json"])
+    out, err = capsys.readouterr()
+    if refused:
+        assert code != 0 and "'frequency_hz'" in err and "measured cycle frequency" in err
+    else:                                                # within 0.5 %: C within 0.5 %
+        row = json.loads(out)["runs"][0]
+        assert row["damping_ns_per_m"] == pytest.approx(r.c, rel=5e-3)
+
+
+@pytest.mark.parametrize("f, fs, field, words", [
+    (1000.0, 6000.0, "frequency_hz", "samples per period"),    # before: W -2.8 %
+    (2000.0, 51200.0, "cutoff_hz", "passes only"),             # before: W -3.2 %
+    (2900.0, 100000.0, "cutoff_hz", "passes only")])           # before: W -66 %
+def test_a_fundamental_the_loop_cannot_resolve_is_refused(f, fs, field, words):
+    t, u, F = BASE.but(f=f, fs=fs).arrays()
+    with pytest.raises(InputError, match=words) as exc:
+        analyze_arrays(u, F, fs)
+    assert exc.value.field == field
+    # with the cutoff moved out of the way the 2 kHz loop is exact again
+    if f == 2000.0:
+        s = analyze_arrays(u, F, fs, cutoff_hz=None).summary
+        assert s["energy_loss_j"] == pytest.approx(BASE.but(f=f).energy_loss, rel=2e-3)
