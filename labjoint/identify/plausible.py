@@ -22,8 +22,8 @@ from labjoint.identify.resolution import COVERAGE
 #: (measured on exact records: -0.4 % at 10, -0.9 % at 8, -2.8 % at 6, -5.6 % at 5).
 MIN_SAMPLES_PER_PERIOD = 10.0
 #: Largest loss of W to the low-pass's gain at the fundamental (zero-phase: |H|^2 per
-#: channel, W scales with its square).
-MAX_FILTER_LOSS = 0.002
+#: channel, W scales with its square); 0.5 %, as for the resampling bias above.
+MAX_FILTER_LOSS = 0.005
 #: Largest difference between the frequency used in Eq. 1 and the cycles' own.
 MAX_FREQUENCY_MISMATCH = 0.005
 
