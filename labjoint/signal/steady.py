@@ -7,15 +7,15 @@ the median of window-to-window slopes over the whole run, i.e. the settled rate,
 settled cycles are the majority. So a slow monotone drift (wear) is followed and never
 called transient, while a fast settling (start from rest, ramp) or a trailing ramp-down
 deviates from both windows and is. Tolerance: ``max(rel_tol |level|, abs_tol,
-n_sigma noise)``, noise from second differences of successive cycles (robust MAD;
-first differences took a ramp over half the record for noise) and
+n_sigma noise)``, noise from successive-cycle differences (robust MAD) and
 ``n_sigma = sqrt(2 ln n) + 1`` so no cycle of a long steady run is out by chance.
 The steady segment is the longest run of in-band cycles, bridging isolated out-of-band
 cycles (at most ``max_gap`` in a row, themselves excluded from the mask). The median
 slope is the settled rate only while settled cycles are the majority: a start-up
 transient over half the record or more would set it, and its own cycles would pass as a
-drift while the settled ones failed; so the segment is also found with no drift rate,
-and the longer of the two is kept.
+drift while the settled ones failed; so the segment is also found with no drift rate
+(and noise from second differences, which a ramp does not enter), and the longer of the
+two is kept.
 """
 
 from __future__ import annotations
@@ -121,9 +121,9 @@ def _in_band(a: np.ndarray, rel_tol: float, abs_tol: float, w: int,
     before = np.full(n, np.nan)
     ok = j >= 2 * w
     before[ok] = means[j[ok] - 2 * w] + slope * reach
-    d = np.diff(a, 2) if n > 2 else np.diff(a)           # a ramp or drift is not noise
-    sigma = float(1.4826 * np.median(np.abs(d - np.median(d)))
-                  / np.sqrt(6.0 if n > 2 else 2.0))
+    second = not drift and n > 2                         # then a ramp is not noise either
+    d = np.diff(a, 2 if second else 1)
+    sigma = float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(6.0 if second else 2.0))
     n_sigma = np.sqrt(2.0 * np.log(max(n, 2))) + 1.0
     noise_tol = n_sigma * sigma * np.sqrt(1.0 + 1.0 / w)
     result = np.zeros(n, bool)
