@@ -1,12 +1,14 @@
-"""Loops no joint makes, refused by the hysteresis-loop pipeline with what is wrong.
+"""Loops no joint makes, and fundamentals the loop cannot resolve, refused by the
+hysteresis-loop pipeline with what is wrong.
 
-What a file cannot tell: a force sensor of inverted sign on a joint whose stiffness does
-not show it (never for a passive joint: the stiffness turns negative with W), a lag
-between the channels (W too small or negative: flagged below resolution, see
-:mod:`labjoint.identify.resolution`), displacement in millimetres written as metres
-while the amplitude stays below a centimetre, or displacement and force swapped when the
-force's amplitude is below a centimetre's worth of newtons (then the swapped loop runs
-backwards with a positive "stiffness": W < 0 flagged below resolution).
+What a file cannot tell: a force sensor of inverted sign on a record whose true
+stiffness is negative (mass-dominated: inverted, it shows k > 0 and W < 0, flagged
+below resolution like a channel lag), a lag between the channels (W too small or
+negative: flagged below resolution, see :mod:`labjoint.identify.resolution`),
+displacement in millimetres written as metres while the amplitude stays below a
+centimetre, force in kN written as N, or displacement and force swapped when the force's
+amplitude is below 0.01 N (the swapped loop runs backwards with a positive "stiffness":
+W < 0, flagged below resolution).
 """
 
 from __future__ import annotations
