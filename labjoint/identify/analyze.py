@@ -18,8 +18,11 @@ import numpy as np
 
 from labjoint.errors import InputError
 from labjoint.identify.loop import DEFAULT_STIFFNESS, PER_CYCLE, LoopResult, loop_metrics, summarize
+from labjoint.identify.plausible import (refuse_frequency_mismatch, refuse_impossible,
+                                         refuse_unresolved)
 from labjoint.identify.resolution import correct_phase, resolution, sensor_phase
 from labjoint.signal import validate
+from labjoint.signal.clipping import refuse_clipped
 from labjoint.signal.cycles import DEFAULT_POINTS
 from labjoint.signal.excitation import (Excitation, detect_excitation, detect_streamed,
                                          require_sine)
@@ -89,9 +92,7 @@ def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None 
         raise InputError(f"{f:g} Hz is at or above the Nyquist frequency {fs / 2:g} Hz of "
                          f"the {fs:g} Hz sampling", field="frequency_hz")
     cutoff, rule = analysis_cutoff(fs, cutoff_hz)
-    if cutoff is not None and cutoff <= f:
-        raise InputError(f"low-pass cutoff {cutoff:g} Hz would remove the {f:g} Hz "
-                         "fundamental: pass a cutoff well above it (or None)", field="cutoff_hz")
+    refuse_unresolved(f, fs, cutoff, order)
     _check_int(min_cycles, "min_cycles", 1)
     _check_int(n_points, "n_points", 8)
     _check_int(n_harmonics, "n_harmonics", 1, n_points // 2 - 1)
@@ -166,7 +167,7 @@ def _check_int(value: Any, name: str, lo: int, hi: int | None = None) -> None:
 
 
 def _checked(blocks: Iterable[Any]) -> Iterator[np.ndarray]:
-    """Each block as a validated float (2, n) array; errors name the block."""
+    """Each block as a validated float (2, n) array, not clipped; errors name the block."""
     for i, blk in enumerate(blocks):
         if isinstance(blk, np.ndarray) and blk.ndim == 2:
             if blk.shape[0] != 2:
@@ -182,6 +183,7 @@ def _checked(blocks: Iterable[Any]) -> Iterator[np.ndarray]:
         u = validate.signal(u, f"blocks[{i}].displacement", min_samples=0)
         F = validate.signal(F, f"blocks[{i}].force", min_samples=0)
         validate.same_length(F, u, f"blocks[{i}].force", "displacement")
+        refuse_clipped(u, "displacement"), refuse_clipped(F, "force", reference=u)
         if u.size:
             yield blk if isinstance(blk, np.ndarray) and blk.dtype == np.float64 \
                 else np.stack([u, F])
@@ -311,12 +313,11 @@ def _assemble(per_cycle: dict[str, np.ndarray], bounds: np.ndarray, fs: float, f
     extra["damping_ns_per_m_uncertainty"] = extra["energy_loss_j_uncertainty"] / (
         np.pi * 2 * np.pi * f * u_amp ** 2) if u_amp > 0 else float("nan")
     result.summary.update(extra)
+    refuse_impossible(result.summary)
     span = bounds[steady.stop] - bounds[steady.start]
     measured = float(fs * (steady.stop - steady.start) / span) if span > 0 else float("nan")
+    refuse_frequency_mismatch(f, measured, meta["frequency_source"])
     warnings = []
-    if abs(measured - f) > 0.005 * f:
-        warnings.append(f"measured cycle frequency {measured:g} Hz differs from the "
-                        f"{f:g} Hz used in Eq. 1 by more than 0.5 %")
     if steady.n_steady < 0.5 * n:
         warnings.append(f"only {steady.n_steady} of {n} cycles are steady")
     result.metadata = {
@@ -349,11 +350,11 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
     from labjoint.storage import open_run
 
     with open_run(path) as rf:
-        disp, fch = _roles(rf, force)
+        roles = channel_roles(rf.metadata, rf.channel_names)
+        disp, fch = roles.require(force, str(rf.path))
         f = frequency_hz if frequency_hz is not None else rf.frequency_hz
         step = FILE_BLOCK_SAMPLES
-
-        ref = channel_roles(rf.metadata, rf.channel_names).reference_force
+        ref = roles.reference_force
         xch = ref if ref in rf.channel_names else fch
 
         def check_excitation(found: Excitation) -> None:
@@ -367,8 +368,10 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
                 b = min(a + step, rf.n_samples)
                 blk = np.empty((2, b - a))
                 rf.physical(disp[0], a, b, out=blk[0])
-                if len(disp) == 2:
-                    blk[0] -= rf.physical(disp[1], a, b, out=other[:b - a])
+                if len(disp) == 2:      # a clipped probe does not show in the difference
+                    o = rf.physical(disp[1], a, b, out=other[:b - a])
+                    refuse_clipped(blk[0], disp[0]), refuse_clipped(o, disp[1])
+                    blk[0] -= o
                 rf.physical(fch, a, b, out=blk[1])
                 yield blk
 
@@ -392,8 +395,3 @@ def analyze_file(path: Any, force: str = "joint", frequency_hz: float | None = N
         result.metadata.update(run=rf.name, path=str(rf.path), force_channel=fch,
                                **{k: rf.metadata.get(k) for k in RUN_KEYS if k in rf.metadata})
         return result
-
-
-def _roles(rf: Any, force: str) -> tuple[list[str], str]:
-    """Displacement channel(s) and the force channel of an open run file."""
-    return channel_roles(rf.metadata, rf.channel_names).require(force, str(rf.path))

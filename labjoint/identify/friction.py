@@ -18,11 +18,15 @@ import numpy as np
 from labjoint.errors import InputError
 from labjoint.identify.identified import Identified
 from labjoint.signal import validate
+from labjoint.signal.clipping import refuse_clipped
+from labjoint.signal.excitation import detect_excitation, require_sine
 from labjoint.signal.filter import PAPER_CUTOFF_HZ, analysis_cutoff, lowpass
 from labjoint.signal.frequency import estimate_frequency
 from labjoint.signal.steady import detect_steady
 
 STIFFNESS_METHODS = ("secant", "lsq")
+#: Named in the refusal of a friction test that is not a steady sine.
+FRICTION_PIPELINE = "the friction identification (seed 002 Eq. 10, labjoint friction)"
 DEFAULT_TORQUE_TO_NORMAL_N_PER_NM = 478.0   # seed 002 section IV.A
 
 
@@ -328,6 +332,12 @@ def identify_friction(run: Any, *, torque_to_normal_n_per_nm: float | None = Non
     fs = run.sample_rate_hz
     u = validate.signal(run.displacement, "displacement", min_samples=16)
     F = validate.signal(run.force, "force", min_samples=16)
+    validate.same_length(F, u, "force", "displacement")
+    # a clipped force looks like a sliding plateau; a clipped displacement (the rig's
+    # probes at their range in gross slip) still marks the cycles and the slip direction
+    refuse_clipped(F, "force", reference=u, what="its sliding force and friction coefficient")
+    x = F if getattr(run, "excitation", None) is None else run.excitation
+    require_sine(detect_excitation(x, fs), FRICTION_PIPELINE, f"run {run.name}")
     f = run.frequency_hz or estimate_frequency(u, fs, min_hz=3.0 * fs / u.size)
     cutoff, _ = analysis_cutoff(fs, cutoff_hz)
     if cutoff is not None:

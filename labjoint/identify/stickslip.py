@@ -44,6 +44,8 @@ from labjoint.identify.friction import (DEFAULT_TORQUE_TO_NORMAL_N_PER_NM, RATIO
 from labjoint.identify.identified import Identified
 from labjoint.identify.quarters import rising_quarters
 from labjoint.signal import validate
+from labjoint.signal.clipping import refuse_clipped
+from labjoint.signal.excitation import detect_excitation, require_sine
 from labjoint.signal.filter import PAPER_CUTOFF_HZ, analysis_cutoff, lowpass
 from labjoint.signal.frequency import estimate_frequency
 from labjoint.signal.steady import detect_steady
@@ -330,6 +332,10 @@ class StickSlipIdentifier:
         mu = _as_identified(self.friction_coefficient, "friction_coefficient", "1",
                             "friction_coefficient")
         contact = self._contact(md)
+        refuse_clipped(u, "displacement", what="its stick-slip boundary and energy loss")
+        if u.size >= 256:                # shorter: left to the quarter-cycle checks
+            require_sine(detect_excitation(u if force is None else force, fs),
+                         "the stick-slip method (seed 002 Eqs. 2-9)", name or "the record")
         f = (float(frequency_hz) if frequency_hz is not None
              else estimate_frequency(u, fs, min_hz=3.0 * fs / u.size))
         f = validate.positive(f, "frequency_hz")
@@ -350,6 +356,7 @@ class StickSlipIdentifier:
                                  field="shear_stiffness")
             F = validate.signal(force, "force", min_samples=16)
             validate.same_length(F, u, "force", "displacement")
+            refuse_clipped(F, "force", reference=u, what="its shear-layer stiffness K_t")
             k = np.flatnonzero(steady)
             a = int(np.floor(q.crossing_sample[k[0]]))
             b = int(min(u.size, np.ceil(q.crossing_sample[k[-1]] + fs / f) + 1))

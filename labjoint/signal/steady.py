@@ -10,7 +10,12 @@ deviates from both windows and is. Tolerance: ``max(rel_tol |level|, abs_tol,
 n_sigma noise)``, noise from successive-cycle differences (robust MAD) and
 ``n_sigma = sqrt(2 ln n) + 1`` so no cycle of a long steady run is out by chance.
 The steady segment is the longest run of in-band cycles, bridging isolated out-of-band
-cycles (at most ``max_gap`` in a row, themselves excluded from the mask).
+cycles (at most ``max_gap`` in a row, themselves excluded from the mask). The median
+slope is the settled rate only while settled cycles are the majority: a start-up
+transient over half the record or more would set it, and its own cycles would pass as a
+drift while the settled ones failed; so the segment is also found with no drift rate
+(and noise from second differences, which a ramp does not enter), and the longer of the
+two is kept.
 """
 
 from __future__ import annotations
@@ -77,18 +82,23 @@ def detect_steady(displacement_amplitude: np.ndarray, force_amplitude: np.ndarra
         raise InputError(f"must be >= 1, got {window!r}", field="window")
     if idx.size < 4 * w:
         return _few(arrays, ok, idx, rel_tol, phase_tol, w, max_gap)
-    band = np.ones(idx.size, bool)
-    noise = {}
-    for name, arr in arrays.items():
-        is_phase = name == "phase"
-        a = np.unwrap(arr[idx]) if is_phase else arr[idx]
-        tol_abs = (rel_tol if phase_tol is None else float(phase_tol)) if is_phase else 0.0
-        in_band, sigma = _in_band(a, 0.0 if is_phase else rel_tol, tol_abs, w)
-        band &= in_band
-        noise[name] = sigma
-    full = np.zeros(n, bool)
-    full[idx] = band
-    start, stop = _segment(full, max_gap)
+    best: tuple[int, int, np.ndarray, dict[str, float]] | None = None
+    for drift in (True, False):
+        band = np.ones(idx.size, bool)
+        noise = {}
+        for name, arr in arrays.items():
+            is_phase = name == "phase"
+            a = np.unwrap(arr[idx]) if is_phase else arr[idx]
+            tol_abs = (rel_tol if phase_tol is None else float(phase_tol)) if is_phase else 0.0
+            in_band, sigma = _in_band(a, 0.0 if is_phase else rel_tol, tol_abs, w, drift)
+            band &= in_band
+            noise[name] = sigma
+        full = np.zeros(n, bool)
+        full[idx] = band
+        start, stop = _segment(full, max_gap)
+        if best is None or stop - start > best[1] - best[0]:
+            best = (start, stop, full, noise)
+    start, stop, full, noise = best
     return SteadyState(start, stop, full & _span(n, start, stop), w, noise)
 
 
@@ -122,12 +132,14 @@ def _few(arrays: dict[str, np.ndarray], ok: np.ndarray, idx: np.ndarray, rel_tol
                             "against their median")
 
 
-def _in_band(a: np.ndarray, rel_tol: float, abs_tol: float, w: int) -> tuple[np.ndarray, float]:
-    """Per-cycle: is ``a`` within tolerance of the drift-corrected level W cycles away?"""
+def _in_band(a: np.ndarray, rel_tol: float, abs_tol: float, w: int,
+             drift: bool = True) -> tuple[np.ndarray, float]:
+    """Per-cycle: is ``a`` within tolerance of the drift-corrected level W cycles away?
+    (``drift=False``: of the level itself, no drift rate.)"""
     n = a.size
     cs = np.concatenate([[0.0], np.cumsum(a)])
     means = (cs[w:] - cs[:-w]) / w                       # means[s] = mean(a[s:s+w])
-    slope = float(np.median((means[w:] - means[:-w]) / w))
+    slope = float(np.median((means[w:] - means[:-w]) / w)) if drift else 0.0
     reach = w + (w - 1) / 2.0                            # from j to the window centre
     j = np.arange(n)
     after = np.full(n, np.nan)
@@ -136,8 +148,9 @@ def _in_band(a: np.ndarray, rel_tol: float, abs_tol: float, w: int) -> tuple[np.
     before = np.full(n, np.nan)
     ok = j >= 2 * w
     before[ok] = means[j[ok] - 2 * w] + slope * reach
-    d = np.diff(a)
-    sigma = float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0))
+    second = not drift and n > 2                         # then a ramp is not noise either
+    d = np.diff(a, 2 if second else 1)
+    sigma = float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(6.0 if second else 2.0))
     n_sigma = np.sqrt(2.0 * np.log(max(n, 2))) + 1.0
     noise_tol = n_sigma * sigma * np.sqrt(1.0 + 1.0 / w)
     result = np.zeros(n, bool)

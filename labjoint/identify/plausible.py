@@ -1,0 +1,89 @@
+"""Loops no joint makes, and fundamentals the loop cannot resolve, refused by the
+hysteresis-loop pipeline with what is wrong.
+
+What a file cannot tell: a force sensor of inverted sign on a record whose true
+stiffness is negative (mass-dominated: inverted, it shows k > 0 and W < 0, flagged
+below resolution like a channel lag), a lag between the channels (W too small or
+negative: flagged below resolution, see :mod:`labjoint.identify.resolution`),
+displacement in millimetres written as metres while the amplitude stays below a
+centimetre, force in kN written as N, or displacement and force swapped when the force's
+amplitude is below 0.01 N (the swapped loop runs backwards with a positive "stiffness":
+W < 0, flagged below resolution).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from labjoint.errors import InputError
+from labjoint.identify.resolution import COVERAGE
+
+#: Fewer samples per period leave a bias in W above 0.5 % from resampling each cycle
+#: (measured on exact records: -0.4 % at 10, -0.9 % at 8, -2.8 % at 6, -5.6 % at 5).
+MIN_SAMPLES_PER_PERIOD = 10.0
+#: Largest loss of W to the low-pass's gain at the fundamental (zero-phase: |H|^2 per
+#: channel, W scales with its square); 0.5 %, as for the resampling bias above.
+MAX_FILTER_LOSS = 0.005
+#: Largest difference between the frequency used in Eq. 1 and the cycles' own.
+MAX_FREQUENCY_MISMATCH = 0.005
+
+#: A joint's relative tangential displacement beyond this amplitude (m) is not one: the
+#: column is in other units, or holds the force (displacement and force swapped).
+MAX_DISPLACEMENT_AMPLITUDE_M = 0.01
+
+
+def refuse_impossible(s: dict[str, Any]) -> None:
+    """Refuse loops no joint makes: a displacement amplitude of centimetres, or a loop run
+    backwards (W < 0 beyond its uncertainty) with a negative stiffness, the signature of a
+    force (or displacement) sensor of inverted sign. A negative W with a positive
+    stiffness stays a flagged result (``below_resolution``): an uncorrected phase lag
+    between the channels gives it too (:mod:`labjoint.identify.resolution`)."""
+    u_amp = s["displacement_amplitude_m"]
+    if u_amp > MAX_DISPLACEMENT_AMPLITUDE_M:
+        raise InputError(f"amplitude {u_amp:.4g} m is not a joint's relative displacement "
+                         f"(above {MAX_DISPLACEMENT_AMPLITUDE_M:g} m): the column must be in "
+                         "metres (SI), and displacement and force may be swapped",
+                         field="displacement")
+    w, k = s["energy_loss_j"], s["stiffness_n_per_m"]
+    if w < -COVERAGE * s["energy_loss_j_uncertainty"] and k < 0:
+        raise InputError(f"runs against the displacement: energy loss {w:.4g} J < 0 (the "
+                         f"loop is run backwards; uncertainty {s['energy_loss_j_uncertainty']:.2g}"
+                         f" J) with stiffness {k:.4g} N/m < 0: the force sensor's sign (or the "
+                         "displacement's) is inverted; force and displacement must be positive "
+                         "in the same direction (a passive joint dissipates energy)",
+                         field="force")
+
+
+def refuse_unresolved(f: float, fs: float, cutoff: float | None, order: int) -> None:
+    """Refuse a fundamental the loop cannot resolve: too few samples per period, at or
+    near the low-pass cutoff (its gain shrinks W and the amplitudes, not C or k)."""
+    if fs / f < MIN_SAMPLES_PER_PERIOD:
+        raise InputError(f"{f:g} Hz leaves {fs / f:.3g} samples per period at fs = {fs:g} Hz; "
+                         f"the loop needs at least {MIN_SAMPLES_PER_PERIOD:g} (below, "
+                         "resampling each cycle biases W by more than 0.5 %)",
+                         field="frequency_hz")
+    if cutoff is None:
+        return
+    if cutoff <= f:
+        raise InputError(f"low-pass cutoff {cutoff:g} Hz would remove the {f:g} Hz "
+                         "fundamental: pass a cutoff well above it (or None)", field="cutoff_hz")
+    gain = 1.0 / (1.0 + (f / cutoff) ** (2 * order))    # sosfiltfilt: |H|^2
+    if 1.0 - gain ** 2 > MAX_FILTER_LOSS:
+        raise InputError(f"low-pass cutoff {cutoff:g} Hz (order {order}, zero-phase) passes "
+                         f"only {100 * gain:.2f} % of the {f:g} Hz fundamental: W would be "
+                         f"{100 * (1 - gain ** 2):.2g} % low; pass a cutoff above "
+                         f"{f / (MAX_FILTER_LOSS / 2) ** (1 / (2 * order)):.0f} Hz (cutoff_hz, "
+                         "or None for no filter; it is capped at 0.45 fs)", field="cutoff_hz")
+
+
+def refuse_frequency_mismatch(used: float, measured: float, source: str) -> None:
+    """Refuse when the cycles' own frequency is not the one Eq. 1 would use (C = W /
+    (pi omega U^2) would be off by the same fraction)."""
+    if np.isfinite(measured) and abs(measured - used) > MAX_FREQUENCY_MISMATCH * used:
+        raise InputError(f"{used:g} Hz ({source}) differs from the measured cycle frequency "
+                         f"{measured:.6g} Hz by {100 * abs(measured / used - 1):.2g} % (more "
+                         f"than {100 * MAX_FREQUENCY_MISMATCH:g} %): the damping would be off "
+                         "by as much; correct the frequency_hz metadata or leave it out "
+                         "(it is then estimated)", field="frequency_hz")
