@@ -173,3 +173,22 @@ def test_a_fundamental_the_loop_cannot_resolve_is_refused(f, fs, field, words):
     if f == 2000.0:
         s = analyze_arrays(u, F, fs, cutoff_hz=None).summary
         assert s["energy_loss_j"] == pytest.approx(BASE.but(f=f).energy_loss, rel=2e-3)
+
+
+def test_the_cli_moves_the_cutoff_for_a_fundamental_the_3_khz_filter_would_attenuate(
+        tmp_path, capsys):
+    r = BASE.but(f=2000.0, fs=51200.0, cycles=200)
+    path = write_csv(tmp_path / "hi.csv", *r.arrays(), meta={"frequency_hz": 2000.0})
+    assert main(["analyze", str(path), "--json"]) != 0
+    assert "--cutoff" in capsys.readouterr().err             # the refusal names the option
+    for cutoff in ("10000", "none"):
+        assert main(["analyze", str(path), "--cutoff", cutoff, "--json"]) == 0
+        row = json.loads(capsys.readouterr().out)["runs"][0]
+        assert row["energy_loss_j"] == pytest.approx(r.energy_loss, rel=3e-3)
+        assert row["damping_ns_per_m"] == pytest.approx(r.c, rel=3e-3)
+    assert main(["analyze", str(path), "--cutoff", "5000", "--method", "stickslip",
+                 "--friction", "0.3"]) != 0
+    assert "--cutoff" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["analyze", str(path), "--cutoff", "-3"])
+    assert "positive frequency" in capsys.readouterr().err

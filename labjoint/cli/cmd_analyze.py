@@ -1,5 +1,5 @@
 """`labjoint analyze RUN... [--method loop|stickslip|both] [--friction MU | --friction-run RUN]
-[--data-dir DIR] [--table] [--json]`."""
+[--cutoff HZ|none] [--data-dir DIR] [--table] [--json]`."""
 
 from __future__ import annotations
 
@@ -36,6 +36,10 @@ def add_analyze_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--save", action="store_true",
                    help="store results in each run file: processed/loop (methods loop, both) "
                         "and processed/stickslip (stickslip, both)")
+    p.add_argument("--cutoff", type=_cutoff, default=None, metavar="HZ|none",
+                   help="low-pass cutoff of the loop method (default: seed 002's 3 kHz, "
+                        "capped at 0.45 fs); 'none': no filter. For fundamentals the 3 kHz "
+                        "filter would attenuate (it refuses them, naming the cutoff needed)")
     p.add_argument("--table", action="store_true",
                    help="the trends of the runs: seed 002 Tables 2-4 (both methods, with "
                         "uncertainties) and the dissipation exponent W ~ F^n with its 95 %% "
@@ -43,11 +47,31 @@ def add_analyze_arguments(p: argparse.ArgumentParser) -> None:
                         "and a 'trend' object holds the fits and the table")
 
 
-def loop_row(item: Any, force: str, save: bool) -> dict[str, Any]:
+def _cutoff(text: str) -> float | str:
+    """``--cutoff``: a frequency in Hz, or 'none' (no low-pass)."""
+    if text.strip().lower() == "none":
+        return "none"
+    try:
+        hz = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a frequency in Hz or 'none': {text!r}") from None
+    if not hz > 0 or hz == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a positive frequency in Hz, got {text!r}")
+    return hz
+
+
+def _cutoff_hz(cutoff: float | str | None) -> float | None:
+    """The analysis's ``cutoff_hz`` for a ``--cutoff`` value (None: the default)."""
+    from labjoint.signal.filter import PAPER_CUTOFF_HZ
+    return PAPER_CUTOFF_HZ if cutoff is None else None if cutoff == "none" else float(cutoff)
+
+
+def loop_row(item: Any, force: str, save: bool, cutoff: float | str | None = None
+             ) -> dict[str, Any]:
     from labjoint.identify.analyze import analyze_file, analyze_run
 
     if isinstance(item, Path):
-        res = analyze_file(item, force=force)
+        res = analyze_file(item, force=force, cutoff_hz=_cutoff_hz(cutoff))
         name = res.metadata.get("run", item.stem)
         extra = {k: res.metadata.get(k) for k in ("excitation_vpp", "torque_nm")}
         if save:
@@ -59,7 +83,7 @@ def loop_row(item: Any, force: str, save: bool) -> dict[str, Any]:
             raise InputError("an imported CSV record has one force column; --force reference "
                              "applies to run files only", file=str(item.path or item.name),
                              field="--force")
-        res = analyze_run(item)
+        res = analyze_run(item, cutoff_hz=_cutoff_hz(cutoff))
         name = item.name
         extra = {k: item.metadata.get(k) for k in ("excitation_vpp", "torque_nm")}
     row = {"run": name}
@@ -72,13 +96,18 @@ def loop_row(item: Any, force: str, save: bool) -> dict[str, Any]:
 def analyze_paths(paths: list[str], method: str = "loop", force: str = "joint",
                   friction: Any = None, save: bool = False, data_dir: str | None = None,
                   progress: bool = False, friction_run: str | None = None,
-                  errors: list[dict[str, str]] | None = None) -> list[dict[str, Any]]:
+                  errors: list[dict[str, str]] | None = None,
+                  cutoff: float | str | None = None) -> list[dict[str, Any]]:
     """Rows of ``labjoint analyze``; ``friction`` a number or Identified, or ``friction_run``
-    a friction-test file mu is identified from (else the one stored in ``data_dir``).
+    a friction-test file mu is identified from (else the one stored in ``data_dir``);
+    ``cutoff`` the loop method's low-pass (Hz, "none", or None for the default).
 
     With ``errors`` a list, a file that cannot be analysed (missing, unreadable, a missing
     channel, not a sine ...) is noted there as {"file", "error"} and the others go on;
     without it the first such error is raised."""
+    if cutoff is not None and method != "loop":
+        raise InputError("applies to --method loop (the stick-slip method keeps its own "
+                         "filtering)", field="--cutoff")
     if friction_run is not None:
         if method == "loop":
             raise InputError("applies to --method stickslip or both", field="--friction-run")
@@ -95,7 +124,7 @@ def analyze_paths(paths: list[str], method: str = "loop", force: str = "joint",
         try:
             (item,) = load_runs([p])
             if method == "loop":
-                rows.append(loop_row(item, force, save))
+                rows.append(loop_row(item, force, save, cutoff))
             else:
                 from labjoint.identify.methods import analyze_runs
                 rows += analyze_runs([item], method, friction=friction, data_dir=data_dir,
@@ -189,7 +218,7 @@ def run(args: argparse.Namespace) -> int:
     errors: list[dict[str, str]] = []
     rows = analyze_paths(args.runs, args.method, args.force, args.friction, args.save, data_dir,
                          progress=not (args.json or args.quiet), friction_run=args.friction_run,
-                         errors=errors)
+                         errors=errors, cutoff=args.cutoff)
     for e in errors:
         sys.stderr.write(f"labjoint: error: {e['file']}: {e['error']}\n")
     code = 2 if errors else 0
@@ -220,6 +249,9 @@ def _run_table(args: argparse.Namespace) -> int:
         from labjoint.config import load_config
         data_dir = load_config(args.config).rig.data_dir
     errors: list[dict[str, str]] = []
+    if args.cutoff is not None:
+        raise InputError("applies to the loop table (labjoint analyze without --table)",
+                         field="--cutoff")
     body = trends_table(args, data_dir, errors)
     for e in errors:
         sys.stderr.write(f"labjoint: error: {e['file']}: {e['error']}\n")

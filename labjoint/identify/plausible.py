@@ -74,8 +74,9 @@ def refuse_unresolved(f: float, fs: float, cutoff: float | None, order: int) -> 
         raise InputError(f"low-pass cutoff {cutoff:g} Hz (order {order}, zero-phase) passes "
                          f"only {100 * gain:.2f} % of the {f:g} Hz fundamental: W would be "
                          f"{100 * (1 - gain ** 2):.2g} % low; pass a cutoff above "
-                         f"{f / (MAX_FILTER_LOSS / 2) ** (1 / (2 * order)):.0f} Hz (cutoff_hz, "
-                         "or None for no filter; it is capped at 0.45 fs)", field="cutoff_hz")
+                         f"{f / (MAX_FILTER_LOSS / 2) ** (1 / (2 * order)):.0f} Hz (labjoint "
+                         "analyze --cutoff HZ or --cutoff none; cutoff_hz in Python; it is "
+                         "capped at 0.45 fs)", field="cutoff_hz")
 
 
 def refuse_frequency_mismatch(used: float, measured: float, source: str) -> None:
