@@ -51,6 +51,9 @@ M = TypeVar("M")
 PRIME_CYCLES = 5
 REST_FRACTION = 0.1
 REST_SAMPLES = 8
+#: a head whose quadratic trend spans more than this many residual standard deviations
+#: moves (its zero is the trend at the first instant); else it rests (its mean)
+MOVING_SIGMAS = 10.0
 PRIME_RAMP = 3
 
 
@@ -157,7 +160,9 @@ def displacement_reference(u: np.ndarray, spans: np.ndarray, at_start: bool) -> 
     displacement sensor reads its gap, an arbitrary offset; spring, cubic and gap laws need
     the joint's own zero): the record's first instant when it begins at rest (moving by
     less than ``REST_FRACTION`` of the steady amplitude over its first eighth of a period;
-    a quadratic through those samples at t = 0),
+    a quadratic through those samples at t = 0 when its trend spans more than
+    ``MOVING_SIGMAS`` residual standard deviations, else the mean of the first
+    ``REST_SAMPLES``),
     else the centre of the steady loops (mean midpoint of each cycle's extremes)."""
     mids, amps = [], []
     for a, b in spans:
@@ -174,7 +179,12 @@ def displacement_reference(u: np.ndarray, spans: np.ndarray, at_start: bool) -> 
             # head sat off it by ~1 % of the amplitude at 57 samples per cycle, which a
             # cubic spring turns into an even harmonic of 2-3 % of the force
             x = np.arange(head.size, dtype=float)
-            return float(np.polynomial.polynomial.polyfit(x, head, 2)[0])
+            coef = np.polynomial.polynomial.polyfit(x, head, 2)
+            trend = np.polynomial.polynomial.polyval(x, coef)
+            if abs(trend[-1] - trend[0]) > MOVING_SIGMAS * float(np.std(head - trend)):
+                return float(coef[0])
+            # no clear motion: the mean (a quadratic's intercept scatters more)
+            return float(np.mean(head[:REST_SAMPLES]))
     return centre
 
 
