@@ -153,7 +153,7 @@ def child_speed(path: str, seconds: float) -> dict:
 
     p = Path(path)
     t = np.arange(20_000) / FS                            # load numba caches, scipy
-    analyze_arrays(np.sin(2 * np.pi * F0 * t), np.cos(2 * np.pi * F0 * t), FS, F0)
+    analyze_arrays(1e-6 * np.sin(2 * np.pi * F0 * t), np.cos(2 * np.pi * F0 * t), FS, F0)
     files = sorted(_timed(lambda: analyze_file(p))[0] for _ in range(REPEATS))
     t_read, _ = _timed(lambda: sum(u.size for u, _ in stream_blocks(p)))
     t_iter, _ = _timed(lambda: sum(u.size for u, _ in stream_blocks(p, True)))

@@ -43,7 +43,7 @@ def child_analyze(path: str) -> dict:
     from labjoint.identify.analyze import analyze_arrays, analyze_file
 
     t = np.arange(20_000) / 50_000.0                      # compile / load numba caches
-    analyze_arrays(np.sin(2 * np.pi * 400 * t), np.cos(2 * np.pi * 400 * t), 50_000.0, 400.0)
+    analyze_arrays(1e-6 * np.sin(2 * np.pi * 400 * t), np.cos(2 * np.pi * 400 * t), 50_000.0, 400.0)
     base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     cpu0, t0 = time.process_time(), time.perf_counter()
     res = analyze_file(path)

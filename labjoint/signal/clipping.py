@@ -62,7 +62,7 @@ def flat_top_fraction(x: np.ndarray, reference: np.ndarray | None = None) -> tup
     tol = 1e-9 * max(span, abs(hi), abs(lo))
     total, worst, level = 0, 0, float("nan")
     for ext, sign in ((hi, 1.0), (lo, -1.0)):
-        at = (sign * (x - ext)) >= -tol
+        at = x >= ext - tol if sign > 0 else x <= ext + tol   # one pass, no temporaries
         n_at = int(np.count_nonzero(at))
         if n_at < MIN_RUN:                               # the common case: one sample
             continue
