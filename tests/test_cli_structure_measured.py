@@ -6,37 +6,19 @@ import json
 import numpy as np
 import pytest
 
-from labjoint.acquisition.engine import RunEngine
 from labjoint.acquisition.plans import step_sine
-from labjoint.acquisition.rig import open_rig
 from labjoint.cli.main import main
-from labjoint.config import CONFIG_DIR, load_config
 from labjoint.signal.frfset import FrfSet
-from labjoint.storage.writer import RunWriter
-
-
-class Clock:
-    t = 0.0
-
-    def __call__(self):
-        return self.t
-
-    def sleep(self, s):
-        self.t += s
+from structure_runs import run_plans
 
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     d = tmp_path_factory.mktemp("runs")
-    cfg = load_config(CONFIG_DIR / "rig-structure-sim.toml")
-    rig = open_rig(cfg)
-    c = Clock()
-    eng = RunEngine(rig.generator, rig.daq, cfg.limits, [RunWriter(d)], clock=c, sleep=c.sleep, rig=rig.sim,
-                    config=cfg)
     freqs = [float(x) for x in np.arange(27.25, 29.76, 0.25)]
-    assert eng.run(step_sine(freqs, 2.0, n_cycles=16, measure_cycles=8, directions=["up"]),
-                   name_prefix="cli").status == "complete"
-    rig.close()
+    (r,) = run_plans(d, [(step_sine(freqs, 2.0, n_cycles=16, measure_cycles=8,
+                                    directions=["up"]), "cli")])
+    assert r.status == "complete"
     return sorted(d.glob("*.h5"))
 
 

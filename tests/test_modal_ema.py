@@ -3,15 +3,12 @@
 import numpy as np
 import pytest
 
-from labjoint.acquisition.engine import RunEngine
 from labjoint.acquisition.plans import step_sine
-from labjoint.acquisition.rig import open_rig
-from labjoint.config import CONFIG_DIR, load_config
 from labjoint.errors import InputError
 from labjoint.identify.modal import half_power, lscf, modal_parameters
 from labjoint.signal.frf_steps import frfset_from_runs
 from labjoint.signal.frfset import FrfSet
-from labjoint.storage.writer import RunWriter
+from structure_runs import run_plans
 
 
 def _linear_set(fn=28.5, zeta=0.01, df=0.1, noise=0.0):
@@ -54,26 +51,11 @@ def test_uneven_grid_and_bad_input():
     assert e.value.field == "frequencies_hz"
 
 
-class Clock:
-    t = 0.0
-
-    def __call__(self):
-        return self.t
-
-    def sleep(self, s):
-        self.t += s
-
-
 def test_lowest_level_of_the_structural_rig(tmp_path):
-    cfg = load_config(CONFIG_DIR / "rig-structure-sim.toml")
-    rig = open_rig(cfg)
-    c = Clock()
-    eng = RunEngine(rig.generator, rig.daq, cfg.limits, [RunWriter(tmp_path)], clock=c, sleep=c.sleep,
-                    rig=rig.sim, config=cfg)
     freqs = [float(x) for x in np.arange(27.5, 29.76, 0.25)]
-    r = eng.run(step_sine(freqs, 0.5, n_cycles=24, measure_cycles=8, directions=["up"], steady_max_cycles=300,
-                          steady_tol=0.003, steady_window=20), name_prefix="low")
-    rig.close()
+    (r,) = run_plans(tmp_path, [(step_sine(freqs, 0.5, n_cycles=24, measure_cycles=8,
+                                           directions=["up"], steady_max_cycles=300,
+                                           steady_tol=0.003, steady_window=20), "low")])
     assert r.status == "complete"
     (g,) = modal_parameters(frfset_from_runs(sorted(tmp_path.glob("*.h5")), harmonics=1, segments=4))
     # the truth: mode 1 near 28.5 Hz, modal damping 0.4 % (of the modes with the armature) plus micro-slip

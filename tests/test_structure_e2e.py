@@ -16,15 +16,13 @@ import json
 import pytest
 
 from frfdata import write_linear_structure
-from labjoint.acquisition.engine import RunEngine
 from labjoint.acquisition.plans import step_sine
-from labjoint.acquisition.rig import open_rig
 from labjoint.cli.main import main
 from labjoint.compare.api import fit_runs, ladder_report
 from labjoint.config import CONFIG_DIR, load_config
 from labjoint.errors import InputError
 from labjoint.signal.frf_steps import frfset_from_runs
-from labjoint.storage.writer import RunWriter
+from structure_runs import run_plans
 
 pytestmark = pytest.mark.slow          # about 90 s on the shared machine (the ladder: three fits of the hidden set)
 
@@ -34,30 +32,16 @@ FREQS = [27.0, 27.4, 27.8, 28.2, 28.6, 29.0]
 FINE = [round(27.0 + 0.1 * i, 1) for i in range(21)]
 
 
-class Clock:
-    t = 0.0
-
-    def __call__(self):
-        return self.t
-
-    def sleep(self, s):
-        self.t += s
-
-
 def simulate(d, joint: dict, levels, sensitivity_free_end: float | None = None, freqs=FREQS):
     """Step-sine runs (up) at ``levels`` N on the rig with the ``[sim.joint]`` table ``joint``."""
     cfg = load_config(CONFIG_DIR / "rig-structure-sim.toml")
     cfg = cfg.model_copy(update={"sim": {**cfg.sim, "joint": joint}})
     if sensitivity_free_end is not None:
         next(c for c in cfg.daq.channels if c.name == "free_end").sensitivity = sensitivity_free_end
-    rig = open_rig(cfg)
-    c = Clock()
-    eng = RunEngine(rig.generator, rig.daq, cfg.limits, [RunWriter(d)], clock=c, sleep=c.sleep,
-                    rig=rig.sim, config=cfg)
-    for lv in levels:
-        plan = step_sine(freqs, lv, n_cycles=16, measure_cycles=8, directions=["up"])
-        assert eng.run(plan, name_prefix=f"L{lv:g}").status == "complete"
-    rig.close()
+    plans = [(step_sine(freqs, lv, n_cycles=16, measure_cycles=8, directions=["up"]), f"L{lv:g}")
+             for lv in levels]
+    for r in run_plans(d, plans, cfg):
+        assert r.status == "complete"
     return sorted(d.glob("*.h5"))
 
 

@@ -11,6 +11,7 @@ from labjoint.acquisition.rig import open_rig
 from labjoint.config import CONFIG_DIR, load_config
 from labjoint.signal.frf_steps import frfset_from_runs
 from labjoint.storage.writer import RunWriter
+from test_daemon_fixtures import FakeClock
 from test_nidaq import rig  # noqa: F401  (the autospec fixture)
 
 FN = 28.5
@@ -24,16 +25,6 @@ def force_per_volt(f):
 def accelerance(f, scale):
     w, wn = 2 * np.pi * f, 2 * np.pi * FN
     return scale * -(w**2) / (wn**2 - w**2 + 2j * 0.01 * wn * w)
-
-
-class Clock:
-    t = 0.0
-
-    def __call__(self):
-        return self.t
-
-    def sleep(self, s):
-        self.t += s
 
 
 def test_step_sine_holds_the_force_through_the_real_drivers(rig, tmp_path):  # noqa: F811
@@ -59,7 +50,7 @@ def test_step_sine_holds_the_force_through_the_real_drivers(rig, tmp_path):  # n
         return n
 
     rig.reader.read_many_sample.side_effect = fill
-    c = Clock()
+    c = FakeClock()
     eng = RunEngine(lab.generator, lab.daq, cfg.limits, [RunWriter(tmp_path)], clock=c, sleep=c.sleep,
                     config=cfg)
     r = eng.run(step_sine([27.0, 28.5, 30.0], 5.0, n_cycles=16, measure_cycles=8, directions=["up"]),

@@ -4,29 +4,16 @@ its step-sine runs."""
 import numpy as np
 import pytest
 
-from labjoint.acquisition.engine import RunEngine
 from labjoint.acquisition.plans import step_sine
-from labjoint.acquisition.rig import open_rig
-from labjoint.config import CONFIG_DIR, load_config
 from labjoint.errors import ConfigError, InputError
 from labjoint.hardware.interfaces import ChannelSpec, GeneratorSettings
 from labjoint.hardware.sim.structure_config import StructureSimConfig
 from labjoint.hardware.sim.structure_rig import SimStructureRig
 from labjoint.signal.frf_steps import frfset_from_runs, phasors
-from labjoint.storage.writer import RunWriter
+from structure_runs import run_plans
 
 CHANNELS = [ChannelSpec("force", "force", "force", "N", 44.4),
             ChannelSpec("free_end", "accelerometer", "acceleration", "m/s^2", 9.81)]
-
-
-class Clock:
-    t = 0.0
-
-    def __call__(self):
-        return self.t
-
-    def sleep(self, s):
-        self.t += s
 
 
 def _steady(rig, f, vpp, seconds=8.0):
@@ -98,16 +85,11 @@ def test_phasors_recover_known_harmonics_and_their_scatter():
 
 
 def test_step_sine_on_the_structural_rig_gives_constant_force_frfs_that_soften(tmp_path):
-    cfg = load_config(CONFIG_DIR / "rig-structure-sim.toml")
-    for level in (1.0, 12.0):
-        rig = open_rig(cfg)
-        c = Clock()
-        eng = RunEngine(rig.generator, rig.daq, cfg.limits, [RunWriter(tmp_path)], clock=c, sleep=c.sleep,
-                        rig=rig.sim, config=cfg)
-        r = eng.run(step_sine([27.0, 27.5, 28.0, 28.5, 29.0], level, n_cycles=24, measure_cycles=8,
-                              directions=["up"], steady_max_cycles=300, steady_tol=0.003, steady_window=20),
-                    name_prefix=f"L{level:g}")
-        rig.close()
+    for level in (1.0, 12.0):                   # a fresh rig for each level
+        (r,) = run_plans(tmp_path, [(step_sine([27.0, 27.5, 28.0, 28.5, 29.0], level, n_cycles=24,
+                                               measure_cycles=8, directions=["up"],
+                                               steady_max_cycles=300, steady_tol=0.003,
+                                               steady_window=20), f"L{level:g}")])
         assert r.status == "complete" and len(r.runs) == 5
     s = frfset_from_runs(sorted(tmp_path.glob("*.h5")), harmonics=2, segments=4)
     assert s.sensors == ("coupling_short_side", "coupling_long_side", "free_end") and s.drive_v is not None

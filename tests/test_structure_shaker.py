@@ -3,16 +3,14 @@
 import numpy as np
 import pytest
 
-from labjoint.acquisition.engine import RunEngine
 from labjoint.acquisition.plans import step_sine
-from labjoint.acquisition.rig import open_rig
-from labjoint.config import CONFIG_DIR, load_config
+from labjoint.config import CONFIG_DIR
 from labjoint.errors import InputError
 from labjoint.signal.frf_steps import frfset_from_runs
-from labjoint.storage.writer import RunWriter
 from labjoint.structure import load_structure
 from labjoint.structure.modal import modes
 from labjoint.structure.shaker import Shaker, force_per_volt, identify_shaker, linear_accelerance, per_volt
+from structure_runs import run_plans
 
 TRUE = Shaker(0.3, 3.0e3, 5.0, 2.0, 6.0e-4, 4.0, 5.0)   # the simulated rig's shaker
 
@@ -52,25 +50,9 @@ def test_identification_recovers_a_known_shaker(structure):
     assert e.value.field == "armature_mass_kg"
 
 
-class Clock:
-    t = 0.0
-
-    def __call__(self):
-        return self.t
-
-    def sleep(self, s):
-        self.t += s
-
-
 def _sweep(freqs, level, d):
-    cfg = load_config(CONFIG_DIR / "rig-structure-sim.toml")
-    rig = open_rig(cfg)
-    c = Clock()
-    eng = RunEngine(rig.generator, rig.daq, cfg.limits, [RunWriter(d)], clock=c, sleep=c.sleep, rig=rig.sim,
-                    config=cfg)
-    r = eng.run(step_sine(freqs, level, n_cycles=24, measure_cycles=8, directions=["up"], steady_tol=0.01,
-                          steady_window=20), name_prefix="s")
-    rig.close()
+    (r,) = run_plans(d, [(step_sine(freqs, level, n_cycles=24, measure_cycles=8, directions=["up"],
+                                    steady_tol=0.01, steady_window=20), "s")])
     assert r.status == "complete"
     return frfset_from_runs(sorted(d.glob("*.h5")), harmonics=1, segments=4)
 

@@ -125,10 +125,15 @@ class Catalog:
         returns their count. Runs catalogued in other directories (other machines' on a
         shared catalog) are kept. Files that are not readable run files are skipped
         (and logged)."""
-        recs = [rec for _, rec in self._read_dir(Path(data_dir), log_skips=True)]
+        recs = []
+        for p, rec in _read_dir(Path(data_dir)):
+            if isinstance(rec, InputError):
+                log.warning("catalog rebuild: skipping %s: %s", p, rec)
+            else:
+                recs.append(rec)
         with self.sql.transaction() as tx:
-            for name in self._names_in(tx, data_dir):
-                tx.execute("DELETE FROM runs WHERE name = ?", [name])
+            for row in _rows_in(tx.execute("SELECT name, path FROM runs").rows, data_dir):
+                tx.execute("DELETE FROM runs WHERE name = ?", [row["name"]])
             for rec in recs:
                 self.put(rec, tx)
         return len(recs)
@@ -137,46 +142,22 @@ class Catalog:
         """Bring the index of ``data_dir`` in line with its files: index the run files it
         lacks, drop the runs whose files are gone; other directories are left alone.
         Returns {"added": names, "removed": names, "skipped": {file: why}}."""
-        d = Path(data_dir).resolve()
-        known = {Path(r["path"]).resolve() for r in
-                 self.sql.fetchall("SELECT path FROM runs")}
+        rows = self.sql.fetchall("SELECT name, path FROM runs")
         out: dict[str, Any] = {"added": [], "removed": [], "skipped": {}}
-        for name in self._names_in(self.sql, d):
-            rec = self.get(name)
-            if rec is not None and not Path(rec.path).exists() and self.remove(name):
-                out["removed"].append(name)
-        for p, rec in self._read_dir(d, skip=known, skipped=out["skipped"]):
+        for row in _rows_in(rows, data_dir):
+            if not Path(row["path"]).exists() and self.remove(row["name"]):
+                out["removed"].append(row["name"])
+        known = {Path(r["path"]).resolve() for r in rows}
+        for p, rec in _read_dir(Path(data_dir), skip=known):
             try:
-                self.put(rec)
-            except InputError as exc:            # another file holds the name
+                if isinstance(rec, InputError):
+                    raise rec
+                self.put(rec)                    # refused if another file holds the name
+            except InputError as exc:
                 out["skipped"][str(p)] = exc.message
                 continue
             out["added"].append(rec.name)
         return out
-
-    @staticmethod
-    def _read_dir(d: Path, skip: set[Path] = frozenset(), skipped: dict | None = None,
-                  log_skips: bool = False) -> Iterator[tuple[Path, RunRecord]]:
-        for p in sorted(d.glob("*.h5")):
-            if p.resolve() in skip:
-                continue
-            try:
-                with open_run(p) as rf:
-                    rec = record_from_run(rf)
-            except InputError as exc:
-                if log_skips:
-                    log.warning("catalog rebuild: skipping %s: %s", p, exc)
-                if skipped is not None:
-                    skipped[str(p)] = exc.message
-                continue
-            yield p, rec
-
-    @staticmethod
-    def _names_in(con: Database | Session, data_dir: str | Path) -> list[str]:
-        """Names of the runs catalogued at files directly in ``data_dir``."""
-        d = Path(data_dir).resolve()
-        return [r["name"] for r in con.execute("SELECT name, path FROM runs").rows
-                if Path(r["path"]).parent.resolve() == d]
 
     # -- reading -----------------------------------------------------------------
     def get(self, name: str) -> RunRecord | None:
@@ -267,6 +248,26 @@ class Catalog:
 
     def _select(self, sql: str, args: Iterable[Any]) -> list[RunRecord]:
         return [record_from_row(r) for r in self.sql.fetchall(sql, list(args))]
+
+
+def _read_dir(d: Path, skip: set[Path] = frozenset()
+              ) -> Iterator[tuple[Path, RunRecord | InputError]]:
+    """Each ``*.h5`` file of ``d`` not in ``skip``, with its record or why it has none."""
+    for p in sorted(d.glob("*.h5")):
+        if p.resolve() in skip:
+            continue
+        try:
+            with open_run(p) as rf:
+                rec: RunRecord | InputError = record_from_run(rf)
+        except InputError as exc:
+            rec = exc
+        yield p, rec
+
+
+def _rows_in(rows: list[dict[str, Any]], data_dir: str | Path) -> list[dict[str, Any]]:
+    """The (name, path) rows of runs catalogued at files directly in ``data_dir``."""
+    d = Path(data_dir).resolve()
+    return [r for r in rows if Path(r["path"]).parent.resolve() == d]
 
 
 def _step(v: Any) -> int | None:
