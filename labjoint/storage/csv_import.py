@@ -65,12 +65,13 @@ def safe_name(text: str) -> str:
 def store_channels(src: Path, time: np.ndarray, sample_rate_hz: float,
                    chans: list[tuple[ChannelSpec, np.ndarray]], metadata: dict[str, Any],
                    data_dir: str | Path, *, name: str | None = None, catalog: Any = None,
-                   signal: str | None = None) -> Path:
+                   signal: str | None = None, extra: Any = None) -> Path:
     """Store channels in physical (SI) units as ``<data_dir>/<name>.h5`` (name: the
     source's stem): written under a temporary name, renamed only when complete.
 
     ``metadata`` may list ``drive_channels`` and ``response_channels``; every channel's
-    quantity and unit come from its spec (:func:`layout.create_layout`).
+    quantity and unit come from its spec (:func:`layout.create_layout`); ``extra(f)``
+    may write more (a processed group) into the open file before it is published.
     """
     name = safe_name(Path(src).stem) if name is None else name
     final = layout.run_path(data_dir, name)
@@ -103,6 +104,8 @@ def store_channels(src: Path, time: np.ndarray, sample_rate_hz: float,
             e["end_time"][()] = np.bytes_(now.encode())
             e["n_samples"][()] = n
             e["status"][()] = np.bytes_(b"complete")
+            if extra is not None:
+                extra(f)
         layout.publish(tmp, final)
     except BaseException:
         tmp.unlink(missing_ok=True)
