@@ -63,17 +63,22 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"the map {args.map} is in the older column form (displacement_m, "
                              "force_N) for TDMS/HDF5 only; for this file write a map with "
                              "quantity and units per channel", file=f, field="--map")
+    prepared = None
+    if cmap is not None:                      # read and check everything before writing
+        from labjoint.storage.importers import prepare_files
+
+        prepared = prepare_files(args.files, cmap)
     cfg = load_config(args.config)
     out = Path(args.out or cfg.rig.data_dir)
     out.mkdir(parents=True, exist_ok=True)
     catalog = catalog_for(cfg, out)
     written: list[str] = []
     skipped: list[dict[str, str]] = []
-    if cmap is not None:
-        from labjoint.storage.importers import import_files
+    if prepared is not None:
+        from labjoint.storage.importers import write_prepared
 
         with terminate_as_interrupt():
-            res = import_files(args.files, cmap, out, catalog)
+            res = write_prepared(*prepared, out, catalog)
         written, skipped = [str(p) for p in res.runs], res.skipped
     else:
         bar = Progress(len(args.files), "import", enabled=not (args.json or args.quiet))

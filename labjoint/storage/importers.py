@@ -249,9 +249,9 @@ def _write_frf(frf: dict[str, Any]) -> Any:
     return write
 
 
-def import_files(files: list[str | Path], cmap: ChannelMap, data_dir: str | Path,
-                 catalog: Any = None) -> ImportResult:
-    """Import ``files`` (module doc); returns the run files written and what was skipped."""
+def prepare_files(files: list[str | Path], cmap: ChannelMap) -> tuple[list[Prepared], ImportResult]:
+    """Read and check every test of ``files`` (nothing is written): the prepared tests,
+    and a result listing the tests the map passes over."""
     res = ImportResult()
     prepared: list[Prepared] = []
     for p in expand(files, cmap):
@@ -274,6 +274,13 @@ def import_files(files: list[str | Path], cmap: ChannelMap, data_dir: str | Path
             raise InputError(f"two tests make the run name {pr.name!r} ({seen[pr.name]} and "
                              f"{pr.file}); import them separately", file=str(pr.file))
         seen[pr.name] = pr.file
+    return prepared, res
+
+
+def write_prepared(prepared: list[Prepared], res: ImportResult, data_dir: str | Path,
+                   catalog: Any = None) -> ImportResult:
+    """Write checked tests, one run file each; on any failure none of them stays."""
+    for pr in prepared:
         final = layout.run_path(data_dir, pr.name)
         if final.exists():
             raise InputError("a run file with this name already exists", file=str(final))
@@ -292,6 +299,13 @@ def import_files(files: list[str | Path], cmap: ChannelMap, data_dir: str | Path
         for path in res.runs:
             catalog.add(path)
     return res
+
+
+def import_files(files: list[str | Path], cmap: ChannelMap, data_dir: str | Path,
+                 catalog: Any = None) -> ImportResult:
+    """Import ``files`` (module doc); returns the run files written and what was skipped."""
+    prepared, res = prepare_files(files, cmap)
+    return write_prepared(prepared, res, data_dir, catalog)
 
 
 @dataclass
