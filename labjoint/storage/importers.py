@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import h5py
 import numpy as np
@@ -53,6 +53,16 @@ class Prepared:
     channels: list[tuple[ChannelSpec, np.ndarray]]
     metadata: dict[str, Any]
     frf: dict[str, Any] | None = None
+
+
+@dataclass
+class Checked:
+    """A test that passed every check: its run name, file, and how to read it again
+    (only one test's samples are held in memory at a time)."""
+
+    name: str
+    file: Path
+    read: Callable[[], Prepared]
 
 
 @dataclass
@@ -249,11 +259,11 @@ def _write_frf(frf: dict[str, Any]) -> Any:
     return write
 
 
-def prepare_files(files: list[str | Path], cmap: ChannelMap) -> tuple[list[Prepared], ImportResult]:
-    """Read and check every test of ``files`` (nothing is written): the prepared tests,
+def prepare_files(files: list[str | Path], cmap: ChannelMap) -> tuple[list[Checked], ImportResult]:
+    """Read and check every test of ``files`` (nothing is written): the checked tests,
     and a result listing the tests the map passes over."""
     res = ImportResult()
-    prepared: list[Prepared] = []
+    prepared: list[Checked] = []
     for p in expand(files, cmap):
         fmt = _format(p, cmap)
         patterns = cmap.include + cmap.frf_tests if (cmap.include or cmap.frf_tests) else []
@@ -262,9 +272,15 @@ def prepare_files(files: list[str | Path], cmap: ChannelMap) -> tuple[list[Prepa
             raise InputError(f"no test in the file matches {patterns}", file=str(p), field="tests")
         for t in tests:
             if cmap.is_frf(t.name) or (t.frfs and not t.names()):
-                prepared.append(prepare_frf_test(t, cmap))
+                how = prepare_frf_test
             elif cmap.selects(t.name):
-                prepared.append(prepare_record(t, cmap))
+                how = prepare_record
+            else:
+                how = None
+            if how is not None:
+                pr = how(t, cmap)                        # every check, then drop the samples
+                prepared.append(Checked(pr.name, pr.file, lambda h=how, t=t: h(t, cmap)))
+                del pr
             else:
                 res.skipped.append({"file": str(p), "test": t.name,
                                     "reason": "not selected by the map's [tests]"})
@@ -277,7 +293,7 @@ def prepare_files(files: list[str | Path], cmap: ChannelMap) -> tuple[list[Prepa
     return prepared, res
 
 
-def write_prepared(prepared: list[Prepared], res: ImportResult, data_dir: str | Path,
+def write_prepared(prepared: list[Checked], res: ImportResult, data_dir: str | Path,
                    catalog: Any = None) -> ImportResult:
     """Write checked tests, one run file each; on any failure none of them stays."""
     for pr in prepared:
@@ -287,7 +303,8 @@ def write_prepared(prepared: list[Prepared], res: ImportResult, data_dir: str | 
         if catalog is not None:
             catalog.check_free(pr.name, final)
     try:
-        for pr in prepared:
+        for checked in prepared:
+            pr = checked.read()
             res.runs.append(store_channels(pr.file, pr.time, pr.sample_rate_hz, pr.channels,
                                            pr.metadata, data_dir, name=pr.name,
                                            extra=_write_frf(pr.frf) if pr.frf else None))

@@ -189,16 +189,21 @@ def _hdf5(path: Path, patterns: list[str], options: dict[str, Any]) -> list[Sour
     except OSError as exc:
         raise InputError(f"not a readable HDF5 file: {exc}", file=str(path)) from None
     with f:
-        groups = [(path.stem, f)] if not patterns else \
-            [(k, f[k]) for k in _pick([k for k, v in f.items() if isinstance(v, h5py.Group)],
-                                      patterns)]
+        groups = [(path.stem, "/")] if not patterns else \
+            [(k, k) for k in _pick([k for k, v in f.items() if isinstance(v, h5py.Group)], patterns)]
         out = []
-        for name, g in groups:
-            arrays: dict[str, np.ndarray] = {}
-            g.visititems(lambda k, v, a=arrays: a.__setitem__(k, v[()])
-                         if isinstance(v, h5py.Dataset) and v.ndim in (1, 2) else None)
-            attrs = {k: _attr(v) for k, v in g.attrs.items()}
-            out.append(SourceTest(path, name, arrays.get, lambda a=arrays: sorted(a), attrs))
+        for name, where in groups:
+            names: list[str] = []
+            f[where].visititems(lambda k, v, a=names: a.append(k)
+                                if isinstance(v, h5py.Dataset) and v.ndim in (1, 2) else None)
+            attrs = {k: _attr(v) for k, v in f[where].attrs.items()}
+
+            def get(k: str, where: str = where, names: list[str] = names) -> np.ndarray | None:
+                if k not in names:                # read on demand: one test in memory at a time
+                    return None
+                with h5py.File(path, "r") as fh:
+                    return fh[where][k][()]
+            out.append(SourceTest(path, name, get, lambda a=names: sorted(a), attrs))
         return out
 
 
