@@ -22,6 +22,7 @@ a drive frequency at or above Nyquist, two tests with the same run name.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -35,7 +36,8 @@ from labjoint.storage import layout
 from labjoint.storage.channel_map import SUFFIX_FORMATS, ChannelMap
 from labjoint.storage.csv_import import safe_name, store_channels
 from labjoint.storage.csv_parse import GRID_TOLERANCE, KNOWN_KEYS, RATE_TOLERANCE, STEP_TOLERANCE
-from labjoint.storage.quantities import SI_UNITS, frf_units, to_si
+from labjoint.storage.quantities import (DRIVE_QUANTITIES, MOTION_QUANTITIES, SI_UNITS, frf_units,
+                                          to_si)
 from labjoint.storage.reader import open_run
 from labjoint.storage.sources import SourceFrf, SourceTest, read_tests
 
@@ -187,23 +189,25 @@ def prepare_record(test: SourceTest, cmap: ChannelMap) -> Prepared:
                     _frf(test.frfs, cmap, test) if test.frfs else None)
 
 
-def _frf_side(cmap: ChannelMap, side: str, f: str) -> tuple[str, str, str]:
+def _frf_side(cmap: ChannelMap, side: str, allowed: tuple[str, ...]) -> tuple[str, str, float]:
+    """(channel name, quantity, factor to SI) of the FRF's response or drive, from the map."""
     d = cmap.frf.get(side)
     if not isinstance(d, dict) or "quantity" not in d or "units" not in d:
         raise InputError(f"the map's [frf] needs {side} = {{name, quantity, units}}: an FRF's "
-                         "quantity pair is never guessed", file=f, field=f"frf.{side}")
+                         "quantity pair is never guessed", file=cmap.source, field=f"frf.{side}")
     name = str(d.get("name", side))
     q = str(d["quantity"]).lower()
-    _, si = to_si(q, str(d["units"]), channel=name, file=cmap.source)
-    return name, q, si
+    if q not in allowed:
+        raise InputError(f"an FRF's {side} is one of {allowed}, not {q!r}", file=cmap.source,
+                         field=f"frf.{side}")
+    k, _ = to_si(q, str(d["units"]), channel=name, file=cmap.source)
+    return name, q, k
 
 
 def _frf(frfs: list[SourceFrf], cmap: ChannelMap, test: SourceTest) -> dict[str, Any]:
     f = str(test.file)
-    rname, rq, _ = _frf_side(cmap, "response", cmap.source)
-    dname, dq, _ = _frf_side(cmap, "drive", cmap.source)
-    kr, _ = to_si(rq, str(cmap.frf["response"]["units"]), channel=rname)
-    kd, _ = to_si(dq, str(cmap.frf["drive"]["units"]), channel=dname)
+    rname, rq, kr = _frf_side(cmap, "response", MOTION_QUANTITIES)
+    dname, dq, kd = _frf_side(cmap, "drive", DRIVE_QUANTITIES)
     freq = frfs[0].frequency_hz
     for fr in frfs:
         if fr.frequency_hz.shape != freq.shape or not np.allclose(fr.frequency_hz, freq):
@@ -213,8 +217,12 @@ def _frf(frfs: list[SourceFrf], cmap: ChannelMap, test: SourceTest) -> dict[str,
     if freq.ndim != 1 or freq.size < 2 or np.any(np.diff(freq) <= 0):
         raise InputError("FRF frequencies must increase", file=f, field=frfs[0].name)
     h = np.vstack([fr.values for fr in frfs]) * (kr / kd)
-    return {"frequency_hz": freq, "h_real": h.real, "h_imag": h.imag,
-            "responses": [fr.name if len(frfs) > 1 else rname for fr in frfs],
+    names = [re.sub(r"\W+", "_", fr.name).strip("_") or f"response{i + 1}"
+             for i, fr in enumerate(frfs)] if len(frfs) > 1 else [rname]
+    if len(set(names + [dname])) != len(names) + 1:
+        raise InputError(f"FRF responses {names} and drive {dname!r} need distinct names",
+                         file=f, field="frf")
+    return {"frequency_hz": freq, "h_real": h.real, "h_imag": h.imag, "responses": names,
             "labels": [fr.label for fr in frfs], "response_quantity": rq, "drive": dname,
             "drive_quantity": dq, "units": frf_units(rq, dq),
             "estimator": str(cmap.frf.get("estimator", ""))}
