@@ -72,6 +72,7 @@ class MapChannel:
     si_units: str
     factor: float         # scale x unit conversion: stored = raw * factor
     role: str
+    column: int | None = None   # the column of a 2-D dataset (older maps' ``column = k``)
 
 
 @dataclass

@@ -108,6 +108,13 @@ def _format(p: Path, cmap: ChannelMap) -> str:
 def _time_base(test: SourceTest, cmap: ChannelMap, n: int) -> tuple[np.ndarray, float]:
     f, t_cfg = str(test.file), cmap.time
     fs = t_cfg.get("sample_rate_hz")
+    if fs is None and "sample_rate_source" in t_cfg:        # a dataset holding the rate
+        v = test.get(str(t_cfg["sample_rate_source"]))
+        try:
+            fs = float(np.ravel(v)[0])
+        except (TypeError, ValueError, IndexError):
+            raise InputError(f"no numeric {t_cfg['sample_rate_source']!r} in test {test.name!r}",
+                             file=f, field="sample_rate_source") from None
     if fs is None and "sample_rate_attr" in t_cfg:
         v = test.attrs.get(str(t_cfg["sample_rate_attr"]))
         try:
@@ -161,13 +168,13 @@ def prepare_record(test: SourceTest, cmap: ChannelMap) -> Prepared:
     if not any(c.role == "drive" for c in cmap.channels):
         raise InputError("no drive channel: the map gives no channel role = \"drive\" (a "
                          "measured force or a voltage)", file=f, field=cmap.source)
-    raw = {c.name: test.array(c.source, c.name) for c in cmap.channels}
+    raw = {c.name: test.array(c.source, c.name, c.column) for c in cmap.channels}
     lengths = {k: v.size for k, v in raw.items()}
     n = max(lengths.values())
     short = [k for k, v in lengths.items() if v != n]
     if short:
-        raise InputError(f"ragged channels {lengths} in test {test.name!r}: refused, not "
-                         "truncated", file=f, field=short[0])
+        raise InputError(f"ragged channels (unequal length {lengths}) in test {test.name!r}: "
+                         "refused, not truncated", file=f, field=short[0])
     chans = []
     for c in cmap.channels:
         x = raw[c.name].astype(np.float64) * c.factor
