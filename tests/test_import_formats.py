@@ -184,3 +184,18 @@ def test_an_frf_only_uff_file_is_stored_in_si_with_its_quantity_pair(tmp_path, c
     mp.write_text(mp.read_text().replace(', units = "g"', ""))
     assert main(["import", str(src), "--map", str(mp), "--out", str(tmp_path / "d2")]) == 2
     assert "frf.response" in capsys.readouterr().err
+
+
+def test_a_joint_record_in_lab_units_feeds_the_joint_pipelines(tmp_path, capsys):
+    x_um, f_kn = 5.0 * np.sin(2 * np.pi * 8.0 * g.T), 0.3 * np.cos(2 * np.pi * 8.0 * g.T)
+    src = g.write_csv(tmp_path / "joint.csv", {"t_s": g.T, "rel_um": x_um, "F_kN": f_kn})
+    mp = tmp_path / "m.toml"
+    mp.write_text('[time]\nsource = "t_s"\n[channels.x]\nsource = "rel_um"\nquantity = "displacement"\n'
+                  'units = "\u00b5m"\n[channels.F]\nsource = "F_kN"\nquantity = "force"\nunits = "kN"\n'
+                  'role = "drive"\n[metadata]\nfrequency_hz = 8.0\ndisplacement_channels = ["x"]\n'
+                  'joint_force_channel = "F"\n')
+    out = _import(capsys, src, "--map", mp, "--out", tmp_path / "data")
+    from labjoint.storage import read_run
+    run = read_run(out["runs"][0])
+    np.testing.assert_allclose(run.displacement, x_um * 1e-6, rtol=1e-14)
+    np.testing.assert_allclose(run.force, f_kn * 1e3, rtol=1e-14)
