@@ -21,7 +21,8 @@ MAP = Path(__file__).resolve().parent.parent / "configs" / "maps" / "bert.toml"
 UNITS = {"input_V": ("voltage", "V", "drive"), "laser": ("velocity", "m/s", "response"),
          **{f"acc{i}": ("acceleration", "m/s^2", "response") for i in range(1, 5)}}
 
-pytestmark = pytest.mark.skipif(not BERT.is_file(), reason="the BERT data are not on this machine")
+pytestmark = [pytest.mark.skipif(not BERT.is_file(), reason="the BERT data are not on this machine"),
+              pytest.mark.slow]          # 18 MB, 20 run files: 6-12 s depending on the load
 
 
 def test_the_bert_file_imports_with_its_one_map(tmp_path, capsys):
