@@ -1,0 +1,188 @@
+"""Measured backbones from run files: phase resonance, ringdowns and step-sine FRF sets.
+
+Amplitude measure (shared with the model's, :mod:`labjoint.structure.epmc`): the
+amplitude of the fundamental of displacement at the response sensor (m); an
+acceleration's is divided by w^2 and a velocity's by w (w the run's drive frequency, or
+for a ringdown the window's damped frequency).
+
+**Phase resonance** (runs of the ``phase_resonance`` plan, one per level): the force F
+and the response R phasors at the drive frequency f (least squares on whole cycles,
+8 segments: mean and std of the mean, :func:`labjoint.signal.frf_steps.phasors`). The
+residual phase error e = arg(R / F) - target is turned into the frequency of exact
+quadrature with the loop's phase slope S (rad/Hz): f_r = f + e / S. At phase resonance
+the force balances the mode's damping alone (single nonlinear mode, Peter and Leine
+2017): 2 zeta w^2 m_eff X = |F|, so
+
+    zeta = |F| / (2 m_eff w^2 X),
+
+with m_eff = 1 / (phi_drive phi_sensor) the apparent modal mass between the force and
+the sensor: given (``modal_mass_kg``, e.g. from a linear modal test or the model) or
+taken from the lowest level, where the mode is linear and the phase slope gives its
+damping, zeta_0 = 1 / (S f) (a single mode's phase falls by 1 / zeta rad per unit
+relative frequency at resonance). Uncertainties: the phasors' (and e's) scatter,
+propagated; m_eff's origin is stated in the notes.
+
+**Ringdowns** (a run recorded with the output off after a dwell): the run's response
+channel through :func:`labjoint.signal.ringdown.ringdown_backbone`.
+
+**Step sine / per-level FRFs** (an :class:`~labjoint.signal.frfset.FrfSet`): per sweep,
+the steps within ``band`` half-power bandwidths of the peak are fitted by one mode,
+H(w) = A / (w_r^2 - w^2 + i b w) (displacement per force, Levy's linearised least
+squares, each step weighted by its phasor std); zeta = b / (2 w_r); the amplitude is
+|H(w_r)| times the sweep's mean force amplitude; uncertainties from the fit's covariance
+scaled by its residual.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Iterable
+
+import numpy as np
+
+from labjoint.errors import InputError
+from labjoint.signal.backbone import Backbone, BackbonePoint
+from labjoint.signal.frf_steps import phasors
+from labjoint.signal.frfset import FrfSet
+from labjoint.signal.ringdown import ringdown_backbone
+from labjoint.storage.reader import open_run
+
+TARGET_DEG = {"displacement": -90.0, "velocity": 0.0, "acceleration": 90.0}
+POWER = {"displacement": 0, "velocity": 1, "acceleration": 2}
+
+
+def _resonance_point(path: Path, segments: int) -> dict:
+    with open_run(path) as rf:
+        md = rf.metadata
+        if md.get("plan") != "phase_resonance" or md.get("ringdown"):
+            raise InputError(f"{path}: not a phase_resonance level run (plan {md.get('plan')!r})",
+                             file=str(path), field="plan")
+        resp, fch = md.get("response_channel"), md.get("force_channel")
+        for c in (resp, fch):
+            if c not in rf.channel_names:
+                raise InputError(f"{path}: no channel {c!r}; channels: {rf.channel_names}",
+                                 file=str(path), field="response_channel")
+        q = rf.channel(resp).quantity
+        if q not in POWER:
+            raise InputError(f"{path}: response {resp!r} measures {q}, not a motion", file=str(path),
+                             field="response_channel")
+        f, fs = float(md["frequency_hz"]), rf.sample_rate_hz
+        R, sR = phasors(rf.physical(resp), fs, f, 1, segments)
+        F, sF = phasors(rf.physical(fch), fs, f, 1, segments)
+        return {"f": f, "R": R[0], "sR": sR[0], "F": F[0], "sF": sF[0], "quantity": q, "sensor": resp,
+                "slope": float(md.get("phase_slope_rad_per_hz") or np.nan), "run": path.name,
+                "level_vpp": float(md.get("level_vpp", np.nan))}
+
+
+def phase_resonance_backbone(runs: Iterable[str | Path], *, modal_mass_kg: float | None = None,
+                             segments: int = 8) -> Backbone:
+    """The backbone of phase-resonance level runs (module docstring)."""
+    pts = sorted((_resonance_point(Path(p), segments) for p in runs), key=lambda d: abs(d["R"]) / d["f"] ** 2)
+    if not pts:
+        raise InputError("no runs given", field="runs")
+    sensors = {p["sensor"] for p in pts}
+    if len(sensors) > 1:
+        raise InputError(f"runs of different response sensors: {sorted(sensors)}", field="runs")
+    rows = []
+    for p in pts:
+        w = 2 * np.pi * p["f"]
+        power = POWER[p["quantity"]]
+        e = math.remainder(float(np.angle(p["R"] / p["F"])) - math.radians(TARGET_DEG[p["quantity"]]), 2 * math.pi)
+        rel = math.hypot(p["sR"] / abs(p["R"]), p["sF"] / abs(p["F"]))      # relative sd of |R|, |F|; sd of arg
+        S = p["slope"] if np.isfinite(p["slope"]) and p["slope"] > 0 else np.nan
+        fr = p["f"] + (e / S if np.isfinite(S) else 0.0)
+        fr_sd = rel / S if np.isfinite(S) else abs(e) * p["f"]
+        X = abs(p["R"]) / w ** power
+        rows.append((p, w, X, fr, fr_sd, rel, S))
+    notes = ["amplitude: fundamental of displacement at " + pts[0]["sensor"]]
+    if modal_mass_kg is None:
+        p, w, X, fr, _, _, S = rows[0]
+        if not np.isfinite(S):
+            raise InputError("the lowest level's run has no phase slope (phase_slope_rad_per_hz): give "
+                             "modal_mass_kg", field="modal_mass_kg")
+        zeta0 = 1.0 / (S * fr)
+        modal_mass_kg = abs(p["F"]) / (2 * zeta0 * w * w * X)
+        notes.append(f"apparent modal mass {modal_mass_kg:.4g} kg from the lowest level's phase slope "
+                     f"(zeta = 1 / (S f) = {zeta0:.4g})")
+    elif not (math.isfinite(modal_mass_kg) and modal_mass_kg > 0):
+        raise InputError(f"must be > 0 kg, got {modal_mass_kg!r}", field="modal_mass_kg")
+    else:
+        notes.append(f"apparent modal mass {modal_mass_kg:g} kg (given)")
+    out = []
+    for p, w, X, fr, fr_sd, rel, S in rows:
+        zeta = abs(p["F"]) / (2 * modal_mass_kg * w * w * X)
+        out.append(BackbonePoint(X, fr, zeta, "phase_resonance", X * p["sR"] / abs(p["R"]), fr_sd, zeta * rel,
+                                 extra={"run": p["run"], "level_vpp": p["level_vpp"],
+                                        "force_n": abs(p["F"]), "drive_frequency_hz": p["f"]}))
+    return Backbone(out, "m", "displacement", pts[0]["sensor"], tuple(notes))
+
+
+def ringdown_run_backbone(path: str | Path, channel: str, *, mode_hz: float | None = None,
+                          to_displacement: bool = True, **options) -> Backbone:
+    """The backbone of one free-decay run's ``channel`` (module docstring)."""
+    path = Path(path)
+    with open_run(path) as rf:
+        spec = rf.channel(channel)
+        x, fs = rf.physical(channel), rf.sample_rate_hz
+    try:
+        return ringdown_backbone(x, fs, mode_hz=mode_hz, quantity=spec.quantity, units=spec.unit,
+                                 sensor=channel, to_displacement=to_displacement, **options)
+    except InputError as exc:
+        raise InputError(exc.message, file=str(path), field=exc.field) from None
+
+
+def frfset_backbone(s: FrfSet, sensor: str | None = None, band: float = 2.0) -> Backbone:
+    """Frequency, damping and amplitude at resonance per sweep of ``s`` (module docstring)."""
+    if sensor is not None and sensor not in s.sensors:
+        raise InputError(f"no sensor {sensor!r}; sensors: {list(s.sensors)}", field="sensor")
+    j = s.sensors.index(sensor) if sensor else int(np.argmax(np.abs(s.response[:, :, 0]).max(axis=0)))
+    power = POWER[s.quantity]
+    pts = []
+    for (level, direction), idx in s.groups():
+        f = s.frequencies_hz[idx]
+        w = 2 * np.pi * f
+        sign = {0: 1.0, 1: 1j, 2: -1.0}[power]
+        H = s.response[idx, j, 0] / (sign * w ** power) / s.force[idx]      # displacement per force
+        sd = s.response_std[idx, j, 0] / (w ** power) / np.abs(s.force[idx])
+        pts.append(_sdof_fit(f, H, sd, band, float(np.mean(np.abs(s.force[idx]))), level, direction))
+    return Backbone(pts, "m", "displacement", s.sensors[j],
+                    (f"one-mode fit within {band:g} half-power bandwidths of each sweep's peak; amplitude "
+                     f"= |H(w_r)| x the sweep's mean force",))
+
+
+def _sdof_fit(f, H, sd, band, force, level, direction) -> BackbonePoint:
+    k = int(np.argmax(np.abs(H)))
+    sel = np.ones(f.size, bool)
+    for _ in range(2):                                   # fit, then refit on the mode's own band
+        w = 2 * np.pi * f[sel]
+        h = H[sel]
+        wt = 1.0 / np.maximum(np.abs(w * w) * sd[sel], 1e-300) if np.any(sd[sel] > 0) else np.ones(w.size)
+        # h (a - w^2 + i b w) = A  ->  [h, i w h, -1] . (a, b, A) = w^2 h   (A complex: 4 real unknowns)
+        M = np.column_stack([h, 1j * w * h, -np.ones(w.size), -1j * np.ones(w.size)]) * wt[:, None]
+        y = w * w * h * wt
+        Ar = np.vstack([M.real, M.imag])
+        yr = np.r_[y.real, y.imag]
+        c, *_ = np.linalg.lstsq(Ar, yr, rcond=None)
+        a, b = c[0], c[1]
+        if not (a > 0 and b > 0):
+            raise InputError(f"no resonance in the sweep at {level:g} N ({direction}): the steps "
+                             f"{f.min():.4g}-{f.max():.4g} Hz do not bracket a mode", field="frfset")
+        wr = math.sqrt(a)
+        zeta = b / (2 * wr)
+        sel = np.abs(f - wr / (2 * np.pi)) <= band * zeta * wr / (2 * np.pi) * 2
+        if sel.sum() < 5:
+            sel = np.argsort(np.abs(f - f[k]))[:min(f.size, 7)]
+            sel = np.isin(np.arange(f.size), sel)
+    r = Ar @ c - yr
+    dof = max(yr.size - 4, 1)
+    cov = np.linalg.pinv(Ar.T @ Ar) * float(r @ r) / dof
+    sa, sb = math.sqrt(max(cov[0, 0], 0)), math.sqrt(max(cov[1, 1], 0))
+    A = complex(c[2], c[3])
+    Hr = abs(A) / (b * wr)                                 # |H(w_r)| = |A| / (b w_r)
+    f_sd = sa / (2 * wr) / (2 * np.pi)
+    z_sd = math.hypot(sb / (2 * wr), zeta * sa / (2 * a))
+    X = Hr * force
+    return BackbonePoint(X, wr / (2 * np.pi), zeta, "step_sine", X * math.hypot(sb / b, 0.5 * sa / a),
+                         f_sd, z_sd, extra={"level_n": float(level), "direction": direction,
+                                            "steps_fitted": int(sel.sum()) if hasattr(sel, "sum") else 0})
