@@ -20,7 +20,9 @@ single-mode fit); so e_{n+1} = (1 - g S / S_n) e_n. The loop converges iff
 0 < g S / S_n < 2, monotonically below 1 and oscillating above. S_n starts at
 1 / (``damping_guess`` f_start) and, with ``adapt_slope``, is replaced by the secant
 -(e_n - e_{n-1}) / (f_n - f_{n-1}) of the last two steps when that is positive (so the
-factor tends to 1 - g; the default g = 0.5 halves the error per update). The step clip
+factor tends to 1 - g; the default g = 0.5 halves the error per update). After lock the
+recorded slope is the least-squares line through all of the level's (f, e) within 45
+deg (:func:`level_slope`), which the analysis uses for the damping at the lowest level. The step clip
 keeps the first steps inside the mode's linear phase range (|e| < ~45 deg).
 
 With ``ringdown_s``, the output is switched off after the last (highest) level and the
@@ -76,6 +78,24 @@ def loop_factor(gain: float, slope: float, slope_estimate: float) -> float:
     return 1.0 - gain * slope / slope_estimate
 
 
+def level_slope(hist: list[tuple[float, float]]) -> float | None:
+    """The mode's phase slope S (rad/Hz) from a level's (frequency, phase error) pairs
+    within 45 deg of quadrature: minus the least-squares line's slope; None if fewer than
+    two distinct frequencies or a slope of the wrong sign.
+
+    >>> round(level_slope([(29.0, 0.2), (29.5, 0.1), (30.0, 0.0)]), 6)
+    0.2
+    """
+    pts = [(f, e) for f, e in hist if abs(e) < math.pi / 4]
+    if len({f for f, _ in pts}) < 2:
+        return None
+    fm = sum(f for f, _ in pts) / len(pts)
+    em = sum(e for _, e in pts) / len(pts)
+    sxx = sum((f - fm) ** 2 for f, _ in pts)
+    slope = -sum((f - fm) * (e - em) for f, e in pts) / sxx
+    return slope if slope > 0 else None
+
+
 def _check(*args: Any, **kw: Any) -> None:
     band = kw.get("band_hz", args[2] if len(args) > 2 else None)
     f0 = kw.get("f_start_hz", args[1] if len(args) > 1 else None)
@@ -117,6 +137,7 @@ def phase_resonance(levels_vpp: Annotated[list[Vpp], Field(min_length=1)], f_sta
         else:
             yield Ramp(vpp)
         prev: tuple[float, float] | None = None
+        hist: list[tuple[float, float]] = []
         for it in range(max_iterations + 1):
             yield wait(steady_max_cycles, steady_tol, steady_window)
             m = yield Measure(measure_cycles)
@@ -133,6 +154,7 @@ def phase_resonance(levels_vpp: Annotated[list[Vpp], Field(min_length=1)], f_sta
                     f"{resp:.3g} (min_response {min_response:g}), force {force:.3g} N. What would help: "
                     "a higher level, a sensor nearer an antinode of the mode, or f_start_hz nearer it")
             e = _wrap(m.phase_rad[response_channel] - m.phase_rad[fch] - target)
+            hist.append((f, e))
             if adapt_slope and prev is not None and f != prev[0]:
                 secant = -(e - prev[1]) / (f - prev[0])
                 if secant > 0:
@@ -161,13 +183,17 @@ def phase_resonance(levels_vpp: Annotated[list[Vpp], Field(min_length=1)], f_sta
                     "frequency from `labjoint modes`), f_start_hz nearer it")
             f = f_next
             yield Configure(f, vpp)
+        measured = level_slope(hist)
+        if measured is not None:
+            slope = measured
         yield wait(steady_max_cycles, steady_tol, steady_window)
         yield Record(f"phase_resonance_{i:02d}_{tag(vpp)}Vpp", n_cycles=n_cycles,
                      metadata={"plan": "phase_resonance", "plan_step": i, "level_vpp": float(vpp),
                                "response_channel": response_channel, "force_channel": fch,
                                "response_quantity": response_quantity,
                                "phase_error_deg": math.degrees(e), "phase_slope_rad_per_hz": slope,
-                               "iterations": it, "locked": True})
+                               "iterations": it, "locked": True,
+                               "phase_slope_measured": measured is not None})
     yield Output(False)
     if ringdown_s is not None:
         yield Record("phase_resonance_ringdown", duration_s=ringdown_s,

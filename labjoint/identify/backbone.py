@@ -118,16 +118,24 @@ def phase_resonance_backbone(runs: Iterable[str | Path], *, modal_mass_kg: float
     return Backbone(out, "m", "displacement", pts[0]["sensor"], tuple(notes))
 
 
-def ringdown_run_backbone(path: str | Path, channel: str, *, mode_hz: float | None = None,
-                          to_displacement: bool = True, **options) -> Backbone:
-    """The backbone of one free-decay run's ``channel`` (module docstring)."""
+def ringdown_run_backbone(path: str | Path, channel: str | None = None, *, mode_hz: float | None = None,
+                          to_displacement: bool = True, force_channel: str | None = None,
+                          modal_mass_kg: float | None = None, **options) -> Backbone:
+    """The backbone of one free-decay run's ``channel`` (default: the metadata's
+    ``response_channel``); with ``force_channel`` and ``modal_mass_kg`` the exciter's
+    force is removed (:func:`labjoint.signal.ringdown.remove_force`)."""
     path = Path(path)
     with open_run(path) as rf:
+        channel = channel or rf.metadata.get("response_channel")
+        if channel is None:
+            raise InputError("name the response channel of the ringdown", file=str(path), field="channel")
         spec = rf.channel(channel)
         x, fs = rf.physical(channel), rf.sample_rate_hz
+        force = None if force_channel is None else rf.physical(force_channel)
     try:
         return ringdown_backbone(x, fs, mode_hz=mode_hz, quantity=spec.quantity, units=spec.unit,
-                                 sensor=channel, to_displacement=to_displacement, **options)
+                                 sensor=channel, to_displacement=to_displacement, force=force,
+                                 modal_mass_kg=modal_mass_kg, **options)
     except InputError as exc:
         raise InputError(exc.message, file=str(path), field=exc.field) from None
 

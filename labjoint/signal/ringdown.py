@@ -52,6 +52,16 @@ differences of sd s sqrt(6); a smooth mode gives almost none at >= 8 samples per
 s = 1.4826 median|x[n+1] - 2 x[n] + x[n-1]| / sqrt(6). That is the broadband noise, an
 upper bound of what is left inside the band-pass.
 
+The structure alone (:func:`remove_force`): a ringdown measured with the exciter still
+attached (a shaker's armature mass, suspension and the coil's electrical damping act on
+the structure through the stinger) is the decay of structure plus exciter. With the
+stinger force F(t) recorded and the apparent modal mass m between force and sensor
+(from phase resonance, :mod:`labjoint.identify.backbone`), each window's complex ratio
+R = F / X of their analytic signals (X the displacement, the response over s^p) is the
+exciter's dynamic stiffness, and the mode m (s^2 + 2 zeta w s + w^2) = R at the observed
+s = -sigma + i w_d gives the structure's own w and zeta. Their uncertainties are the
+uncorrected ones (R's scatter is not propagated).
+
 Amplitudes are in the signal's own quantity and unit; ``to_displacement`` converts a
 velocity (/w) or an acceleration (/w^2, w the window's w_d; sign dropped) to a
 displacement amplitude (stated in the notes).
@@ -153,7 +163,7 @@ def isolate(x: np.ndarray, fs: float, mode_hz: float | None = None, *,
                          f"({2 * settle:.3g} s): record a longer decay", field="x")
     keep = slice(cut, x.size - cut)
     notes = {"mode_hz": f0, "band_hz": [lo, hi], "settle_s": settle, "other_modes_hz": neighbours,
-             "order": order}
+             "order": order, "sos": sos}
     return y, keep, notes
 
 
@@ -172,9 +182,15 @@ def ringdown_backbone(x, fs: float, *, mode_hz: float | None = None, methods=MET
                       sensor: str = "x", to_displacement: bool = False,
                       window_cycles: int = 4, trim_cycles: float = 2.0,
                       noise_rms: float | None = None, snr_min: float = 10.0,
-                      min_windows: int = 3) -> Backbone:
-    """Backbone of one mode from a free decay ``x`` sampled at ``fs`` (module docstring)."""
+                      min_windows: int = 3, force=None, modal_mass_kg: float | None = None) -> Backbone:
+    """Backbone of one mode from a free decay ``x`` sampled at ``fs`` (module docstring);
+    with ``force`` (N, same samples) and ``modal_mass_kg``, of the structure without
+    what applies that force (:func:`remove_force`)."""
     x = validate.signal(x, "x", min_samples=16)
+    if force is not None:
+        force = validate.signal(force, "force", min_samples=16)
+        validate.same_length(x, force, "x", "force")
+        modal_mass_kg = validate.positive(modal_mass_kg, "modal_mass_kg", "kg")
     fs = validate.sample_rate(fs)
     bad = [m for m in methods if m not in METHODS]
     if bad or not methods:
@@ -186,10 +202,12 @@ def ringdown_backbone(x, fs: float, *, mode_hz: float | None = None, methods=MET
         raise InputError(f"window_cycles must be an integer >= 2, got {window_cycles!r}",
                          field="window_cycles")
     y, keep, iso = isolate(x, fs, mode_hz, min_cycles=window_cycles * min_windows + 2 * trim_cycles)
+    iso = dict(iso)
     f0 = iso["mode_hz"]
     if fs < 8 * f0:
         raise InputError(f"{fs:g} S/s is too slow for a {f0:.4g} Hz mode (need >= 8 samples per "
                          "cycle)", field="fs")
+    yF = None if force is None else sps.sosfiltfilt(iso.pop("sos"), force - force.mean())[keep]
     y = y[keep]
     t = np.arange(y.size) / fs
     if noise_rms is None:
@@ -206,6 +224,8 @@ def ringdown_backbone(x, fs: float, *, mode_hz: float | None = None, methods=MET
              f"(order {iso['order']}, forward-backward; {iso['settle_s']:.3g} s of transients cut at each end)",
              f"windows of {window_cycles} cycles; hilbert: {trim_cycles:g} cycles trimmed at each end",
              f"points kept above {snr_min:g} x the noise {noise_rms:.3g} ({noise_from})"]
+    if force is not None:
+        notes.append(f"the measured force's work removed per window (modal mass {modal_mass_kg:.4g} kg)")
     if power:
         notes.append(f"{quantity} amplitude converted to displacement by /omega^{power} "
                      "(omega the window's damped frequency)")
@@ -215,7 +235,11 @@ def ringdown_backbone(x, fs: float, *, mode_hz: float | None = None, methods=MET
         rows = (_hilbert_windows if method == "hilbert" else _peak_windows)(y, t, fs, f0, window_cycles, trim)
         above = [r for r in rows if _above_noise(r, noise_rms, snr_min)]
         counts[method] = (len(above), len(rows))
-        for amp, amp_sd, wd, wd_sd, sig, sig_sd, _ in above:
+        for amp, amp_sd, wd, wd_sd, sig, sig_sd, _, t0, t1 in above:
+            if yF is not None:
+                ratio = force_ratio(y, yF, t, fs, f0, trim, t0, t1, complex(-sig, wd),
+                                    {"displacement": 0, "velocity": 1, "acceleration": 2}[quantity])
+                wd, sig = remove_force(wd, sig, ratio, modal_mass_kg)
             pts.append(_point(amp, amp_sd, wd, wd_sd, sig, sig_sd, power, method))
     few = {m: c for m, c in counts.items() if c[0] < min_windows}
     if few:
@@ -227,6 +251,29 @@ def ringdown_backbone(x, fs: float, *, mode_hz: float | None = None, methods=MET
             "a more sensitive sensor or range, a longer record, or averaging repeated ringdowns",
             field="x")
     return Backbone(pts, out_units, "displacement" if power else quantity, sensor, tuple(notes))
+
+
+def force_ratio(y, yF, t, fs, f0, trim, t0, t1, s, power) -> complex:
+    """R = F / X over [t0, t1]: the force's analytic signal over the displacement's
+    (the response's over s^power, s = -sigma + i w_d), least squares."""
+    h = hilbert_fir(fs, f0, max(trim, 2))
+    half = h.size // 2
+    k = slice(max(int(t0 * fs), half), min(int(t1 * fs) + 1, y.size - half))
+    zy = y[k] + 1j * np.convolve(y, h, mode="same")[k]
+    zf = yF[k] + 1j * np.convolve(yF, h, mode="same")[k]
+    zx = zy / s ** power
+    return complex(np.sum(zf * np.conj(zx)) / np.sum(np.abs(zx) ** 2))
+
+
+def remove_force(wd: float, sigma: float, ratio: complex, mass: float) -> tuple[float, float]:
+    """(w_d, sigma) of the mode without the measured force F = R X acting on it:
+    m (s^2 + 2 zeta w s + w^2) = R at the observed s = -sigma + i w_d gives
+    2 zeta w = 2 sigma + Im R / (m w_d) and w^2 = Re R / m + w_d^2 - sigma^2 + 2 zeta w sigma;
+    returned as the (w_d, sigma) of that mode, sigma = zeta w, w_d = sqrt(w^2 - sigma^2)."""
+    two_zw = 2 * sigma + ratio.imag / (mass * wd)
+    w2 = ratio.real / mass + wd * wd - sigma * sigma + two_zw * sigma
+    sig = two_zw / 2
+    return math.sqrt(max(w2 - sig * sig, 0.0)), sig
 
 
 def _point(amp, amp_sd, wd, wd_sd, sig, sig_sd, power, method) -> BackbonePoint:
@@ -283,7 +330,8 @@ def _hilbert_windows(y, t, fs, f0, window_cycles, trim):
         _, wd, _, swd, _ = _line(tt[k], ph[k], per_half)
         amp = math.exp(a)
         # amplitude at the centre; its sd from the scatter of ln|z| about the line
-        rows.append((amp, amp * scat / math.sqrt(2 * window_cycles), wd, swd, -b, sb, scat))
+        rows.append((amp, amp * scat / math.sqrt(2 * window_cycles), wd, swd, -b, sb, scat,
+                     tt[k][0], tt[k][-1]))
     return rows
 
 
@@ -317,5 +365,5 @@ def _peak_windows(y, t, fs, f0, window_cycles, trim):
         swd = wd * shp / half_period
         sig = -b
         amp = math.exp(a) / math.cos(math.atan2(sig, wd))
-        rows.append((amp, amp * scat / math.sqrt(per), wd, swd, sig, sb, scat))
+        rows.append((amp, amp * scat / math.sqrt(per), wd, swd, sig, sb, scat, tp[k][0], tp[k][-1]))
     return rows
