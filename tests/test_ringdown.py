@@ -17,7 +17,7 @@ def damped(t, a0, f, zeta, phase=0.3):
 
 
 def by_method(b, method):
-    return [p for p in b.points if p.method == method]
+    return [p for p in b.points if p.method == "ringdown_" + method]
 
 
 @pytest.mark.parametrize("method", ["hilbert", "peaks"])
@@ -100,7 +100,7 @@ def test_duffing_backbone_follows_the_first_order_closed_form():
                     (0, 4.0), [a0, 0.0], method="DOP853", rtol=1e-11, atol=1e-15,
                     t_eval=np.arange(int(4.0 * fs)) / fs)
     b = ringdown_backbone(sol.y[0], fs, window_cycles=2)     # a short window: little smoothing bias
-    assert {p.method for p in b.points} == {"hilbert", "peaks"}
+    assert {p.method for p in b.points} == {"ringdown_hilbert", "ringdown_peaks"}
     for method, rtol in (("peaks", 6e-4), ("hilbert", 2e-4)):
         # the successive-peaks frequencies scatter more (within their uncertainty)
         pts = by_method(b, method)

@@ -240,7 +240,7 @@ def ringdown_backbone(x, fs: float, *, mode_hz: float | None = None, methods=MET
                 ratio = force_ratio(y, yF, t, fs, f0, trim, t0, t1, complex(-sig, wd),
                                     {"displacement": 0, "velocity": 1, "acceleration": 2}[quantity])
                 wd, sig = remove_force(wd, sig, ratio, modal_mass_kg)
-            pts.append(_point(amp, amp_sd, wd, wd_sd, sig, sig_sd, power, method))
+            pts.append(_point(amp, amp_sd, wd, wd_sd, sig, sig_sd, power, f"ringdown_{method}"))
     few = {m: c for m, c in counts.items() if c[0] < min_windows}
     if few:
         m, (n_ok, n_all) = next(iter(few.items()))
