@@ -129,7 +129,8 @@ def prepare_backbones(items: Sequence[Backbone | tuple[str, Backbone]], predicto
                       mode: int = 0, harmonics: int = 3, split: bool = True) -> list[BackboneMeasurement]:
     """Measurements of measured backbones (or (name, backbone) pairs) on the predictor's
     structure; with ``split`` each backbone gives two, its even and its odd points by
-    amplitude (``NAME/even`` fits, ``NAME/odd`` validates: :class:`BackboneKind`)."""
+    amplitude, the largest amplitude always with the even ones (``NAME/even`` fits,
+    ``NAME/odd`` validates between them: :class:`BackboneKind`)."""
     if not items:
         raise InputError("no backbones given", field="runs")
     out = []
@@ -140,8 +141,10 @@ def prepare_backbones(items: Sequence[Backbone | tuple[str, Backbone]], predicto
         if b.amplitude_units != "m" or b.quantity != "displacement":
             raise InputError(f"'{name}': amplitudes must be displacement in m (the EPMC's measure), "
                              f"got {b.quantity} in {b.amplitude_units}", field="runs")
-        parts = [("even", b.points[0::2]), ("odd", b.points[1::2])] if split and len(b.points) >= 2 \
-            else [("all", b.points)]
+        n = len(b.points)
+        odd = [i for i in range(1, n - 1, 2)]            # the extremes fit: validation interpolates
+        parts = [("even", [p for i, p in enumerate(b.points) if i not in odd]),
+                 ("odd", [b.points[i] for i in odd])] if split and n >= 3 else [("all", b.points)]
         for tag, pts in parts:
             sub = replace(b, points=list(pts))
             f, z = sub.array("frequency_hz"), sub.array("damping_ratio")
