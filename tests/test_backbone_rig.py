@@ -44,7 +44,7 @@ def test_phase_resonance_backbone_softens_and_damps_with_amplitude(resonance_run
 def test_ringdown_with_the_shakers_force_removed_meets_the_phase_resonance_backbone(resonance_runs):
     levels, ring = resonance_runs
     pr = phase_resonance_backbone(levels)
-    mass = float(pr.notes[1].split("mass ")[1].split(" kg")[0])
+    mass = pr.points[0].extra["modal_mass_kg"]
     raw = ringdown_run_backbone(ring, force_channel=None)
     rd = ringdown_run_backbone(ring, force_channel="force", modal_mass_kg=mass)
     # with the shaker attached the decay is lower and more damped (armature mass, coil)

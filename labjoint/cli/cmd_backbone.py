@@ -46,50 +46,6 @@ def add_backbone_arguments(p: argparse.ArgumentParser) -> None:
                    help="model amplitudes (m at the sensor, log spaced; default: the measured range)")
 
 
-def measured(inputs: list[str], sensor: str | None, modal_mass: float | None) -> list[Backbone]:
-    """Backbones of the inputs by kind (module docstring)."""
-    from labjoint.identify.backbone import frfset_backbone, phase_resonance_backbone, ringdown_run_backbone
-    from labjoint.signal.frf_steps import frfset_from_runs
-    from labjoint.signal.frfset import FrfSet
-    from labjoint.storage.reader import open_run
-
-    levels, rings, steps, sets = [], [], [], []
-    for name in inputs:
-        path = Path(name)
-        if not path.exists():
-            raise InputError("no such file", file=name)
-        if path.suffix.lower() == ".json":
-            sets.append(FrfSet.load(path))
-            continue
-        with open_run(path) as rf:
-            md = rf.metadata
-        plan = md.get("plan")
-        if plan == "phase_resonance":
-            (rings if md.get("ringdown") else levels).append(path)
-        elif plan == "step_sine":
-            steps.append(path)
-        else:
-            raise InputError(f"not a phase_resonance, ringdown or step_sine run (plan {plan!r})",
-                             file=name, field="plan")
-    out: list[Backbone] = []
-    mass = modal_mass
-    if levels:
-        pr = phase_resonance_backbone(levels, modal_mass_kg=modal_mass)
-        out.append(pr)
-        if mass is None:
-            mass = float(pr.notes[1].split("mass ")[1].split(" kg")[0])
-    for path in rings:
-        with open_run(path) as rf:
-            fch = rf.metadata.get("force_channel")
-        use_force = mass is not None and fch is not None
-        out.append(ringdown_run_backbone(path, sensor, force_channel=fch if use_force else None,
-                                         modal_mass_kg=mass if use_force else None))
-    if steps:
-        sets.append(frfset_from_runs(steps, sensors=[sensor] if sensor else None))
-    out += [frfset_backbone(s, sensor) for s in sets]
-    return out
-
-
 def _params(items: list[str]) -> dict[str, float]:
     out = {}
     for item in items:
@@ -144,7 +100,9 @@ def modelled(args: argparse.Namespace, meas: list[Backbone]) -> Backbone | None:
 def run(args: argparse.Namespace) -> int:
     if not args.inputs and args.structure is None and args.model is None:
         raise InputError("give runs, an FRF set, or a model (--structure / --model)", field="inputs")
-    meas = measured(args.inputs, args.sensor, args.modal_mass)
+    from labjoint.identify.backbone import measured_backbones
+
+    meas = measured_backbones(args.inputs, args.sensor, args.modal_mass)
     model = modelled(args, meas)
     points = [p.to_dict(b.amplitude_units) for b in meas for p in b.points]
     res = {"points": points, "model": [] if model is None else model.to_dict()["points"],

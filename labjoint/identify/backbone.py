@@ -43,7 +43,7 @@ import numpy as np
 
 from labjoint.errors import InputError
 from labjoint.signal.backbone import Backbone, BackbonePoint
-from labjoint.signal.frf_steps import phasors
+from labjoint.signal.frf_steps import frfset_from_runs, phasors
 from labjoint.signal.frfset import FrfSet
 from labjoint.signal.ringdown import ringdown_backbone
 from labjoint.storage.reader import open_run
@@ -114,6 +114,7 @@ def phase_resonance_backbone(runs: Iterable[str | Path], *, modal_mass_kg: float
         zeta = abs(p["F"]) / (2 * modal_mass_kg * w * w * X)
         out.append(BackbonePoint(X, fr, zeta, "phase_resonance", X * p["sR"] / abs(p["R"]), fr_sd, zeta * rel,
                                  extra={"run": p["run"], "level_vpp": p["level_vpp"],
+                                        "modal_mass_kg": float(modal_mass_kg),
                                         "force_n": abs(p["F"]), "drive_frequency_hz": p["f"]}))
     return Backbone(out, "m", "displacement", pts[0]["sensor"], tuple(notes))
 
@@ -194,3 +195,46 @@ def _sdof_fit(f, H, sd, band, force, level, direction) -> BackbonePoint:
     return BackbonePoint(X, wr / (2 * np.pi), zeta, "step_sine", X * math.hypot(sb / b, 0.5 * sa / a),
                          f_sd, z_sd, extra={"level_n": float(level), "direction": direction,
                                             "steps_fitted": int(sel.sum()) if hasattr(sel, "sum") else 0})
+
+
+def measured_backbones(inputs: Iterable[str | Path], sensor: str | None = None,
+                       modal_mass: float | None = None) -> list[Backbone]:
+    """Backbones of run files and FRF set files by their kind: phase_resonance levels
+    (one backbone), ringdown runs (the force removed with the levels' apparent modal mass
+    when there are levels or ``modal_mass``), step_sine runs (one FRF set) and FRF set
+    files (.json)."""
+    levels, rings, steps, sets = [], [], [], []
+    for name in inputs:
+        path = Path(name)
+        if not path.exists():
+            raise InputError("no such file", file=str(name))
+        if path.suffix.lower() == ".json":
+            sets.append(FrfSet.load(path))
+            continue
+        with open_run(path) as rf:
+            md = rf.metadata
+        plan = md.get("plan")
+        if plan == "phase_resonance":
+            (rings if md.get("ringdown") else levels).append(path)
+        elif plan == "step_sine":
+            steps.append(path)
+        else:
+            raise InputError(f"not a phase_resonance, ringdown or step_sine run (plan {plan!r})",
+                             file=str(name), field="plan")
+    out: list[Backbone] = []
+    mass = modal_mass
+    if levels:
+        pr = phase_resonance_backbone(levels, modal_mass_kg=modal_mass)
+        out.append(pr)
+        if mass is None:
+            mass = pr.points[0].extra["modal_mass_kg"]
+    for path in rings:
+        with open_run(path) as rf:
+            fch = rf.metadata.get("force_channel")
+        use_force = mass is not None and fch is not None
+        out.append(ringdown_run_backbone(path, sensor, force_channel=fch if use_force else None,
+                                         modal_mass_kg=mass if use_force else None))
+    if steps:
+        sets.append(frfset_from_runs(steps, sensors=[sensor] if sensor else None))
+    out += [frfset_backbone(s, sensor) for s in sets]
+    return out
