@@ -34,7 +34,9 @@ def test_phase_resonance_backbone_softens_and_damps_with_amplitude(resonance_run
     A, f, z = b.array("amplitude"), b.array("frequency_hz"), b.array("damping_ratio")
     assert A.max() / A.min() > 9                              # about a decade
     assert np.all(np.diff(f) < 0) and np.all(np.diff(z) > 0)  # micro-slip: softer, more damped
-    assert z[0] == pytest.approx(ZETA_SIM, rel=0.1)           # the lowest level is nearly linear
+    # the lowest level is nearly linear: the simulator's 0.4 % of the structure with the
+    # shaker's armature, 0.42 % without it (mass 7 % lower, frequency 2.5 % higher)
+    assert z[0] == pytest.approx(0.0042, rel=0.05)
     assert z[-1] > 2 * z[0] and f[-1] < 0.995 * f[0]
     assert all(p.frequency_sd_hz < 1e-3 * p.frequency_hz and p.damping_sd < 0.1 * p.damping_ratio
                for p in b.points)
@@ -54,9 +56,9 @@ def test_ringdown_with_the_shakers_force_removed_meets_the_phase_resonance_backb
     near = [p for p in rd.points if 1e-4 < p.amplitude < 3.2e-4]
     assert len(near) >= 3
     f_pr, z_pr = pr.points[0].frequency_hz, pr.points[0].damping_ratio
-    for p in near:
-        assert p.frequency_hz == pytest.approx(f_pr, rel=3e-3)
-        assert p.damping_ratio == pytest.approx(z_pr, rel=0.25)
+    for p in near:                                   # issue 30: within 0.1 % and 10 %
+        assert p.frequency_hz == pytest.approx(f_pr, rel=1e-3)
+        assert p.damping_ratio == pytest.approx(z_pr, rel=0.1)
 
 
 @pytest.mark.slow

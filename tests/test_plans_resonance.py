@@ -45,15 +45,17 @@ def test_messages_exact_when_already_at_resonance():
     mode = Mode()
     msgs = dry_run(phase_resonance([1.0, 2.0], FR, (20.0, 40.0), response_channel="acc", **STEADY), mode)
     W = WaitSteady(max_cycles=50, tol=0.05, window=4)
-    assert [type(m) for m in msgs] == [Configure, Output, WaitSteady, Measure, Checkpoint, WaitSteady, Record,
-                                       Ramp, WaitSteady, Measure, Checkpoint, WaitSteady, Record, Output]
-    assert msgs[:4] == [Configure(FR, 1.0), Output(True), W, Measure(10)]
-    rec = msgs[6]
+    # a second measurement agreeing with the first: steady
+    assert [type(m) for m in msgs] == [Configure, Output, WaitSteady, Measure, Measure, Checkpoint, WaitSteady,
+                                       Record, Ramp, WaitSteady, Measure, Measure, Checkpoint, WaitSteady,
+                                       Record, Output]
+    assert msgs[:5] == [Configure(FR, 1.0), Output(True), W, Measure(10), Measure(10)]
+    rec = msgs[7]
     assert rec.name == "phase_resonance_00_1Vpp" and rec.n_cycles == 20
     assert rec.metadata["plan"] == "phase_resonance" and rec.metadata["locked"] is True
     assert abs(rec.metadata["phase_error_deg"]) < 1e-6
-    assert msgs[7] == Ramp(2.0) and msgs[-1] == Output(False)
-    assert "level 1/2 (1 Vpp): 30 Hz" in msgs[4].label
+    assert msgs[8] == Ramp(2.0) and msgs[-1] == Output(False)
+    assert "level 1/2 (1 Vpp): 30 Hz" in msgs[5].label
 
 
 @pytest.mark.parametrize("start", [27.0, 33.5])
@@ -125,3 +127,38 @@ def test_parameters_checked_and_registered():
                       "band_hz": [20.0, 40.0], "response_channel": "acc"})
     assert isinstance(next(plan), Configure)
     assert math.isclose(loop_factor(1.0, 2.0, 1.0), -1.0)
+
+
+class SlowMode(Mode):
+    """The same mode, whose phase after a frequency change approaches its steady value by
+    a factor 0.3 per measurement (a lightly damped mode's transient)."""
+
+    def __init__(self, **kw):
+        super().__init__(**kw)
+        self.seen = None
+
+    def __call__(self, msg):
+        out = super().__call__(msg)
+        if isinstance(msg, Measure):
+            steady = out.phase_rad["acc"]
+            self.seen = steady if self.seen is None else steady + 0.3 * (self.seen - steady)
+            return Measurement(out.frequency_hz, out.amplitude, {"acc": self.seen, "force": 0.0}, "force")
+        return out
+
+
+def test_the_loop_waits_for_its_own_phase_to_settle():
+    mode = SlowMode()
+    msgs = dry_run(phase_resonance([1.0], 29.6, (20.0, 40.0), response_channel="acc", phase_tol_deg=0.05,
+                                   **STEADY), mode)
+    rec = next(m for m in msgs if isinstance(m, Record))
+    # read in the transient, the slope would be 0.3-0.7 of the mode's; settled, it is the mode's
+    assert rec.metadata["phase_slope_rad_per_hz"] == pytest.approx(1 / (ZETA * FR), rel=0.05)
+    assert mode.frequencies[-1] == pytest.approx(FR, abs=0.05 / 180 * np.pi * ZETA * FR)
+    counts = [sum(isinstance(m, Measure) for m in msgs[a:b])
+              for a, b in zip([i for i, m in enumerate(msgs) if isinstance(m, Configure)],
+                              [i for i, m in enumerate(msgs) if isinstance(m, Checkpoint)])]
+    assert max(counts) > 2                              # more than one extra measurement was needed
+    hasty = dry_run(phase_resonance([1.0], 29.6, (20.0, 40.0), response_channel="acc", phase_tol_deg=0.05,
+                                    settle_measures=0, **STEADY), SlowMode())
+    slope = next(m for m in hasty if isinstance(m, Record)).metadata["phase_slope_rad_per_hz"]
+    assert slope < 0.85 / (ZETA * FR)                  # read in the transient: too flat

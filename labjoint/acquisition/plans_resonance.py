@@ -7,9 +7,17 @@ waits for steady state and records the run; the backbone and damping follow from
 and response (:mod:`labjoint.identify.backbone`).
 
 The loop (one update per steady measurement, so the generator's frequency changes at
-most once per ``steady_window`` + ``measure_cycles`` cycles, a rate any instrument
+most once per ``steady_window`` + 2 ``measure_cycles`` cycles, a rate any instrument
 allows; every Configure goes through the engine's safety hook,
 :func:`labjoint.acquisition.safety.check_settings`: band and Vpp limits):
+
+Steady state is judged on the loop's own quantities: after the engine's WaitSteady
+(which judges displacement channels; a rig with accelerometers only has none), the
+phase error and response amplitude are measured again until two consecutive
+measurements agree within half the phase tolerance and ``steady_tol`` (at most
+``settle_measures`` more): a lightly damped mode settles in 1 / (zeta w) seconds, 40
+cycles at 0.4 %, and a phase read during that transient biases the slope and the lowest
+level's damping (10 % on the simulated rig).
 
     e_n = wrap(phase(response) - phase(force) - target)          (rad)
     f_{n+1} = f_n + g e_n / S_n,   |f_{n+1} - f_n| <= max_step_fraction f_n
@@ -21,8 +29,8 @@ single-mode fit); so e_{n+1} = (1 - g S / S_n) e_n. The loop converges iff
 1 / (``damping_guess`` f_start) and, with ``adapt_slope``, is replaced by the secant
 -(e_n - e_{n-1}) / (f_n - f_{n-1}) of the last two steps when that is positive (so the
 factor tends to 1 - g; the default g = 0.5 halves the error per update). After lock the
-recorded slope is the least-squares line through all of the level's (f, e) within 45
-deg (:func:`level_slope`), which the analysis uses for the damping at the lowest level. The step clip
+recorded slope is the least-squares line through all of the level's (f, tan e) within
+45 deg (:func:`level_slope`), which the analysis uses for the damping at the lowest level. The step clip
 keeps the first steps inside the mode's linear phase range (|e| < ~45 deg).
 
 With ``ringdown_s``, the output is switched off after the last (highest) level and the
@@ -41,7 +49,7 @@ down and switches it off, and names the reason): when the response amplitude is 
 ...                lambda m: Measurement(30.0, {"a": 1.0, "f": 1.0}, {"a": 1.5708, "f": 0.0}, "f")
 ...                if type(m).__name__ == "Measure" else None)
 >>> [type(m).__name__ for m in msgs]
-['Configure', 'Output', 'WaitSteady', 'Measure', 'Checkpoint', 'WaitSteady', 'Record', 'Output']
+['Configure', 'Output', 'WaitSteady', 'Measure', 'Measure', 'Checkpoint', 'WaitSteady', 'Record', 'Output']
 """
 
 from __future__ import annotations
@@ -78,15 +86,44 @@ def loop_factor(gain: float, slope: float, slope_estimate: float) -> float:
     return 1.0 - gain * slope / slope_estimate
 
 
-def level_slope(hist: list[tuple[float, float]]) -> float | None:
-    """The mode's phase slope S (rad/Hz) from a level's (frequency, phase error) pairs
-    within 45 deg of quadrature: minus the least-squares line's slope; None if fewer than
-    two distinct frequencies or a slope of the wrong sign.
+def _measure(response: str, force_channel: str | None, target: float, cycles: int):
+    """One Measure; (answer, phase error, force channel)."""
+    m = yield Measure(cycles)
+    if not isinstance(m, Measurement):
+        raise TypeError("phase_resonance needs the engine's Measurement answers")
+    fch = force_channel or m.reference_force_channel
+    if fch is None or fch not in m.amplitude or response not in m.amplitude:
+        raise InputError(f"phase_resonance: channels {response!r} and {fch!r} must be "
+                         f"measured (have {', '.join(m.amplitude)})", field="response_channel")
+    return m, _wrap(m.phase_rad[response] - m.phase_rad[fch] - target), fch
 
-    >>> round(level_slope([(29.0, 0.2), (29.5, 0.1), (30.0, 0.0)]), 6)
+
+def _settled(response: str, force_channel: str | None, target: float, cycles: int, most: int,
+             tol: float, amp_tol: float):
+    """Measure until the phase error and the response amplitude stop moving: two
+    consecutive measurements within tol / 2 and ``amp_tol`` (at most ``most`` more)."""
+    m, e, fch = yield from _measure(response, force_channel, target, cycles)
+    for _ in range(most):
+        m2, e2, fch = yield from _measure(response, force_channel, target, cycles)
+        a, a2 = m.amplitude[response], m2.amplitude[response]
+        steady = abs(e2 - e) <= tol / 2 and abs(a2 - a) <= amp_tol * max(abs(a), 1e-300)
+        m, e = m2, e2
+        if steady:
+            break
+    return m, e, fch
+
+
+def level_slope(hist: list[tuple[float, float]]) -> float | None:
+    """The mode's phase slope S (rad/Hz) at quadrature from a level's (frequency, phase
+    error) pairs within 45 deg of it: minus the least-squares slope of tan(e) against f
+    (a single mode's tan(e) = (1 - r^2) / (2 zeta r), r = f / f_r, is nearly a line there,
+    where e itself flattens like an arctangent: its secant over +-45 deg reads the slope up
+    to 21 % low); None if fewer than two distinct frequencies or a slope of the wrong sign.
+
+    >>> round(level_slope([(29.0, math.atan(0.2)), (29.5, math.atan(0.1)), (30.0, 0.0)]), 6)
     0.2
     """
-    pts = [(f, e) for f, e in hist if abs(e) < math.pi / 4]
+    pts = [(f, math.tan(e)) for f, e in hist if abs(e) < math.pi / 4]
     if len({f for f, _ in pts}) < 2:
         return None
     fm = sum(f for f, _ in pts) / len(pts)
@@ -123,7 +160,7 @@ def phase_resonance(levels_vpp: Annotated[list[Vpp], Field(min_length=1)], f_sta
                     min_response: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 0.0,
                     measure_cycles: Cycles = 20, n_cycles: Cycles = 100,
                     steady_max_cycles: Cycles = 400, steady_tol: Fraction = 0.02,
-                    steady_window: Window = 10,
+                    steady_window: Window = 10, settle_measures: Annotated[int, Field(ge=0)] = 12,
                     ringdown_s: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None) -> Plan:
     """Phase resonance at each level of ``levels_vpp`` (module docstring)."""
     target = math.radians(TARGET_DEG[response_quantity])
@@ -140,20 +177,14 @@ def phase_resonance(levels_vpp: Annotated[list[Vpp], Field(min_length=1)], f_sta
         hist: list[tuple[float, float]] = []
         for it in range(max_iterations + 1):
             yield wait(steady_max_cycles, steady_tol, steady_window)
-            m = yield Measure(measure_cycles)
-            if not isinstance(m, Measurement):
-                raise TypeError("phase_resonance needs the engine's Measurement answers")
-            fch = force_channel or m.reference_force_channel
-            if fch is None or fch not in m.amplitude or response_channel not in m.amplitude:
-                raise InputError(f"phase_resonance: channels {response_channel!r} and {fch!r} must be "
-                                 f"measured (have {', '.join(m.amplitude)})", field="response_channel")
+            m, e, fch = yield from _settled(response_channel, force_channel, target, measure_cycles,
+                                            settle_measures, tol, steady_tol)
             resp, force = m.amplitude[response_channel], m.amplitude[fch]
             if not resp > min_response or not force > 0:
                 raise LockFailed(
                     f"too little response to lock at {vpp:g} Vpp, {f:.6g} Hz: {response_channel} "
                     f"{resp:.3g} (min_response {min_response:g}), force {force:.3g} N. What would help: "
                     "a higher level, a sensor nearer an antinode of the mode, or f_start_hz nearer it")
-            e = _wrap(m.phase_rad[response_channel] - m.phase_rad[fch] - target)
             hist.append((f, e))
             if adapt_slope and prev is not None and f != prev[0]:
                 secant = -(e - prev[1]) / (f - prev[0])
