@@ -83,3 +83,15 @@ def test_a_loop_without_resonance_in_its_band_stops_with_the_output_off(tmp_path
     with pytest.raises(LockFailed, match="no resonance in the band 50-70 Hz"):
         run_plans(tmp_path, [(plan, "nolock")])
     assert not glob.glob(str(tmp_path / "*.h5"))
+
+
+@pytest.mark.slow
+def test_a_frequency_jump_beyond_the_rigs_limit_trips_the_safety_hook(tmp_path):
+    from structure_runs import structure_config
+
+    cfg = structure_config()
+    cfg = cfg.model_copy(update={"limits": cfg.limits.model_copy(update={"max_frequency_step": 0.02})})
+    plan = phase_resonance([0.5], 24.0, (20.0, 35.0), response_channel="free_end", measure_cycles=10,
+                           steady_max_cycles=100, max_step_fraction=0.2, gain=1.0)
+    res = run_plans(tmp_path, [(plan, "jump")], cfg)[0]
+    assert res.status == "limit" and "max_frequency_step = 2%" in res.reason and res.runs == []
