@@ -95,3 +95,46 @@ def test_a_frequency_jump_beyond_the_rigs_limit_trips_the_safety_hook(tmp_path):
                            steady_max_cycles=100, max_step_fraction=0.2, gain=1.0)
     res = run_plans(tmp_path, [(plan, "jump")], cfg)[0]
     assert res.status == "limit" and "max_frequency_step = 2%" in res.reason and res.runs == []
+
+
+def hidden_law_system():
+    """The simulator's own modal model of the structure (its FE, its modal damping) without
+    the shaker's armature and suspension (the force sensor sits between them and the
+    structure), its threads' hidden law as a labjoint law in the relative rotation:
+    linear_stiffness (the residual share of k_theta) + iwan (K_T the rest, F_S the slip force
+    times the radius, chi, beta 0), the continuum of the simulator's 24 Jenkins elements."""
+    from labjoint.hardware.sim.structure_config import StructureSimConfig
+    from labjoint.hardware.sim.structure_fe import reduce
+    from labjoint.structure.law import JointLaw
+    from labjoint.structure.system import LawElement, NonlinearSystem
+
+    cfg = StructureSimConfig()
+    j, sh = cfg.joint, cfg.shaker
+    m = reduce(cfg.assembly, sh, j.rotational_stiffness_nm_per_rad)
+    kth = j.rotational_stiffness_nm_per_rad
+    law = JointLaw("linear_stiffness+iwan", {
+        "linear_stiffness.k": kth * j.residual_fraction, "iwan.K_T": kth * (1 - j.residual_fraction),
+        "iwan.F_S": j.slip_force_n * j.radius_m, "iwan.chi": j.chi, "iwan.beta": 0.0})
+    d = m.drive
+    M = np.eye(d.size) - sh.armature_mass_kg * np.outer(d, d)
+    K = np.diag(m.omega ** 2) - sh.suspension_stiffness_n_per_m * np.outer(d, d)
+    K = K - kth * sum(np.outer(row, row) for row in m.joints)          # the law carries the joints
+    return NonlinearSystem(M, np.diag(2 * m.zeta * m.omega), K, d, m.joints.copy(),
+                           (LawElement(law), LawElement(law)), m.sensors, m.sensor_names)
+
+
+@pytest.mark.slow
+def test_the_models_epmc_backbone_with_the_hidden_law_meets_the_measured_one(resonance_runs):
+    from labjoint.structure.epmc import epmc_backbone
+
+    levels, _ = resonance_runs
+    pr = phase_resonance_backbone(levels)
+    model = epmc_backbone(hidden_law_system(), np.r_[1e-7, pr.array("amplitude")], sensor="free_end")
+    lin, pts = model.points[0], model.points[1:]
+    assert lin.frequency_hz == pytest.approx(pr.points[0].frequency_hz, rel=1e-4)     # stuck joint
+    assert lin.damping_ratio == pytest.approx(pr.points[0].damping_ratio, rel=0.05)
+    # above the first of the simulator's sliders (below it its joint is linear, where the
+    # continuum already micro-slips: 0.2 % and 18 % at the lowest level)
+    for p, q in zip(pts[1:], pr.points[1:]):
+        assert p.frequency_hz == pytest.approx(q.frequency_hz, rel=1e-3)
+        assert p.damping_ratio == pytest.approx(q.damping_ratio, rel=0.1)
