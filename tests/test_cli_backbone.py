@@ -32,13 +32,21 @@ def frfset(noise=0.0, seed=0):
 
 
 def test_step_sine_sets_give_each_levels_mode_and_its_amplitude_at_resonance():
-    b = frfset_backbone(frfset())
+    b = frfset_backbone(frfset(), method="fit")
     assert [p.extra["level_n"] for p in b.points] == list(LEVELS)
     for p, (level, (fr, z)) in zip(b.points, LEVELS.items()):
         assert p.frequency_hz == pytest.approx(fr, rel=1e-9)
         assert p.damping_ratio == pytest.approx(z, rel=1e-7)
         assert p.amplitude == pytest.approx(level / (M * 2 * z * (2 * np.pi * fr) ** 2), rel=1e-7)
-    noisy = frfset_backbone(frfset(noise=0.01, seed=4))
+    # phase quadrature between the steps (0.06-0.18 Hz apart, bandwidths 0.24-0.75 Hz): the
+    # modal mass from the lowest sweep's phase slope, amplitudes interpolated between steps
+    q = frfset_backbone(frfset())
+    assert q.points[0].extra["modal_mass_kg"] == pytest.approx(M, rel=0.01)
+    for p, (level, (fr, z)) in zip(q.points, LEVELS.items()):
+        assert p.frequency_hz == pytest.approx(fr, rel=1e-5)
+        assert p.damping_ratio == pytest.approx(z, rel=0.01)
+        assert p.amplitude == pytest.approx(level / (M * 2 * z * (2 * np.pi * fr) ** 2), rel=0.01)
+    noisy = frfset_backbone(frfset(noise=0.01, seed=4), method="fit")
     for p, (fr, z) in zip(noisy.points, LEVELS.values()):
         assert abs(p.frequency_hz - fr) < 4 * p.frequency_sd_hz and p.frequency_sd_hz < 1e-3 * fr
         assert abs(p.damping_ratio - z) < 4 * p.damping_sd and p.damping_sd < 0.1 * z

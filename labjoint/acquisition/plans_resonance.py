@@ -12,12 +12,12 @@ allows; every Configure goes through the engine's safety hook,
 :func:`labjoint.acquisition.safety.check_settings`: band and Vpp limits):
 
 Steady state is judged on the loop's own quantities: after the engine's WaitSteady
-(which judges displacement channels; a rig with accelerometers only has none), the
-phase error and response amplitude are measured again until two consecutive
+(an amplitude drift below ``steady_tol`` over ``steady_window`` cycles, met while a
+lightly damped mode is still settling: its time constant 1 / (zeta w) is 40 cycles at
+0.4 %), the phase error and response amplitude are measured again until two consecutive
 measurements agree within half the phase tolerance and ``steady_tol`` (at most
-``settle_measures`` more): a lightly damped mode settles in 1 / (zeta w) seconds, 40
-cycles at 0.4 %, and a phase read during that transient biases the slope and the lowest
-level's damping (10 % on the simulated rig).
+``settle_measures`` more); a phase read in the transient biased the slope and the lowest
+level's damping 5-10 % on the simulated rig.
 
     e_n = wrap(phase(response) - phase(force) - target)          (rad)
     f_{n+1} = f_n + g e_n / S_n,   |f_{n+1} - f_n| <= max_step_fraction f_n

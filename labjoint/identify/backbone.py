@@ -26,7 +26,8 @@ propagated; m_eff's origin is stated in the notes.
 channel through :func:`labjoint.signal.ringdown.ringdown_backbone`.
 
 **Step sine / per-level FRFs** (an :class:`~labjoint.signal.frfset.FrfSet`): per sweep,
-the steps within ``band`` half-power bandwidths of the peak are fitted by one mode,
+the phase quadrature between its steps (:func:`frfset_backbone`, the default), or the
+steps within ``band`` half-power bandwidths of the peak fitted by one mode,
 H(w) = A / (w_r^2 - w^2 + i b w) (displacement per force, Levy's linearised least
 squares, each step weighted by its phasor std); zeta = b / (2 w_r); the amplitude is
 |H(w_r)| times the sweep's mean force amplitude; uncertainties from the fit's covariance
@@ -141,23 +142,79 @@ def ringdown_run_backbone(path: str | Path, channel: str | None = None, *, mode_
         raise InputError(exc.message, file=str(path), field=exc.field) from None
 
 
-def frfset_backbone(s: FrfSet, sensor: str | None = None, band: float = 2.0) -> Backbone:
-    """Frequency, damping and amplitude at resonance per sweep of ``s`` (module docstring)."""
+def frfset_backbone(s: FrfSet, sensor: str | None = None, band: float = 2.0,
+                    method: str = "quadrature", modal_mass_kg: float | None = None) -> Backbone:
+    """Frequency, damping and amplitude at resonance per sweep of ``s`` (module docstring).
+
+    ``method``: "quadrature" (default): per sweep the steps where the displacement's phase
+    crosses -90 deg from the force's are interpolated (linearly in tan e, e the phase
+    error, as the phase-resonance loop does): that is the point of the backbone the sweep's
+    force reaches, the same as phase resonance at that force; the damping from the force
+    balance there with the apparent modal mass (``modal_mass_kg`` or from the lowest
+    sweep, where tan e's slope gives zeta = 1 / (S f)); "fit": the one-mode fit of each
+    sweep (an equivalent linear mode over the sweep's amplitudes, which for a nonlinear
+    joint lies between the backbone's values at the sweep's smaller amplitudes)."""
     if sensor is not None and sensor not in s.sensors:
         raise InputError(f"no sensor {sensor!r}; sensors: {list(s.sensors)}", field="sensor")
+    if method not in ("quadrature", "fit"):
+        raise InputError(f"method is 'quadrature' or 'fit', got {method!r}", field="method")
     j = s.sensors.index(sensor) if sensor else int(np.argmax(np.abs(s.response[:, :, 0]).max(axis=0)))
     power = POWER[s.quantity]
-    pts = []
+    sweeps = []
     for (level, direction), idx in s.groups():
         f = s.frequencies_hz[idx]
         w = 2 * np.pi * f
         sign = {0: 1.0, 1: 1j, 2: -1.0}[power]
-        H = s.response[idx, j, 0] / (sign * w ** power) / s.force[idx]      # displacement per force
-        sd = s.response_std[idx, j, 0] / (w ** power) / np.abs(s.force[idx])
-        pts.append(_sdof_fit(f, H, sd, band, float(np.mean(np.abs(s.force[idx]))), level, direction))
-    return Backbone(pts, "m", "displacement", s.sensors[j],
-                    (f"one-mode fit within {band:g} half-power bandwidths of each sweep's peak; amplitude "
-                     f"= |H(w_r)| x the sweep's mean force",))
+        X = s.response[idx, j, 0] / (sign * w ** power)                      # displacement phasors
+        sd = s.response_std[idx, j, 0] / (w ** power)
+        sweeps.append((level, direction, f, X, sd, s.force[idx]))
+    if method == "fit":
+        pts = [_sdof_fit(f, X / F, sd / np.abs(F), band, float(np.mean(np.abs(F))), lv, d)
+               for lv, d, f, X, sd, F in sweeps]
+        note = (f"one-mode fit within {band:g} half-power bandwidths of each sweep's peak; amplitude "
+                "= |H(w_r)| x the sweep's mean force")
+        return Backbone(pts, "m", "displacement", s.sensors[j], (note,))
+    rows = [_quadrature(*sw) for sw in sweeps]
+    notes = ["phase quadrature of each sweep (displacement -90 deg from the force), interpolated "
+             "in tan(e) between the steps around it"]
+    if modal_mass_kg is None:
+        lo = min(rows, key=lambda r: r["X"])
+        zeta0 = 1.0 / (lo["S"] * lo["f"])
+        modal_mass_kg = lo["F"] / (2 * zeta0 * (2 * np.pi * lo["f"]) ** 2 * lo["X"])
+        notes.append(f"apparent modal mass {modal_mass_kg:.4g} kg from the lowest sweep's phase slope "
+                     f"(zeta = 1 / (S f) = {zeta0:.4g})")
+    pts = []
+    for r in rows:
+        w = 2 * np.pi * r["f"]
+        zeta = r["F"] / (2 * modal_mass_kg * w * w * r["X"])
+        pts.append(BackbonePoint(r["X"], r["f"], zeta, "step_sine", r["X"] * r["rel"], r["rel"] / r["S"],
+                                 zeta * r["rel"], extra={"level_n": r["level"], "direction": r["direction"],
+                                                         "modal_mass_kg": float(modal_mass_kg)}))
+    return Backbone(pts, "m", "displacement", s.sensors[j], tuple(notes))
+
+
+def _quadrature(level, direction, f, X, sd, F) -> dict:
+    """Where a sweep's phase error e = arg(X / F) + 90 deg crosses zero (module docstring)."""
+    e = np.angle(X / F * 1j)                                # displacement -90 deg: e = 0
+    order = np.argsort(f)
+    f, e, X, sd, F = f[order], e[order], X[order], sd[order], F[order]
+    ok = np.abs(e) < np.pi / 4
+    cross = np.flatnonzero(ok[:-1] & ok[1:] & (np.sign(e[:-1]) != np.sign(e[1:])) & (e[:-1] > 0))
+    if cross.size == 0:
+        raise InputError(f"the sweep at {level:g} N ({direction}) does not cross phase resonance "
+                         f"({f.min():.4g}-{f.max():.4g} Hz): step through the mode's resonance",
+                         field="frfset")
+    k = int(cross[0])
+    near = np.flatnonzero(ok & (np.abs(np.arange(f.size) - k - 0.5) <= 2.5))    # up to 3 steps each side
+    t = np.tan(e[near])
+    slope, icpt = np.polyfit(f[near], t, 1)
+    fr = -icpt / slope
+    a = (fr - f[k]) / (f[k + 1] - f[k])
+    Xr = (1 - a) * abs(X[k]) + a * abs(X[k + 1])
+    Fr = (1 - a) * abs(F[k]) + a * abs(F[k + 1])
+    rel = float(np.max(sd[near] / np.abs(X[near])))         # a phasor's relative sd ~ its phase sd (rad)
+    return {"level": float(level), "direction": str(direction), "f": float(fr), "X": float(Xr),
+            "F": float(Fr), "S": float(-slope), "rel": max(rel, 1e-12)}
 
 
 def _sdof_fit(f, H, sd, band, force, level, direction) -> BackbonePoint:
