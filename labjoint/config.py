@@ -84,6 +84,8 @@ class LimitsConfig(_Strict):
     max_force_n: float = Field(1000.0, gt=0)
     ramp_vpp_per_s: float = Field(40.0, gt=0)
     max_record_s: float = Field(600.0, gt=0)
+    #: largest relative frequency change in one update while the output is on (None: any)
+    max_frequency_step: float | None = Field(None, gt=0)
 
 
 #: Contact-zone outer radius over bolt radius, a = 3.5 r_b (seed 002 Eq. 2 / Sec. II.B).

@@ -225,7 +225,7 @@ def test_load_plan_toml_and_json(tmp_path):
     assert list(load_plan({"plan": "friction_test"})) == list(friction_test())
     assert set(PLANS) == {"dwell", "amplitude_sweep", "torque_series", "friction_test",
                           "sensor_calibration", "step_sine", "broadband", "multisine",
-                          "swept_sine", "random_noise"}
+                          "swept_sine", "random_noise", "phase_resonance"}
 
 
 @pytest.mark.parametrize("text, suffix, field", [

@@ -15,9 +15,9 @@ from typing import Any, Callable
 
 import numpy as np
 
-from labjoint.acquisition.safety import check_settings
+from labjoint.acquisition.safety import check_frequency_step, check_settings
 from labjoint.config import LimitsConfig
-from labjoint.errors import HardwareError, InputError
+from labjoint.errors import HardwareError, InputError, LimitExceeded
 from labjoint.hardware.interfaces import GeneratorSettings, SignalGenerator
 
 log = logging.getLogger(__name__)
@@ -191,6 +191,11 @@ class Drive:
             self.target = old
             raise InputError("the offset can only change while the output is off", field="offset_v")
         if f != old.frequency_hz:
+            try:
+                check_frequency_step(old.frequency_hz, f, self.limits)
+            except LimitExceeded:
+                self.target = old
+                raise
             self._apply(f, self.vpp, offset)
         self.ramp_to(vpp)
         return self.readback

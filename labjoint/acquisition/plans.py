@@ -25,6 +25,7 @@ import numpy as np
 from pydantic import Field, ValidationError, validate_call
 
 from labjoint.acquisition import plan_stubs as stubs
+from labjoint.acquisition import plans_resonance  # noqa: F401  (registers phase_resonance)
 from labjoint.acquisition import plans_waveform  # noqa: F401  (registers the waveform plans)
 from labjoint.acquisition.plan_registry import (PLANS, Cycles, Fraction, Hz, Newton, Nm, Plan,
                                                 Volt, Vpp, Window, register, tag, wait)

@@ -75,6 +75,28 @@ def check_settings(settings: GeneratorSettings, limits: LimitsConfig,
                         limit="offset_v", value=float("nan"), bound=0.0)
 
 
+def check_frequency_step(previous_hz: float, new_hz: float, limits: LimitsConfig) -> None:
+    """Refuse a frequency update with the output on larger than ``max_frequency_step``
+    (relative to the previous frequency), when the rig sets one: a sine jumping far with
+    the output on drives the structure through a transient of unknown size. Closed-loop
+    plans (phase_resonance's step clip) stay below it by design.
+
+    >>> check_frequency_step(30.0, 30.3, LimitsConfig(max_frequency_step=0.02))
+    >>> check_frequency_step(30.0, 33.0, LimitsConfig(max_frequency_step=0.02))
+    Traceback (most recent call last):
+    ...
+    labjoint.acquisition.safety.LimitTrip: frequency step 30 -> 33 Hz (10%) exceeds max_frequency_step = 2%
+    """
+    bound = limits.max_frequency_step
+    if bound is None:
+        return
+    step = abs(new_hz - previous_hz) / previous_hz
+    if not step <= bound:
+        raise LimitTrip(f"frequency step {previous_hz:g} -> {new_hz:g} Hz ({step:.0%}) exceeds "
+                        f"max_frequency_step = {bound:.0%}", limit="max_frequency_step", value=step,
+                        bound=bound)
+
+
 def check_block(volts: np.ndarray, channels: Sequence[ChannelSpec], limits: LimitsConfig,
                 frequency_hz: float | None = None, relative: Sequence[str] | None = None) -> None:
     """Refuse a block whose peak displacement (any displacement channel, and the relative

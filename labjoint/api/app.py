@@ -26,7 +26,8 @@ from labjoint.api.hosts import HostCheck
 from labjoint.api.jobs import JobRunner, JobStore
 from labjoint.api.limits import BodySizeLimit
 from labjoint.api.resolve import RunResolver
-from labjoint.api.routes import analyses, models, plans, reprocess, runs, structures, system, trends
+from labjoint.api.routes import (analyses, backbones, models, plans, reprocess, runs, structures,
+                                 system, trends)
 from labjoint.api.settings import ApiSettings
 from labjoint.storage import open_catalog
 
@@ -83,7 +84,7 @@ def create_app(settings: ApiSettings, daemon: Any = None, queue: Any = None,
     app.add_middleware(HostCheck, names=settings.host_names())
     table = [(r.path_regex, set(r.methods)) for r in app.routes
              if getattr(r, "methods", None) and hasattr(r, "path_regex")]
-    for module in (system, plans, runs, analyses, models, structures, trends, reprocess):
+    for module in (system, plans, runs, analyses, models, structures, trends, reprocess, backbones):
         app.include_router(module.router, prefix=API_PREFIX)
         table += [(compile_path(API_PREFIX + r.path)[0], set(r.methods))
                   for r in module.router.routes if getattr(r, "methods", None)]

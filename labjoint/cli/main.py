@@ -31,6 +31,7 @@ COMMANDS = {
     "ladder": ("cmd_models", "ladder", "add effects until the model is adequate"),
     "predict": ("cmd_predict", "run", "simulate a saved model on a record's force"),
     "structure": ("cmd_structure", "run", "assembled-structure model: modes, stage-1 update, nonlinear FRF"),
+    "backbone": ("cmd_backbone", "run", "frequency and damping against amplitude: measured and modelled"),
     "hw": ("cmd_hw", "run", "hardware: `labjoint hw check` lists instruments and DAQ devices"),
     "daemon": ("cmd_daemon", "run", "run the headless acquisition daemon"),
     "submit": ("cmd_daemon", "submit", "queue a plan (TOML/JSON) for the daemon"),

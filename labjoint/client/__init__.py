@@ -210,6 +210,17 @@ class Client:
                                        JOB_FINISHED, timeout, 0.5))
 
     # -- structures (issue 15) -----------------------------------------------------
+    def backbones(self, runs: Iterable[str], modal_mass_kg: float | None = None,
+                  sensor: str | None = None) -> dict[str, Any]:
+        """Frequency and damping against amplitude of catalogued runs (phase_resonance
+        levels and ringdown, or step_sine runs): ``{"points", "notes", "sensor"}``."""
+        body: dict[str, Any] = {"runs": list(runs)}
+        if modal_mass_kg is not None:
+            body["modal_mass_kg"] = modal_mass_kg
+        if sensor is not None:
+            body["sensor"] = sensor
+        return self.request("POST", "/backbones", json=body)
+
     def structures(self) -> dict[str, list[str]]:
         """Structure files and FRF sets of the data directory: {"structures", "frfsets"}."""
         return self.request("GET", "/structures")

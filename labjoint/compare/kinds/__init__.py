@@ -5,7 +5,10 @@
   (:mod:`.record`);
 - ``frf``: constant-force stepped-sine FRFs of a structure with their harmonics, the
   model inside the structure (:mod:`.frf`, :mod:`.frf_maps`; prepared with
-  :func:`labjoint.compare.kinds.frf.prepare_frfsets`).
+  :func:`labjoint.compare.kinds.frf.prepare_frfsets`);
+- ``backbone``: a mode's frequency and damping against amplitude, the model's by EPMC
+  inside the structure (:mod:`.backbone`, :mod:`.backbone_maps`; prepared with
+  :func:`labjoint.compare.kinds.backbone.prepare_backbones`).
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
+from labjoint.compare.kinds.backbone_maps import BACKBONE
 from labjoint.compare.kinds.frf import FrfMeasurement
 from labjoint.compare.kinds.frf_maps import FRF
 from labjoint.compare.kinds.record import RECORD, RecordMeasurement, prepare_record
@@ -25,7 +29,7 @@ from labjoint.errors import InputError
 from labjoint.signal.excitation import detect_excitation
 from labjoint.storage import Run, read_any
 
-KINDS: dict[str, Kind] = {SINE.name: SINE, RECORD.name: RECORD, FRF.name: FRF}
+KINDS: dict[str, Kind] = {SINE.name: SINE, RECORD.name: RECORD, FRF.name: FRF, BACKBONE.name: BACKBONE}
 
 
 def kind_of(ms: Sequence[Measurement]) -> Kind:
@@ -51,9 +55,10 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
     """
     if kind not in ("auto", *KINDS):
         raise InputError(f"unknown kind {kind!r}; known: auto, {', '.join(KINDS)}", field="kind")
-    if kind == "frf":
-        raise InputError("the frf kind takes FRF sets inside a structure (prepare_frfsets, or "
-                         "the structure option), not runs", field="kind")
+    if kind in ("frf", "backbone"):
+        raise InputError(f"the {kind} kind takes {'FRF sets' if kind == 'frf' else 'backbones'} inside "
+                         f"a structure (prepare_{'frfsets' if kind == 'frf' else 'backbones'}, or the "
+                         "structure option), not runs", field="kind")
     items = [read_any(r) if isinstance(r, (str, Path)) else r for r in runs]
     if not items:
         raise InputError("no runs given", field="runs")

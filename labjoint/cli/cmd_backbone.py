@@ -1,0 +1,117 @@
+"""`labjoint backbone RUN...|FRF.json [--model EXPR --param NAME=VALUE ...] [--structure S.toml
+| --mass KG [--stiffness N/M]] [--sensor NAME] [--amplitudes LO:HI:N] [--modal-mass KG] [--json]`.
+
+Measured backbones (frequency and damping ratio against the fundamental's displacement
+amplitude at the response sensor) from phase-resonance level runs, a ringdown run (the
+exciter's force removed with the phase resonance's apparent modal mass, when both are
+given), step-sine runs or an FRF set file; the model's beside them: the extended
+periodic motion concept on ``--structure`` (its joints' law, or ``--model`` with
+``--param``), or the single-DOF modal form of ``--model`` with ``--mass``.
+JSON (design.md): {"points": [{"amplitude", "amplitude_units", "frequency_hz",
+"damping_ratio", "method", "amplitude_sd", "frequency_sd_hz", "damping_sd", ...}],
+"model": [...same fields...], "notes": [...]}.
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from labjoint.cli.output import emit_json, table
+from labjoint.cli.structure_inputs import floats
+from labjoint.errors import InputError
+from labjoint.signal.backbone import Backbone
+
+
+def add_backbone_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("inputs", nargs="*", metavar="RUN|FRF.json",
+                   help="phase_resonance runs (levels and ringdown), step_sine runs, or an FRF set (.json)")
+    p.add_argument("--sensor", default=None, help="response sensor (default: the runs' response channel)")
+    p.add_argument("--modal-mass", type=float, default=None, metavar="KG",
+                   help="apparent modal mass between force and sensor (default: from the lowest "
+                        "phase-resonance level's phase slope)")
+    p.add_argument("--model", default=None, metavar="EXPR", help="joint law, e.g. linear_stiffness+iwan")
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help="a parameter of --model (effect.param=value), repeated")
+    p.add_argument("--structure", default=None, metavar="S.toml", help="structure file: EPMC backbone")
+    p.add_argument("--mode", type=int, default=1, help="mode number of the structure (default 1)")
+    p.add_argument("--harmonics", type=int, default=3, help="harmonics of the EPMC balance (default 3)")
+    p.add_argument("--mass", type=float, default=None, metavar="KG", help="single-DOF modal form: modal mass")
+    p.add_argument("--stiffness", type=float, default=0.0, metavar="N/M",
+                   help="single-DOF modal form: linear stiffness beside the law (default 0)")
+    p.add_argument("--amplitudes", default=None, metavar="LO:HI:N",
+                   help="model amplitudes (m at the sensor, log spaced; default: the measured range)")
+
+
+def _params(items: list[str]) -> dict[str, float]:
+    out = {}
+    for item in items:
+        key, sep, val = item.partition("=")
+        if not sep:
+            raise InputError(f"expected NAME=VALUE, got '{item}'", field="--param")
+        out[key.strip()] = floats(val, f"--param {key}")[0]
+    return out
+
+
+def _amplitudes(args: argparse.Namespace, meas: list[Backbone]) -> np.ndarray:
+    if args.amplitudes:
+        lo, hi, n = (floats(args.amplitudes, "--amplitudes", ":") + [0, 0, 0])[:3]
+        if not (0 < lo < hi and n >= 2 and n == int(n)):
+            raise InputError(f"expected LO:HI:N with 0 < LO < HI, N >= 2, got '{args.amplitudes}'",
+                             field="--amplitudes")
+        return np.geomspace(lo, hi, int(n))
+    amps = np.concatenate([b.array("amplitude") for b in meas]) if meas else np.array([])
+    if amps.size == 0:
+        raise InputError("give --amplitudes LO:HI:N (m at the sensor) when no measurement is given",
+                         field="--amplitudes")
+    return np.geomspace(amps.min() / 1.5, amps.max() * 1.5, 20)
+
+
+def modelled(args: argparse.Namespace, meas: list[Backbone]) -> Backbone | None:
+    """The model's backbone asked for by ``--structure`` / ``--model`` / ``--mass``."""
+    from labjoint.structure.law import JointLaw
+
+    if args.structure is None and args.model is None:
+        return None
+    law = JointLaw(args.model, _params(args.param), field="--model") if args.model else None
+    A = _amplitudes(args, meas)
+    if args.structure is not None:
+        from labjoint.structure import load_structure
+        from labjoint.structure.epmc import epmc_backbone
+        from labjoint.structure.frf import system_of
+        from labjoint.structure.system import JointElement
+
+        sysm = system_of(load_structure(args.structure))
+        if law is not None:
+            sysm = replace(sysm, elements=tuple(JointElement(replace(e.joint, law=law)) for e in sysm.elements))
+        sensor = args.sensor or (meas[0].sensor if meas else None)
+        return epmc_backbone(sysm, A, mode=args.mode - 1, harmonics=args.harmonics, sensor=sensor)
+    if args.mass is None:
+        raise InputError("--model without --structure needs --mass (the single-DOF modal form)",
+                         field="--mass")
+    from labjoint.structure.sdof_backbone import sdof_backbone
+
+    return sdof_backbone(law, A, args.mass, stiffness_n_per_m=args.stiffness)
+
+
+def run(args: argparse.Namespace) -> int:
+    if not args.inputs and args.structure is None and args.model is None:
+        raise InputError("give runs, an FRF set, or a model (--structure / --model)", field="inputs")
+    from labjoint.identify.backbone import measured_backbones
+
+    meas = measured_backbones(args.inputs, args.sensor, args.modal_mass)
+    model = modelled(args, meas)
+    points = [p.to_dict(b.amplitude_units) for b in meas for p in b.points]
+    res = {"points": points, "model": [] if model is None else model.to_dict()["points"],
+           "notes": [n for b in meas + ([model] if model else []) for n in b.notes],
+           "sensor": (meas[0].sensor if meas else model.sensor if model else None)}
+    if args.json:
+        emit_json(res)
+        return 0
+    rows = [(p["method"], p["amplitude"], p["frequency_hz"], p["frequency_sd_hz"], p["damping_ratio"],
+             p["damping_sd"]) for p in points + res["model"]]
+    print(table(("method", "amplitude_m", "frequency_hz", "sd_hz", "damping_ratio", "sd"), rows))
+    return 0

@@ -1,0 +1,140 @@
+"""Backbones measured on the simulated structural rig (hidden Iwan threads) through the
+engine and driver code path: phase resonance with a ringdown, and step sine."""
+
+import glob
+
+import numpy as np
+import pytest
+
+from labjoint.acquisition.plans import step_sine
+from labjoint.acquisition.plans_resonance import LockFailed, phase_resonance
+from labjoint.identify.backbone import frfset_backbone, phase_resonance_backbone, ringdown_run_backbone
+from labjoint.signal.frf_steps import frfset_from_runs
+from structure_runs import run_plans
+
+#: the simulator's modal damping (config default): the stuck-joint mode's ratio
+ZETA_SIM = 0.004
+
+
+@pytest.fixture(scope="module")
+def resonance_runs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("pr")
+    plan = phase_resonance([0.5, 1.5, 5.0], 28.0, (20.0, 35.0), response_channel="free_end",
+                           measure_cycles=20, n_cycles=60, steady_max_cycles=200, ringdown_s=8.0)
+    res = run_plans(d, [(plan, "pr")])[0]
+    assert res.status == "complete", res.reason
+    files = sorted(glob.glob(str(d / "*.h5")))
+    return [f for f in files if "ringdown" not in f], [f for f in files if "ringdown" in f][0]
+
+
+@pytest.mark.slow
+def test_phase_resonance_backbone_softens_and_damps_with_amplitude(resonance_runs):
+    levels, _ = resonance_runs
+    b = phase_resonance_backbone(levels)
+    A, f, z = b.array("amplitude"), b.array("frequency_hz"), b.array("damping_ratio")
+    assert A.max() / A.min() > 9                              # about a decade
+    assert np.all(np.diff(f) < 0) and np.all(np.diff(z) > 0)  # micro-slip: softer, more damped
+    # the lowest level is nearly linear: the simulator's 0.4 % of the structure with the
+    # shaker's armature, 0.42 % without it (mass 7 % lower, frequency 2.5 % higher)
+    assert z[0] == pytest.approx(0.0042, rel=0.05)
+    assert z[-1] > 2 * z[0] and f[-1] < 0.995 * f[0]
+    assert all(p.frequency_sd_hz < 1e-3 * p.frequency_hz and p.damping_sd < 0.1 * p.damping_ratio
+               for p in b.points)
+
+
+@pytest.mark.slow
+def test_ringdown_with_the_shakers_force_removed_meets_the_phase_resonance_backbone(resonance_runs):
+    levels, ring = resonance_runs
+    pr = phase_resonance_backbone(levels)
+    mass = pr.points[0].extra["modal_mass_kg"]
+    raw = ringdown_run_backbone(ring, force_channel=None)
+    rd = ringdown_run_backbone(ring, force_channel="force", modal_mass_kg=mass)
+    # with the shaker attached the decay is lower and more damped (armature mass, coil)
+    assert np.median(raw.array("frequency_hz")) < 0.99 * pr.points[0].frequency_hz
+    assert np.median(raw.array("damping_ratio")) > 2 * ZETA_SIM
+    # without it: the structure's, met by the lowest phase-resonance level (3e-4 m)
+    near = [p for p in rd.points if 1e-4 < p.amplitude < 3.2e-4]
+    assert len(near) >= 3
+    f_pr, z_pr = pr.points[0].frequency_hz, pr.points[0].damping_ratio
+    for p in near:                                   # issue 30: within 0.1 % and 10 %
+        assert p.frequency_hz == pytest.approx(f_pr, rel=1e-3)
+        assert p.damping_ratio == pytest.approx(z_pr, rel=0.1)
+
+
+@pytest.mark.slow
+def test_step_sine_lowest_level_meets_phase_resonance(resonance_runs, tmp_path):
+    levels, _ = resonance_runs
+    pr = phase_resonance_backbone(levels)
+    freqs = list(np.round(np.linspace(27.6, 29.4, 13), 3))
+    res = run_plans(tmp_path, [(step_sine(freqs, 0.2, directions=["up"], n_cycles=40, measure_cycles=10,
+                                          steady_max_cycles=200), "ss")])[0]
+    assert res.status == "complete", res.reason
+    ss = frfset_backbone(frfset_from_runs(sorted(glob.glob(str(tmp_path / "*.h5"))), sensors=["free_end"]))
+    p = ss.points[0]
+    assert p.method == "step_sine" and p.amplitude == pytest.approx(2e-4, rel=0.5)
+    assert p.frequency_hz == pytest.approx(pr.points[0].frequency_hz, rel=1e-3)
+    assert p.damping_ratio == pytest.approx(pr.points[0].damping_ratio, rel=0.1)
+
+
+@pytest.mark.slow
+def test_a_loop_without_resonance_in_its_band_stops_with_the_output_off(tmp_path):
+    plan = phase_resonance([0.5], 60.0, (50.0, 70.0), response_channel="free_end", measure_cycles=10,
+                           steady_max_cycles=100)
+    with pytest.raises(LockFailed, match="no resonance in the band 50-70 Hz"):
+        run_plans(tmp_path, [(plan, "nolock")])
+    assert not glob.glob(str(tmp_path / "*.h5"))
+
+
+@pytest.mark.slow
+def test_a_frequency_jump_beyond_the_rigs_limit_trips_the_safety_hook(tmp_path):
+    from structure_runs import structure_config
+
+    cfg = structure_config()
+    cfg = cfg.model_copy(update={"limits": cfg.limits.model_copy(update={"max_frequency_step": 0.02})})
+    plan = phase_resonance([0.5], 24.0, (20.0, 35.0), response_channel="free_end", measure_cycles=10,
+                           steady_max_cycles=100, max_step_fraction=0.2, gain=1.0)
+    res = run_plans(tmp_path, [(plan, "jump")], cfg)[0]
+    assert res.status == "limit" and "max_frequency_step = 2%" in res.reason and res.runs == []
+
+
+def hidden_law_system():
+    """The simulator's own modal model of the structure (its FE, its modal damping) without
+    the shaker's armature and suspension (the force sensor sits between them and the
+    structure), its threads' hidden law as a labjoint law in the relative rotation:
+    linear_stiffness (the residual share of k_theta) + iwan (K_T the rest, F_S the slip force
+    times the radius, chi, beta 0), the continuum of the simulator's 24 Jenkins elements."""
+    from labjoint.hardware.sim.structure_config import StructureSimConfig
+    from labjoint.hardware.sim.structure_fe import reduce
+    from labjoint.structure.law import JointLaw
+    from labjoint.structure.system import LawElement, NonlinearSystem
+
+    cfg = StructureSimConfig()
+    j, sh = cfg.joint, cfg.shaker
+    m = reduce(cfg.assembly, sh, j.rotational_stiffness_nm_per_rad)
+    kth = j.rotational_stiffness_nm_per_rad
+    law = JointLaw("linear_stiffness+iwan", {
+        "linear_stiffness.k": kth * j.residual_fraction, "iwan.K_T": kth * (1 - j.residual_fraction),
+        "iwan.F_S": j.slip_force_n * j.radius_m, "iwan.chi": j.chi, "iwan.beta": 0.0})
+    d = m.drive
+    M = np.eye(d.size) - sh.armature_mass_kg * np.outer(d, d)
+    K = np.diag(m.omega ** 2) - sh.suspension_stiffness_n_per_m * np.outer(d, d)
+    K = K - kth * sum(np.outer(row, row) for row in m.joints)          # the law carries the joints
+    return NonlinearSystem(M, np.diag(2 * m.zeta * m.omega), K, d, m.joints.copy(),
+                           (LawElement(law), LawElement(law)), m.sensors, m.sensor_names)
+
+
+@pytest.mark.slow
+def test_the_models_epmc_backbone_with_the_hidden_law_meets_the_measured_one(resonance_runs):
+    from labjoint.structure.epmc import epmc_backbone
+
+    levels, _ = resonance_runs
+    pr = phase_resonance_backbone(levels)
+    model = epmc_backbone(hidden_law_system(), np.r_[1e-7, pr.array("amplitude")], sensor="free_end")
+    lin, pts = model.points[0], model.points[1:]
+    assert lin.frequency_hz == pytest.approx(pr.points[0].frequency_hz, rel=1e-4)     # stuck joint
+    assert lin.damping_ratio == pytest.approx(pr.points[0].damping_ratio, rel=0.05)
+    # above the first of the simulator's sliders (below it its joint is linear, where the
+    # continuum already micro-slips: 0.2 % and 18 % at the lowest level)
+    for p, q in zip(pts[1:], pr.points[1:]):
+        assert p.frequency_hz == pytest.approx(q.frequency_hz, rel=1e-3)
+        assert p.damping_ratio == pytest.approx(q.damping_ratio, rel=0.1)
