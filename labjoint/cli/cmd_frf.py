@@ -118,6 +118,7 @@ def _sets(inputs: list[str], args: argparse.Namespace) -> list[Any]:
                 match = [m for m in s.metadata.get("levels", []) if m.get("run") in runs]
                 if match:
                     sub.metadata.update(match[0])
+                sub.metadata["path"] = p
                 sets.append(sub)
         else:
             sets.extend(frf_levels([p], args))
