@@ -17,7 +17,7 @@ from labjoint.errors import HardwareError, InputError, LabjointError, LimitExcee
 # subcommand -> (module in labjoint.cli, function, help)
 COMMANDS = {
     "simulate": ("cmd_simulate", "run", "run a plan on the simulated rig and analyse it"),
-    "import": ("cmd_import", "run", "import CSV, TDMS or HDF5 files into run files"),
+    "import": ("cmd_import", "run", "import CSV, MAT, UFF, TDMS or HDF5 files into run files"),
     "export": ("cmd_export", "run", "write runs as universal files (UFF 58) for modal tools"),
     "analyze": ("cmd_analyze", "run", "identify energy loss, damping and stiffness of runs"),
     "calibrate": ("cmd_calibrate", "calibrate", "calibrate the joint-force sensor (N/V per frequency)"),
