@@ -92,12 +92,12 @@ def test_cli_frf_modes_distortion_on_run_files(tmp_path, capsys):
     w, z = 2 * np.pi * 20.0, 0.02
     sysd = sps.cont2discrete(([w ** 2 * 1e-3, 0], [1, 2 * z * w, w ** 2]), 1 / fs, "bilinear")
     vel = sps.lfilter(sysd[0].ravel(), sysd[1], v)   # an acceleration per volt (velocity numerator: a shape only), one mode at 20 Hz
-    p = _run_file(tmp_path / "rand.h5", {"amp": ("voltage", "V", v), "laser": ("acceleration", "m/s^2", vel)},
+    p = _run_file(tmp_path / "rand.h5", {"amp": ("voltage", "V", v), "laser": ("velocity", "m/s", vel)},
                   fs, {"level": 0.1})
     assert main(["frf", str(p), "--out", str(tmp_path / "f.json"), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     lv = out["levels"][0]
-    assert lv["units"] == "m/s^2/V" and lv["level_units"] == "V" and lv["level"] == 0.1
+    assert lv["units"] == "m/s/V" and lv["level_units"] == "V" and lv["level"] == 0.1
     assert main(["modes", str(tmp_path / "f.json"), "--band", "5:60", "--json"]) == 0
     modes = json.loads(capsys.readouterr().out)["levels"][0]["modes"]
     fn = w * np.sqrt(1 - z ** 2) / (2 * np.pi)   # bilinear maps the pole's frequency: prewarped below

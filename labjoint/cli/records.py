@@ -62,17 +62,16 @@ class Record:
 
 
 def load(path: str) -> Record:
-    """A run file's channels in SI units with their quantities."""
-    from labjoint.storage.reader import open_run
+    """A run file's (or import-format CSV's) channels in SI units with their quantities,
+    through the storage layer's channel contract (:func:`labjoint.storage.reader.read_channels`)."""
+    from labjoint.storage.reader import read_channels
 
     p = Path(path)
     if not p.exists():
         raise InputError("no such file", file=str(p))
-    with open_run(p) as rf:
-        chans = {}
-        for spec in rf.channels:
-            chans[spec.name] = (spec.quantity, spec.unit, np.asarray(rf.physical(spec.name), float))
-        return Record(str(p), rf.name, float(rf.sample_rate_hz), chans, dict(rf.metadata))
+    rec = read_channels(p)
+    chans = {c.name: (c.quantity, c.units, np.asarray(c.samples, float)) for c in rec.channels.values()}
+    return Record(str(p), rec.name, float(rec.sample_rate_hz), chans, dict(rec.metadata))
 
 
 def level_of(rec: Record) -> float | None:
