@@ -254,5 +254,7 @@ def concat(sets: "list[FrfSet]") -> FrfSet:
     return FrfSet(cat(lambda s: s.frequencies_hz), cat(lambda s: s.level_n),
                   cat(lambda s: s.direction), cat(lambda s: s.force), sets[0].sensors,
                   cat(lambda s: s.response[:, :, :H]), cat(lambda s: s.response_std[:, :, :H]),
-                  sets[0].quantity, drive_quantity=sets[0].drive_quantity,
+                  sets[0].quantity,
+                  runs=tuple(r for s in sets for r in s.runs) if all(s.runs for s in sets) else (),
+                  drive_quantity=sets[0].drive_quantity,
                   estimator=est.pop(), coherence=coh)
