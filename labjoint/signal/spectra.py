@@ -71,9 +71,11 @@ class Welch:
 
     def feed(self, drive: np.ndarray, responses: np.ndarray) -> None:
         """Add the next piece of the record: ``drive`` (n,), ``responses`` (S, n)."""
-        x = np.vstack([np.asarray(drive, self.dtype)[None, :], np.asarray(responses, self.dtype)])
-        if self._tail.shape[1]:
-            x = np.concatenate([self._tail, x], axis=1)
+        x = np.empty((1 + len(responses), self._tail.shape[1] + len(drive)), self.dtype)
+        t = self._tail.shape[1]
+        x[:, :t] = self._tail
+        x[0, t:] = drive
+        x[1:, t:] = responses
         n = x.shape[1]
         nseg = 0 if n < self.nperseg else (n - self.nperseg) // self.step + 1
         per = max(1, BATCH_SAMPLES // (self.nperseg * x.shape[0]))
@@ -81,12 +83,12 @@ class Welch:
             s1 = min(nseg, s0 + per)
             block = x[:, s0 * self.step: (s1 - 1) * self.step + self.nperseg]
             segs = sliding_window_view(block, self.nperseg, axis=1)[:, ::self.step]  # (C, k, L)
-            X = sfft.rfft(segs * self.window, axis=-1)
-            F, Y = X[0], X[1:]
-            self.gff += np.einsum("kf,kf->f", F.real, F.real) + np.einsum("kf,kf->f", F.imag, F.imag)
-            self.gyy += (np.einsum("skf,skf->sf", Y.real, Y.real)
-                         + np.einsum("skf,skf->sf", Y.imag, Y.imag))
-            self.gfy += np.einsum("kf,skf->sf", F.conj(), Y)
+            X = sfft.rfft(segs * self.window, axis=-1)      # (C, k, f)
+            cross = (X[0].conj() * X[1:]).sum(axis=1)
+            power = (X.real ** 2 + X.imag ** 2).sum(axis=1)
+            self.gff += power[0]
+            self.gyy += power[1:]
+            self.gfy += cross
             self.count += s1 - s0
         self._tail = x[:, nseg * self.step:].copy()
 
