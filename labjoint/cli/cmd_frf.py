@@ -19,9 +19,10 @@ def _frf_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--drive", default=None, help="drive channel (default: the one force, else the one voltage)")
     p.add_argument("--responses", default=None, help="response channels, comma-separated (default: all)")
     p.add_argument("--estimator", choices=["H1", "H2", "Hv"], default="H1")
-    p.add_argument("--method", choices=["auto", "welch", "periodic", "block"], default="auto",
-                   help="auto: from the excitation (whole periods of a multisine, Welch over the active "
-                        "drive of a random record, one block for an impact or sweep)")
+    p.add_argument("--method", choices=["auto", "welch", "periodic", "burst", "block"], default="auto",
+                   help="auto: from the excitation (whole periods of a multisine; one unwindowed block "
+                        "per burst of a burst record, its free decay included; Welch over the active "
+                        "drive of a steady random record; one block for a sweep)")
     p.add_argument("--nperseg", type=int, default=None, help="Welch segment length (samples)")
     p.add_argument("--overlap", type=float, default=None, help="Welch overlap, 0..1")
     p.add_argument("--window", default="hann", help="Welch window (scipy name)")

@@ -17,7 +17,7 @@ Per level (an FRF set's sweep or broadband record), over every response sensor a
    are left out (computational poles that stabilise on noise).
 
 Half-power (seed 001: zeta = delta_f / (2 f_n)) on the strongest sensor's mobility in the
-window between the neighbouring modes, by :func:`labjoint.identify.modal.half_power`.
+window between the neighbouring modes and within ten half-power widths of the LSCF pole, by :func:`labjoint.identify.modal.half_power`.
 
 >>> f = np.arange(5.0, 60.0, 0.05)
 >>> s, w = 2j * np.pi * f, 2 * np.pi * np.array([20.0, 40.0])
@@ -123,7 +123,9 @@ def find_modes(frequencies_hz: Any, frf: Any, quantity: str, sensors: Sequence[s
     edges = [f[0]] + [0.5 * (a["frequency_hz"] + b["frequency_hz"]) for a, b in zip(out, out[1:])] + [f[-1]]
     j = int(np.argmax(np.abs(mob).max(axis=1)))
     for mo, lo, hi in zip(out, edges, edges[1:]):
-        sel = (f >= lo) & (f <= hi)
+        # between the neighbouring modes, and within 10 half-power widths of this one
+        reach = max(10 * mo["damping_ratio"] * mo["frequency_hz"], 3 * df)
+        sel = (f >= max(lo, mo["frequency_hz"] - reach)) & (f <= min(hi, mo["frequency_hz"] + reach))
         fn, z = half_power(f[sel], h[j, sel], quantity) if sel.sum() >= 3 else (np.nan, np.nan)
         mo["half_power"] = {"frequency_hz": float(fn), "damping_ratio": float(z) if np.isfinite(z) else None,
                             "sensor": sensors[j]}

@@ -9,20 +9,25 @@ The method follows the excitation found in the drive (:mod:`labjoint.signal.exci
   period-to-period spread (Pintelon & Schoukens, *System Identification*, 2nd ed.,
   Sec. 2.4: var(Y_mean) = var_p(Y_p) / P; the FRF's by first-order propagation through
   the ratio), coherence from the same sums.
-- **random** (stationary, or a burst followed by free decay): Welch's spectra
-  (:mod:`labjoint.signal.spectra`) over the *active part of the drive only* (where its
-  moving RMS is above 5 % of the median of the driven part), so a free decay after a
-  burst is never averaged as if it were driven. Segment: the largest power of two that
-  gives at least three segments at half overlap (capped at 2^16 samples), Hann window;
-  a record of fewer than 16 segments overlaps them by 3/4 instead, one of 128 or more
-  segments end to end does not overlap them. H1, H2, Hv,
-  coherence and the Bendat & Piersol random errors (Eq. 9.90).
-- **transient** (an impact) or **swept sine**: the whole record as one block, no window
-  (the response must have decayed within it; the record is assumed to start at rest);
-  one average, so the standard deviation is taken from the scatter of H between
-  neighbouring lines (second differences: var = 1.5 sigma^2 per component for
-  independent errors, a running median over 17 lines) and the coherence reported is
-  the one that random error implies.
+- **burst** (a random or impact drive that rests after each burst, for at least a tenth
+  of the block; the bursts found from the drive's moving RMS, above 5 % of the median of
+  its driven part): one block per burst, from its start to the next burst's (the last to
+  the record's end), no window, the blocks averaged. The free decay after a burst is the
+  response to that burst: it belongs to its block unwindowed, never averaged as a driven
+  stretch. The method names how far the response has decayed at the block's end (what
+  is left leaks). Several bursts give H1, H2, Hv, coherence and the Bendat & Piersol
+  errors with n_d = bursts; a single burst one average, its std from the scatter of H
+  between neighbouring lines (second differences: var = 1.5 sigma^2 per component for
+  independent errors, a running median over 17 lines) and the coherence that std implies.
+- **random** (steady): Welch's spectra (:mod:`labjoint.signal.spectra`) over the active
+  part of the drive only (its moving RMS above 5 % of the median of its driven part).
+  Segment: the largest power of two that gives at least three segments at half overlap
+  (capped at 2^16 samples), Hann window; a record of fewer than 16 segments overlaps
+  them by 3/4, one of 128 or more segments end to end does not overlap them. H1, H2,
+  Hv, coherence and the Bendat & Piersol random errors (Eq. 9.90).
+- **swept sine** (or ``method="block"``): the whole record as one block, no window (the
+  record is assumed to start at rest and the response to decay within it), one average,
+  std from the scatter as for a single burst.
 
 The drive and the estimator are explicit: :class:`BroadbandFrf` carries the response
 quantities and units, and the drive quantity ("force", N, or "voltage", V).
@@ -103,7 +108,7 @@ def estimate(drive: Any, responses: Any, fs: float, *, estimator: str = "H1",
              overlap: float | None = None, window: str = "hann",
              method: str = "auto") -> BroadbandFrf:
     """FRFs of ``responses`` (S, n) over ``drive`` (n,) sampled at ``fs`` (module doc).
-    ``method``: "auto" (from the excitation), "welch", "periodic" or "block"."""
+    ``method``: "auto" (from the excitation), "welch", "periodic", "burst" or "block"."""
     fs = validate.sample_rate(fs)
     f = validate.signal(drive, "drive", min_samples=16)
     y = np.atleast_2d(validate.signal(responses, "responses", min_samples=16, ndim=(1, 2)))
@@ -116,9 +121,12 @@ def estimate(drive: Any, responses: Any, fs: float, *, estimator: str = "H1",
         n = int(round(per))
         if n and abs(per - n) < 1e-6 * n and f.size // n >= 3:
             return periodic(f, y, fs, n, estimator)
-        method = "block" if exc.kind in ("transient", "swept_sine") else "welch"
         if exc.kind == "none":
             raise InputError("the drive is silent: no FRF can be estimated", field="drive")
+        found = bursts(f, fs) if exc.kind in ("random", "transient") else []
+        if found:
+            return burst(f, y, fs, estimator, found)
+        method = "block" if exc.kind in ("transient", "swept_sine") else "welch"
     if method == "periodic":
         exc = excitation or detect_excitation(f, fs)
         if not exc.period_s:
@@ -126,8 +134,10 @@ def estimate(drive: Any, responses: Any, fs: float, *, estimator: str = "H1",
         return periodic(f, y, fs, int(round(exc.period_s * fs)), estimator)
     if method == "block":
         return block(f, y, fs, estimator)
+    if method == "burst":
+        return burst(f, y, fs, estimator)
     if method != "welch":
-        raise InputError("must be auto, welch, periodic or block", field="method")
+        raise InputError("must be auto, welch, periodic, burst or block", field="method")
     a0, a1 = active_part(f, fs)
     L, ov = segment_length(a1 - a0, fs)
     L = int(nperseg or L)
@@ -183,25 +193,103 @@ def periodic(f: np.ndarray, y: np.ndarray, fs: float, n: int, estimator: str = "
                    "lines, no window", std)
 
 
-def block(f: np.ndarray, y: np.ndarray, fs: float, estimator: str = "H1") -> BroadbandFrf:
-    """The whole record as one block, no window (an impact, a sweep, a single burst)."""
-    F = np.fft.rfft(f - f[: max(1, f.size // 50)].mean())
-    Y = np.fft.rfft(y - y[:, : max(1, f.size // 50)].mean(axis=1, keepdims=True), axis=1)
-    gff, gyy, gfy = np.abs(F) ** 2, np.abs(Y) ** 2, np.conj(F)[None] * Y
-    e = estimates_from(gff, gyy, gfy, 1.0)
-    h = e["H1"]
+def _scatter_std(h: np.ndarray) -> np.ndarray:
+    """Per-component std of single-average FRFs from the scatter between neighbouring
+    lines: second differences (var = 1.5 sigma^2 per component), running median of 17."""
+    from scipy.ndimage import median_filter
+
     std = np.full(h.shape, np.inf)
     if h.shape[1] >= 20:
         d = h[:, 1:-1] - 0.5 * (h[:, :-2] + h[:, 2:])
         d2 = np.abs(np.nan_to_num(d, nan=0.0)) ** 2
-        from scipy.ndimage import median_filter
-        med = median_filter(d2, size=(1, 17), mode="nearest") / np.log(2)
-        std[:, 1:-1] = np.sqrt(med / 3.0)
+        std[:, 1:-1] = np.sqrt(median_filter(d2, size=(1, 17), mode="nearest") / np.log(2) / 3.0)
         std[:, 0], std[:, -1] = std[:, 1], std[:, -2]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rel = np.where(np.abs(h) > 0, std / np.abs(h), np.inf)
-    e["coherence"] = np.nan_to_num(1.0 / (1.0 + 2.0 * rel ** 2), nan=0.0)
-    fr = np.fft.rfftfreq(f.size, 1 / fs)
-    return _result(fr, e, estimator, float(np.std(f)), (0.0, f.size / fs),
-                   f"{estimator} of the whole record as one block ({f.size} samples), no window, "
-                   "one average (std from the scatter between neighbouring lines)", std)
+    return std
+
+
+def _blocks(F: np.ndarray, Y: np.ndarray, fs: float, nb: int, estimator: str,
+            active: tuple[float, float], rms: float, method: str) -> BroadbandFrf:
+    """Estimates from ``nb`` unwindowed blocks' spectra F (nb, f), Y (nb, S, f)."""
+    gff = np.sum(np.abs(F) ** 2, axis=0)
+    gyy = np.sum(np.abs(Y) ** 2, axis=0)
+    gfy = np.sum(np.conj(F)[:, None] * Y, axis=0)
+    e = estimates_from(gff, gyy, gfy, float(nb))
+    std = None
+    if nb == 1:   # one average: coherence is 1 by construction; the scatter tells the noise
+        std = _scatter_std(e[estimator])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = np.where(np.abs(e[estimator]) > 0, std / np.abs(e[estimator]), np.inf)
+        e["coherence"] = np.nan_to_num(1.0 / (1.0 + 2.0 * rel ** 2), nan=0.0)
+    fr = np.fft.rfftfreq(2 * (F.shape[-1] - 1), 1 / fs)
+    return _result(fr, e, estimator, rms, active, method, std)
+
+
+def block(f: np.ndarray, y: np.ndarray, fs: float, estimator: str = "H1") -> BroadbandFrf:
+    """The whole record as one block, no window (an impact, a sweep)."""
+    n = f.size - f.size % 2
+    F = np.fft.rfft(f[:n] - f[: max(1, n // 50)].mean())[None]
+    Y = np.fft.rfft(y[:, :n] - y[:, : max(1, n // 50)].mean(axis=1, keepdims=True), axis=1)[None]
+    return _blocks(F, Y, fs, 1, estimator, (0.0, n / fs), float(np.std(f[:n])),
+                   f"{estimator} of the whole record as one block ({n} samples), no window, "
+                   "one average (std from the scatter between neighbouring lines)")
+
+
+def bursts(drive: np.ndarray, fs: float) -> list[tuple[int, int]]:
+    """(start, end of drive) of each burst: active stretches (as :func:`active_part`) with
+    silence after each of at least a tenth of its block; [] when the drive never rests so."""
+    x = drive - np.median(drive)
+    win = max(8, int(round(0.05 * fs)))
+    k = x.size // win
+    if k < 8:
+        return []
+    rms = np.sqrt(np.mean(x[:k * win].reshape(k, win) ** 2, axis=1))
+    on = rms > ACTIVE_FRACTION * np.median(rms[rms > 0.1 * rms.max()])
+    runs, i = [], 0
+    while i < k:
+        if on[i]:
+            j = i
+            while j < k and on[j]:
+                j += 1
+            if runs and i - runs[-1][1] < 4:      # a dip of less than 0.2 s: the same burst
+                runs[-1] = (runs[-1][0], j)
+            else:
+                runs.append((i, j))
+            i = j
+        else:
+            i += 1
+    starts = [a for a, _ in runs] + [x.size // win]
+    out = []
+    for (a, b), nxt in zip(runs, starts[1:]):
+        if (nxt - b) < 0.1 * (nxt - a):
+            return []
+        out.append((a * win, b * win))
+    return out
+
+
+def burst(f: np.ndarray, y: np.ndarray, fs: float, estimator: str = "H1",
+          found: list[tuple[int, int]] | None = None) -> BroadbandFrf:
+    """Burst excitation: one block per burst from its start to the next burst (the last to
+    the record's end), no window: the free decay is the burst's own response, not a
+    driven stretch; the blocks (cut to the shortest) are averaged."""
+    found = found or bursts(f, fs)
+    if not found:
+        raise InputError("no burst found: the drive does not rest after its active part", field="drive")
+    starts = [a for a, _ in found] + [f.size]
+    L = min(b - a for a, b in zip(starts, starts[1:]))
+    L -= L % 2
+    if L < 16:
+        raise InputError(f"a burst block holds {L} samples, too few", field="drive")
+    seg = lambda x, a: x[..., a:a + L] - np.mean(x[..., a:a + L], axis=-1, keepdims=True)  # noqa: E731
+    F = np.array([np.fft.rfft(seg(f, a)) for a, _ in found])
+    Y = np.array([np.fft.rfft(seg(y, a), axis=1) for a, _ in found])
+    a0 = found[0][0]
+    tail = y[:, a0 + L - max(1, L // 20): a0 + L]
+    peak = max(float(np.max(np.abs(y[:, a0:a0 + L]))), 1e-300)
+    left = float(np.max(np.sqrt(np.mean(tail ** 2, axis=1)))) / peak
+    active = float(np.mean([b - a for a, b in found]))
+    rms = float(np.sqrt(np.mean([np.mean(f[a:b] ** 2) for a, b in found])))
+    return _blocks(F, Y, fs, len(found), estimator, (a0 / fs, found[-1][1] / fs), rms,
+                   f"{estimator} over {len(found)} burst block(s) of {L} samples ({L / fs:.4g} s: "
+                   f"{active / fs:.4g} s of drive, then the free decay, to {left:.1%} of the peak "
+                   "response at the block's end), no window"
+                   + ("; std from the scatter between neighbouring lines" if len(found) == 1 else ""))
