@@ -36,36 +36,13 @@ from typing import Any, Sequence
 import numpy as np
 
 from labjoint.errors import InputError
-from labjoint.identify.modal import FORMS, _mobility, half_power
+from labjoint.identify.modal import FORMS, _from_zero, _grid, _mobility, half_power
 
 MAX_ZETA = 0.2
 STABLE_DF, STABLE_DZ = 0.01, 0.3
 CLUSTER_DF = 0.005
 MIN_SHARE = 0.3
 MIN_CONTRIBUTION = 0.02
-
-
-def _grid(f: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Lines on k df (interpolated when the grid is not uniform or not on multiples of df)."""
-    srt = np.argsort(f)
-    f, h = f[srt], h[:, srt]
-    df = float(np.min(np.diff(f)))
-    if df <= 0:
-        raise InputError("frequencies must be distinct within a level", field="frequencies_hz")
-    k0, k1 = int(np.ceil(f[0] / df - 1e-6)), int(np.floor(f[-1] / df + 1e-6))
-    grid = np.arange(k0, k1 + 1) * df
-    if grid.size == f.size and np.allclose(grid, f, rtol=0, atol=1e-6 * df):
-        return grid, h
-    return grid, np.array([np.interp(grid, f, r.real) + 1j * np.interp(grid, f, r.imag) for r in h])
-
-
-def _from_zero(f: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The lines below the band as zeros from 0 Hz (sdypy's own padding, ``np.arange(0,
-    f0, df)``, can add a line through rounding and shift every pole by a line's share)."""
-    df = float(f[1] - f[0])
-    k0 = int(round(f[0] / df))
-    return (np.arange(k0 + f.size) * df,
-            np.concatenate([np.zeros((h.shape[0], k0), complex), h], axis=1))
 
 
 def find_modes(frequencies_hz: Any, frf: Any, quantity: str, sensors: Sequence[str],
