@@ -4,7 +4,8 @@ even nonlinear distortion of a multisine with detection lines.
 **Steady sine.** The drive's frequency f0 is measured (:func:`estimate_frequency`, phase
 slope). The driven part after its first tenth (start-up) is cut into ``blocks`` blocks of
 whole cycles (the nearest sample); in each block every channel is fitted by least
-squares with a constant and cos/sin at h f0, h = 1..H, giving its phasors X_h. Per block
+squares with a constant and cos/sin at h f0, h = 1..2H+1 (below Nyquist; the harmonics
+above H absorb what would leak from them), giving its phasors X_h. Per block
 the ratio r_h = |X_h| / |X_1|; the reported ratio is their mean and its standard error
 the spread between blocks over sqrt(blocks).
 
@@ -64,10 +65,13 @@ def harmonics(channels: dict[str, Any], fs: float, *, drive: str, orders: int = 
         raise InputError(f"{cycles} whole cycles of {f0:g} Hz after the start-up: too few for "
                          f"{blocks} blocks of two or more", field=drive)
     edges = [start + int(round(b * k * per)) for b in range(blocks + 1)]
+    # harmonics above those reported are fitted too (up to 2H + 1, below Nyquist): a block
+    # is whole cycles only to the nearest sample, and a strong unfitted harmonic would leak
+    fit = max(orders, min(2 * orders + 1, int(np.floor(0.5 * fs / f0 * 0.999))))
     out: dict[str, list[dict[str, Any]]] = {}
     for name, x in channels.items():
         x = validate.signal(x, name, min_samples=u.size)
-        ph = np.array([_phasors(x[a:b], fs, f0, orders, a) for a, b in zip(edges, edges[1:])])
+        ph = np.array([_phasors(x[a:b], fs, f0, fit, a)[:orders] for a, b in zip(edges, edges[1:])])
         with np.errstate(divide="ignore", invalid="ignore"):
             r = np.abs(ph[:, 1:]) / np.abs(ph[:, :1])
         out[name] = [{"order": h + 2, "ratio": float(np.mean(r[:, h])),
