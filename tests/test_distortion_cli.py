@@ -133,3 +133,30 @@ def test_cli_bad_input_is_one_line_and_exit_2(tmp_path, capsys):
     assert main(["modes", str(tmp_path / "g.json"), "--band", "100:101", "--json"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "g.json" in err[0] and "band" in err[0]
+
+
+def test_cli_distortion_of_a_multisine_and_modes_of_a_run(tmp_path, capsys):
+    fs, N = 1000.0, 2000
+    rng = np.random.default_rng(12)
+    u = _odd_multisine(N, fs, rng, P=6)
+    b, a = sps.butter(2, 0.2)
+    x = sps.lfilter(b, a, u)
+    p = _run_file(tmp_path / "ms.h5", {"amp": ("voltage", "V", 0.1 * u),
+                                       "acc": ("acceleration", "m/s^2", x + 0.05 * x ** 3
+                                               + 1e-3 * rng.normal(size=u.size))}, fs)
+    assert main(["distortion", str(p), "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)["runs"][0]
+    assert r["excitation"] == "multisine" and r["period_s"] == pytest.approx(2.0)
+    assert r["summary"].startswith("nonlinear, odd,"), r["summary"]
+    assert r["channels"]["acc"]["units"] == "m/s^2"
+    # modes straight from a run file: one 20 Hz mode under random force
+    v = rng.normal(size=1 << 15)
+    w, z = 2 * np.pi * 20.0, 0.02
+    sysd = sps.cont2discrete(([1.0, 0.0, 0.0], [1, 2 * z * w, w ** 2]), 1 / 256.0, "bilinear")
+    q = _run_file(tmp_path / "r.h5", {"f": ("force", "N", v), "a": ("acceleration", "m/s^2",
+                                       sps.lfilter(sysd[0].ravel(), sysd[1], v))}, 256.0)
+    assert main(["modes", str(q), "--band", "5:60", "--json"]) == 0
+    lv = json.loads(capsys.readouterr().out)["levels"][0]
+    assert lv["units"] == "m/s^2/N" and lv["level_units"] == "N"
+    fd = 256.0 / np.pi * np.arctan(np.pi * 20.0 / 256.0)   # the bilinear map's 20 Hz
+    assert lv["modes"][0]["frequency_hz"] == pytest.approx(fd, rel=2e-3)

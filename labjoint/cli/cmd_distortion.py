@@ -8,6 +8,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+import numpy as np
+
 from labjoint.cli.output import emit_json, table
 from labjoint.errors import InputError
 
@@ -35,8 +37,12 @@ def one(path: str, args: argparse.Namespace) -> dict[str, Any]:
             chans = {name: {"quantity": q, "units": unit,
                             **distortion.multisine(u, x, rec.fs, n, bands=args.bands)}
                      for name, (q, unit, x) in rec.channels.items() if name != d}
+            worst = max((c for c in chans.values() if c["quantity"] != rec.channels[d][0]),
+                        key=lambda c: max([b[k] for b in c["bands"] for k in ("odd_db", "even_db")
+                                           if b[k] is not None] or [-np.inf]), default=None)
             return {"run": rec.name, "path": path, "excitation": "multisine", "frequency_hz": None,
-                    "drive": d, "channels": chans}
+                    "period_s": n / rec.fs, "drive": d, "channels": chans,
+                    "summary": worst["summary"] if worst else None}
         if exc.kind != "sine":
             raise InputError(f"the drive {d!r} holds {exc.describe()}: the distortion report needs a "
                              "steady sine or a multisine", field=d)
