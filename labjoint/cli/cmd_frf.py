@@ -31,6 +31,8 @@ def _frf_options(p: argparse.ArgumentParser) -> None:
 def add_frf_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("runs", nargs="+", metavar="RUN", help="run files (HDF5) of broadband records")
     p.add_argument("--out", required=True, metavar="FRF.json", help="where to write the FRF set")
+    p.add_argument("--band", default="drive", metavar="LO:HI|drive|all",
+                   help="lines kept (default: where the drive carries power)")
     _frf_options(p)
 
 
@@ -57,7 +59,8 @@ def frf_levels(paths: list[str], args: argparse.Namespace) -> list[Any]:
                                    {n: (rec.channels[n][0], rec.channels[n][2]) for n in names},
                                    rec.fs, level=level_of(rec), run=rec.name, estimator=args.estimator,
                                    source=path, nperseg=args.nperseg, overlap=args.overlap,
-                                   window=args.window, method=args.method)
+                                   window=args.window, method=args.method,
+                                   band=_frf_band(getattr(args, "frf_band", "drive")))
         except InputError as exc:
             raise InputError(f"{path}: {exc}") from None
         s.metadata.update(drive=d, run=rec.name, path=path)
@@ -78,6 +81,7 @@ def _summary(s: Any) -> dict[str, Any]:
 def run_frf(args: argparse.Namespace) -> int:
     from labjoint.signal.frfset import concat
 
+    args.frf_band = args.band
     levels = frf_levels(args.runs, args)
     merged = concat(levels)
     merged.metadata.update(levels=[{k: v for k, v in s.metadata.items()} for s in levels])
@@ -93,15 +97,19 @@ def run_frf(args: argparse.Namespace) -> int:
     return 0
 
 
-def _band(text: str | None) -> tuple[float, float] | None:
+def _frf_band(text: str) -> tuple[float, float] | str | None:
+    return {"drive": "drive", "all": None}.get(text) or _band(text, "--band")
+
+
+def _band(text: str | None, name: str = "--band") -> tuple[float, float] | None:
     if not text:
         return None
     try:
         lo, hi = (float(x) for x in text.split(":"))
     except ValueError:
-        raise InputError(f"must be LO:HI in Hz, got {text!r}", field="--band") from None
+        raise InputError(f"must be LO:HI in Hz, got {text!r}", field=name) from None
     if not 0 <= lo < hi:
-        raise InputError(f"must be 0 <= LO < HI, got {text!r}", field="--band")
+        raise InputError(f"must be 0 <= LO < HI, got {text!r}", field=name)
     return lo, hi
 
 
