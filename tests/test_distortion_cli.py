@@ -76,6 +76,10 @@ def test_multisine_detection_lines_tell_odd_from_even(law, kinds):
         assert s.startswith("no nonlinear distortion")
     else:
         assert s.startswith(f"nonlinear, {kinds[0]},"), s
+    std, total = np.array(r["bla"]["std"]), np.array(r["bla"]["std_total"])
+    assert np.all(total >= std)
+    if law == "cubic":                        # the stochastic nonlinear part dominates the noise
+        assert np.median(total / std) > 3
     # the BLA of the linear case is the filter's own FRF at the excited lines
     if law == "linear":
         f = np.array(r["bla"]["frequency_hz"])

@@ -13,7 +13,9 @@ the spread between blocks over sqrt(blocks).
 them left out; Pintelon & Schoukens, *System Identification*, 2nd ed., Sec. 3.4-3.6 and
 4.3). Over P whole periods after the first: the mean spectrum over periods and its noise
 variance var_p / P per line. At the excited lines the best linear approximation (BLA)
-G = mean Y / mean U with its noise std; at the non-excited odd lines the odd nonlinear
+G = mean Y / mean U with its noise std, and its total std with the stochastic nonlinear
+contribution (the power at the neighbouring odd detection lines, interpolated: P&S
+Sec. 3.6 and 4.3); at the non-excited odd lines the odd nonlinear
 distortion, at the even lines the even one, each against the noise level on the same
 lines. Per band (the excited range cut into ``bands`` equal bands): mean power of the odd
 and of the even detection lines over the mean noise power, in dB. The summary names the
@@ -142,6 +144,14 @@ def multisine(drive: Any, response: Any, fs: float, period_samples: int, *, band
         odd, even = free[free % 2 == 1], free[free % 2 == 0]
     G = Ym[excited] / Um[excited]
     G_std = np.sqrt(noise_y[excited] / 2) / np.abs(Um[excited])
+    # the stochastic nonlinear contribution at the excited lines, from the neighbouring
+    # odd detection lines (the odd distortion lands on the odd lines, P&S Sec. 3.6)
+    if odd.size:
+        p_nl = np.maximum(np.abs(Ym[odd]) ** 2 - noise_y[odd], 0.0)
+        var_nl = np.interp(excited, odd, p_nl)
+    else:
+        var_nl = np.zeros(excited.size)
+    G_total = np.sqrt((noise_y[excited] + var_nl) / 2) / np.abs(Um[excited])
     edges = np.linspace(lo, hi + 1, bands + 1)
     rows = []
     for a, b in zip(edges, edges[1:]):
@@ -155,7 +165,7 @@ def multisine(drive: Any, response: Any, fs: float, period_samples: int, *, band
                      "noise_rms": float(np.sqrt(noise)) if np.isfinite(noise) else None})
     return {"period_samples": n, "periods": P, "excited_lines": int(excited.size),
             "bla": {"frequency_hz": (excited * fs / n).tolist(), "re": G.real.tolist(),
-                    "im": G.imag.tolist(), "std": G_std.tolist()},
+                    "im": G.imag.tolist(), "std": G_std.tolist(), "std_total": G_total.tolist()},
             "bands": rows, "summary": summary(rows)}
 
 
