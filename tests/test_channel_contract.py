@@ -138,3 +138,18 @@ def test_analyze_refuses_a_voltage_driven_run_in_one_line(tmp_path):
     assert p.returncode == 2 and p.stdout == ""
     lines = p.stderr.strip().splitlines()
     assert len(lines) == 1 and "no force channel: the drive is a voltage (input_V)" in lines[0]
+
+
+def test_a_force_driven_record_without_displacement_says_what_it_has(tmp_path):
+    from labjoint.hardware.interfaces import ChannelSpec
+    from labjoint.storage.csv_import import store_channels
+
+    t = np.arange(64) / 64.0
+    chans = [(ChannelSpec("F", "imported", "force", "N", 1.0, range_v=np.inf, coupling="DC"), np.sin(t)),
+             (ChannelSpec("a", "imported", "acceleration", "m/s^2", 1.0, range_v=np.inf,
+                          coupling="DC"), np.cos(t))]
+    path = store_channels(tmp_path / "x.uff", t, 64.0, chans, {"drive_channels": ["F"],
+                          "response_channels": ["a"]}, tmp_path / "d")
+    assert read_channels(path).drive("force").name == "F"
+    with pytest.raises(InputError, match=r"no displacement channel: the responses are a \(acceleration\)"):
+        read_run(path)

@@ -21,7 +21,8 @@ MAP = Path(__file__).resolve().parent.parent / "configs" / "maps" / "bert.toml"
 UNITS = {"input_V": ("voltage", "V", "drive"), "laser": ("velocity", "m/s", "response"),
          **{f"acc{i}": ("acceleration", "m/s^2", "response") for i in range(1, 5)}}
 
-pytestmark = pytest.mark.skipif(not BERT.is_file(), reason="the BERT data are not on this machine")
+pytestmark = [pytest.mark.skipif(not BERT.is_file(), reason="the BERT data are not on this machine"),
+              pytest.mark.slow]          # 18 MB, 20 run files: 6-12 s depending on the load
 
 
 def test_the_bert_file_imports_with_its_one_map(tmp_path, capsys):
@@ -49,6 +50,8 @@ def test_the_bert_file_imports_with_its_one_map(tmp_path, capsys):
     assert read_channels(tmp_path / "Sine_Sine_05p5Hz.h5").metadata["frequency_hz"] == 5.5
     rand = read_channels(tmp_path / "Rand_Rand0p25.h5")
     assert "frequency_hz" not in rand.metadata and rand.time[-1] == pytest.approx(16 - 1 / 1024)
+    assert rand.metadata["level"] == 0.25
+    assert read_channels(tmp_path / "frf_Rand_Rand0p30.h5").metadata["level"] == 0.30
     np.testing.assert_array_equal(rand.drive("voltage").samples, volts)
     frf = read_frf(tmp_path / "frf_Rand_Rand0p25.h5")
     assert (frf.units, frf.response_quantity, frf.drive_quantity) == ("m/s/V", "velocity", "voltage")

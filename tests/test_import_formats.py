@@ -152,3 +152,50 @@ def test_a_directory_with_one_map_and_a_metadata_table(tmp_path, capsys):
     assert recs["level2.h5"].metadata["torque_nm"] == 7.5
     assert recs["level1.h5"].metadata["frequency_hz"] == 8.0
     np.testing.assert_allclose(recs["level2.h5"].channel("acc").samples, 4 * g.ACCEL, rtol=1e-12)
+
+
+def _uff_frfs(path, hs, f):
+    sets = [pyuff.prepare_58(func_type=4, rsp_node=k + 2, rsp_dir=3, ref_node=1, ref_dir=3,
+                             id1=f"Pt{k + 2}:+Z/Pt1:+Z", data=h, x=f, ord_data_type=6,
+                             abscissa_spacing=1, abscissa_spec_data_type=18,
+                             ordinate_spec_data_type=12, orddenom_spec_data_type=13,
+                             z_axis_spec_data_type=0, binary=0) for k, h in enumerate(hs)]
+    pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
+    return path
+
+
+def test_an_frf_only_uff_file_is_stored_in_si_with_its_quantity_pair(tmp_path, capsys):
+    f = np.linspace(2.0, 200.0, 199)
+    w, wn = 2 * np.pi * f, 2 * np.pi * np.array([[40.0], [130.0]])
+    hs = -w**2 / (wn**2 - w**2 + 2j * 0.01 * wn * w) / 9.80665 / 2.0     # accelerance in g/N, by hand
+    src = _uff_frfs(tmp_path / "impact.uff", hs, f)
+    mp = tmp_path / "m.toml"
+    mp.write_text('[frf]\nestimator = "H1"\nresponse = {quantity = "acceleration", units = "g"}\n'
+                  'drive = {name = "hammer", quantity = "force", units = "N"}\n')
+    out = _import(capsys, src, "--map", mp, "--out", tmp_path / "data")
+    frf = read_frf(out["runs"][0])
+    assert (frf.units, frf.estimator, frf.drive) == ("m/s^2/N", "H1", "hammer")
+    assert frf.responses == ["Pt2_Z_Pt1_Z", "Pt3_Z_Pt1_Z"]
+    np.testing.assert_allclose(frf.h, hs * 9.80665, rtol=1e-5)
+    np.testing.assert_allclose(frf.frequency_hz, f, rtol=1e-6)
+    rec = read_channels(out["runs"][0])
+    assert rec.metadata["record"] == "frf" and rec.drive("force").units == "N"
+    assert [c.quantity for c in rec.responses] == ["acceleration", "acceleration"]
+    mp.write_text(mp.read_text().replace(', units = "g"', ""))
+    assert main(["import", str(src), "--map", str(mp), "--out", str(tmp_path / "d2")]) == 2
+    assert "frf.response" in capsys.readouterr().err
+
+
+def test_a_joint_record_in_lab_units_feeds_the_joint_pipelines(tmp_path, capsys):
+    x_um, f_kn = 5.0 * np.sin(2 * np.pi * 8.0 * g.T), 0.3 * np.cos(2 * np.pi * 8.0 * g.T)
+    src = g.write_csv(tmp_path / "joint.csv", {"t_s": g.T, "rel_um": x_um, "F_kN": f_kn})
+    mp = tmp_path / "m.toml"
+    mp.write_text('[time]\nsource = "t_s"\n[channels.x]\nsource = "rel_um"\nquantity = "displacement"\n'
+                  'units = "\u00b5m"\n[channels.F]\nsource = "F_kN"\nquantity = "force"\nunits = "kN"\n'
+                  'role = "drive"\n[metadata]\nfrequency_hz = 8.0\ndisplacement_channels = ["x"]\n'
+                  'joint_force_channel = "F"\n')
+    out = _import(capsys, src, "--map", mp, "--out", tmp_path / "data")
+    from labjoint.storage import read_run
+    run = read_run(out["runs"][0])
+    np.testing.assert_allclose(run.displacement, x_um * 1e-6, rtol=1e-14)
+    np.testing.assert_allclose(run.force, f_kn * 1e3, rtol=1e-14)

@@ -34,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
     from labjoint.config import load_config
     from labjoint.errors import InputError
     from labjoint.storage.catalog import catalog_for
-    from labjoint.storage.channel_map import is_legacy, load_channel_map, read_toml
+    from labjoint.storage.channel_map import is_legacy, load_channel_map, load_table, read_toml
     from labjoint.storage.foreign import FOREIGN_SUFFIXES, PRESETS, load_map
 
     raw: dict[str, Any] | None = None
@@ -51,8 +51,7 @@ def run(args: argparse.Namespace) -> int:
     if raw is not None and not legacy:
         cmap = load_channel_map(args.map)
         if args.table:
-            cmap.table = load_channel_map({"channels": raw["channels"],
-                                           "metadata": {"table": {"path": args.table}}}).table
+            cmap.table = load_table(args.table)
     old_map = load_map(args.map) if legacy else None
     for f in args.files:
         suffix = Path(f).suffix.lower()

@@ -72,6 +72,7 @@ class MapChannel:
     si_units: str
     factor: float         # scale x unit conversion: stored = raw * factor
     role: str
+    column: int | None = None   # the column of a 2-D dataset (older maps' ``column = k``)
 
 
 @dataclass
@@ -216,6 +217,11 @@ def _table(t: Any, base: Path | None, src: str) -> dict[str, dict[str, Any]]:
     return out
 
 
+def load_table(path: str | Path) -> dict[str, dict[str, Any]]:
+    """A per-file/per-test metadata table (CSV: a column ``file`` or ``test``, then keys)."""
+    return _table({"path": str(path)}, None, str(path))
+
+
 def load_channel_map(spec: str | Path | dict[str, Any], *, base: Path | None = None) -> ChannelMap:
     """A :class:`ChannelMap` from a TOML file or a dict, checked (InputError naming the
     map and the channel or field)."""
@@ -227,9 +233,10 @@ def load_channel_map(spec: str | Path | dict[str, Any], *, base: Path | None = N
     fmt = m.get("format")
     if fmt is not None and fmt not in FORMATS:
         raise InputError(f"format must be one of {FORMATS}, got {fmt!r}", file=src, field="format")
-    chans = m.get("channels")
-    if not isinstance(chans, dict) or not chans:
-        raise InputError("the map needs a [channels] table", file=src, field="channels")
+    chans = m.get("channels", {} if isinstance(m.get("frf"), dict) else None)
+    if not isinstance(chans, dict) or not (chans or m.get("frf")):
+        raise InputError("the map needs a [channels] table (or, for FRFs only, [frf])",
+                         file=src, field="channels")
     channels = [_channel(str(k), v, src) for k, v in chans.items()]
     tests = m.get("tests", {})
     md = dict(m.get("metadata", {}))

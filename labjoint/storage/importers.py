@@ -22,9 +22,10 @@ a drive frequency at or above Nyquist, two tests with the same run name.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import h5py
 import numpy as np
@@ -35,7 +36,8 @@ from labjoint.storage import layout
 from labjoint.storage.channel_map import SUFFIX_FORMATS, ChannelMap
 from labjoint.storage.csv_import import safe_name, store_channels
 from labjoint.storage.csv_parse import GRID_TOLERANCE, KNOWN_KEYS, RATE_TOLERANCE, STEP_TOLERANCE
-from labjoint.storage.quantities import SI_UNITS, frf_units, to_si
+from labjoint.storage.quantities import (DRIVE_QUANTITIES, MOTION_QUANTITIES, SI_UNITS, frf_units,
+                                          to_si)
 from labjoint.storage.reader import open_run
 from labjoint.storage.sources import SourceFrf, SourceTest, read_tests
 
@@ -53,6 +55,16 @@ class Prepared:
     channels: list[tuple[ChannelSpec, np.ndarray]]
     metadata: dict[str, Any]
     frf: dict[str, Any] | None = None
+
+
+@dataclass
+class Checked:
+    """A test that passed every check: its run name, file, and how to read it again
+    (only one test's samples are held in memory at a time)."""
+
+    name: str
+    file: Path
+    read: Callable[[], Prepared]
 
 
 @dataclass
@@ -96,6 +108,13 @@ def _format(p: Path, cmap: ChannelMap) -> str:
 def _time_base(test: SourceTest, cmap: ChannelMap, n: int) -> tuple[np.ndarray, float]:
     f, t_cfg = str(test.file), cmap.time
     fs = t_cfg.get("sample_rate_hz")
+    if fs is None and "sample_rate_source" in t_cfg:        # a dataset holding the rate
+        v = test.get(str(t_cfg["sample_rate_source"]))
+        try:
+            fs = float(np.ravel(v)[0])
+        except (TypeError, ValueError, IndexError):
+            raise InputError(f"no numeric {t_cfg['sample_rate_source']!r} in test {test.name!r}",
+                             file=f, field="sample_rate_source") from None
     if fs is None and "sample_rate_attr" in t_cfg:
         v = test.attrs.get(str(t_cfg["sample_rate_attr"]))
         try:
@@ -149,13 +168,13 @@ def prepare_record(test: SourceTest, cmap: ChannelMap) -> Prepared:
     if not any(c.role == "drive" for c in cmap.channels):
         raise InputError("no drive channel: the map gives no channel role = \"drive\" (a "
                          "measured force or a voltage)", file=f, field=cmap.source)
-    raw = {c.name: test.array(c.source, c.name) for c in cmap.channels}
+    raw = {c.name: test.array(c.source, c.name, c.column) for c in cmap.channels}
     lengths = {k: v.size for k, v in raw.items()}
     n = max(lengths.values())
     short = [k for k, v in lengths.items() if v != n]
     if short:
-        raise InputError(f"ragged channels {lengths} in test {test.name!r}: refused, not "
-                         "truncated", file=f, field=short[0])
+        raise InputError(f"ragged channels (unequal length {lengths}) in test {test.name!r}: "
+                         "refused, not truncated", file=f, field=short[0])
     chans = []
     for c in cmap.channels:
         x = raw[c.name].astype(np.float64) * c.factor
@@ -177,23 +196,25 @@ def prepare_record(test: SourceTest, cmap: ChannelMap) -> Prepared:
                     _frf(test.frfs, cmap, test) if test.frfs else None)
 
 
-def _frf_side(cmap: ChannelMap, side: str, f: str) -> tuple[str, str, str]:
+def _frf_side(cmap: ChannelMap, side: str, allowed: tuple[str, ...]) -> tuple[str, str, float]:
+    """(channel name, quantity, factor to SI) of the FRF's response or drive, from the map."""
     d = cmap.frf.get(side)
     if not isinstance(d, dict) or "quantity" not in d or "units" not in d:
         raise InputError(f"the map's [frf] needs {side} = {{name, quantity, units}}: an FRF's "
-                         "quantity pair is never guessed", file=f, field=f"frf.{side}")
+                         "quantity pair is never guessed", file=cmap.source, field=f"frf.{side}")
     name = str(d.get("name", side))
     q = str(d["quantity"]).lower()
-    _, si = to_si(q, str(d["units"]), channel=name, file=cmap.source)
-    return name, q, si
+    if q not in allowed:
+        raise InputError(f"an FRF's {side} is one of {allowed}, not {q!r}", file=cmap.source,
+                         field=f"frf.{side}")
+    k, _ = to_si(q, str(d["units"]), channel=name, file=cmap.source)
+    return name, q, k
 
 
 def _frf(frfs: list[SourceFrf], cmap: ChannelMap, test: SourceTest) -> dict[str, Any]:
     f = str(test.file)
-    rname, rq, _ = _frf_side(cmap, "response", cmap.source)
-    dname, dq, _ = _frf_side(cmap, "drive", cmap.source)
-    kr, _ = to_si(rq, str(cmap.frf["response"]["units"]), channel=rname)
-    kd, _ = to_si(dq, str(cmap.frf["drive"]["units"]), channel=dname)
+    rname, rq, kr = _frf_side(cmap, "response", MOTION_QUANTITIES)
+    dname, dq, kd = _frf_side(cmap, "drive", DRIVE_QUANTITIES)
     freq = frfs[0].frequency_hz
     for fr in frfs:
         if fr.frequency_hz.shape != freq.shape or not np.allclose(fr.frequency_hz, freq):
@@ -203,8 +224,12 @@ def _frf(frfs: list[SourceFrf], cmap: ChannelMap, test: SourceTest) -> dict[str,
     if freq.ndim != 1 or freq.size < 2 or np.any(np.diff(freq) <= 0):
         raise InputError("FRF frequencies must increase", file=f, field=frfs[0].name)
     h = np.vstack([fr.values for fr in frfs]) * (kr / kd)
-    return {"frequency_hz": freq, "h_real": h.real, "h_imag": h.imag,
-            "responses": [fr.name if len(frfs) > 1 else rname for fr in frfs],
+    names = [re.sub(r"\W+", "_", fr.name).strip("_") or f"response{i + 1}"
+             for i, fr in enumerate(frfs)] if len(frfs) > 1 else [rname]
+    if len(set(names + [dname])) != len(names) + 1:
+        raise InputError(f"FRF responses {names} and drive {dname!r} need distinct names",
+                         file=f, field="frf")
+    return {"frequency_hz": freq, "h_real": h.real, "h_imag": h.imag, "responses": names,
             "labels": [fr.label for fr in frfs], "response_quantity": rq, "drive": dname,
             "drive_quantity": dq, "units": frf_units(rq, dq),
             "estimator": str(cmap.frf.get("estimator", ""))}
@@ -249,11 +274,11 @@ def _write_frf(frf: dict[str, Any]) -> Any:
     return write
 
 
-def prepare_files(files: list[str | Path], cmap: ChannelMap) -> tuple[list[Prepared], ImportResult]:
-    """Read and check every test of ``files`` (nothing is written): the prepared tests,
+def prepare_files(files: list[str | Path], cmap: ChannelMap) -> tuple[list[Checked], ImportResult]:
+    """Read and check every test of ``files`` (nothing is written): the checked tests,
     and a result listing the tests the map passes over."""
     res = ImportResult()
-    prepared: list[Prepared] = []
+    prepared: list[Checked] = []
     for p in expand(files, cmap):
         fmt = _format(p, cmap)
         patterns = cmap.include + cmap.frf_tests if (cmap.include or cmap.frf_tests) else []
@@ -262,9 +287,15 @@ def prepare_files(files: list[str | Path], cmap: ChannelMap) -> tuple[list[Prepa
             raise InputError(f"no test in the file matches {patterns}", file=str(p), field="tests")
         for t in tests:
             if cmap.is_frf(t.name) or (t.frfs and not t.names()):
-                prepared.append(prepare_frf_test(t, cmap))
+                how = prepare_frf_test
             elif cmap.selects(t.name):
-                prepared.append(prepare_record(t, cmap))
+                how = prepare_record
+            else:
+                how = None
+            if how is not None:
+                pr = how(t, cmap)                        # every check, then drop the samples
+                prepared.append(Checked(pr.name, pr.file, lambda h=how, t=t: h(t, cmap)))
+                del pr
             else:
                 res.skipped.append({"file": str(p), "test": t.name,
                                     "reason": "not selected by the map's [tests]"})
@@ -277,7 +308,7 @@ def prepare_files(files: list[str | Path], cmap: ChannelMap) -> tuple[list[Prepa
     return prepared, res
 
 
-def write_prepared(prepared: list[Prepared], res: ImportResult, data_dir: str | Path,
+def write_prepared(prepared: list[Checked], res: ImportResult, data_dir: str | Path,
                    catalog: Any = None) -> ImportResult:
     """Write checked tests, one run file each; on any failure none of them stays."""
     for pr in prepared:
@@ -287,7 +318,8 @@ def write_prepared(prepared: list[Prepared], res: ImportResult, data_dir: str | 
         if catalog is not None:
             catalog.check_free(pr.name, final)
     try:
-        for pr in prepared:
+        for checked in prepared:
+            pr = checked.read()
             res.runs.append(store_channels(pr.file, pr.time, pr.sample_rate_hz, pr.channels,
                                            pr.metadata, data_dir, name=pr.name,
                                            extra=_write_frf(pr.frf) if pr.frf else None))

@@ -378,16 +378,8 @@ def is_csv(path: str | Path) -> bool:
 
 def read_channels(path: str | Path, channels: list[str] | None = None) -> ChannelRecord:
     """A run file (or a CSV record in the import format) as a :class:`ChannelRecord`:
-    time, sample rate, metadata and per channel samples (SI), quantity, units, role.
-
-    >>> import tempfile, pathlib
-    >>> from labjoint.storage.csv_import import import_csv
-    >>> d = pathlib.Path(tempfile.mkdtemp())
-    >>> _ = (d / "r.csv").write_text("time_s,displacement_m,force_N\\n0,0,0\\n0.001,1e-6,2\\n")
-    >>> rec = read_channels(import_csv(d / "r.csv", d))
-    >>> [(c.name, c.quantity, c.units, c.role) for c in rec.channels.values()]
-    [('displacement', 'displacement', 'm', 'response'), ('force', 'force', 'N', 'drive')]
-    """
+    time, sample rate, metadata and per channel samples (SI), quantity, units, role
+    (``drive``, ``response``, ``other``; tests/test_channel_contract.py shows each)."""
     p = Path(path)
     if is_csv(p):
         return parse_csv(p).to_channels(channels)

@@ -71,6 +71,13 @@ class ChannelRoles:
             if q.get(fch) == "voltage":
                 raise InputError(f"no force channel: {fch!r} is a voltage, never used as a force",
                                  file=source, field=fch)
+        if q and not any(c in self.names for c in self.displacement):
+            motion = [f"{c} ({q[c]})" for c in self.names if q.get(c) in ("velocity", "acceleration")]
+            if motion:
+                raise InputError("no displacement channel: the responses are "
+                                 f"{', '.join(motion)}; this pipeline needs the relative "
+                                 "displacement across the joint", file=source,
+                                 field=self.displacement[0] if self.displacement else "displacement")
         for c in self.displacement:
             if q and c in self.names and q.get(c) not in (None, "displacement"):
                 raise InputError(f"channel {c!r} is a {q[c]}, not a displacement; this pipeline "

@@ -50,13 +50,19 @@ class SourceTest:
     frfs: list[SourceFrf] = field(default_factory=list)
     metadata: dict[str, Any] = field(default_factory=dict)   # the file's own (CSV '#' lines)
 
-    def array(self, source: str, channel: str) -> np.ndarray:
-        """The 1-D array ``source`` (InputError naming the file, test and channel)."""
+    def array(self, source: str, channel: str, column: int | None = None) -> np.ndarray:
+        """The 1-D array ``source`` (column ``column`` of a 2-D one), or InputError naming
+        the file, test and channel."""
         a = self.get(source)
         if a is None:
-            raise InputError(f"no {source!r} in test {self.name!r}; it has {self.names()}",
+            raise InputError(f"no channel {source!r} in test {self.name!r}; it has {self.names()}",
                              file=str(self.file), field=channel)
         a = np.asarray(a)
+        if column is not None and a.ndim == 2:
+            if not 0 <= column < a.shape[1]:
+                raise InputError(f"column {column} outside the {a.shape[1]} of {source!r}",
+                                 file=str(self.file), field=channel)
+            a = a[:, column]
         if a.ndim == 2 and 1 in a.shape:
             a = a.ravel()
         if a.ndim != 1 or not np.issubdtype(a.dtype, np.number):
@@ -189,16 +195,21 @@ def _hdf5(path: Path, patterns: list[str], options: dict[str, Any]) -> list[Sour
     except OSError as exc:
         raise InputError(f"not a readable HDF5 file: {exc}", file=str(path)) from None
     with f:
-        groups = [(path.stem, f)] if not patterns else \
-            [(k, f[k]) for k in _pick([k for k, v in f.items() if isinstance(v, h5py.Group)],
-                                      patterns)]
+        groups = [(path.stem, "/")] if not patterns else \
+            [(k, k) for k in _pick([k for k, v in f.items() if isinstance(v, h5py.Group)], patterns)]
         out = []
-        for name, g in groups:
-            arrays: dict[str, np.ndarray] = {}
-            g.visititems(lambda k, v, a=arrays: a.__setitem__(k, v[()])
-                         if isinstance(v, h5py.Dataset) and v.ndim in (1, 2) else None)
-            attrs = {k: _attr(v) for k, v in g.attrs.items()}
-            out.append(SourceTest(path, name, arrays.get, lambda a=arrays: sorted(a), attrs))
+        for name, where in groups:
+            names: list[str] = []
+            f[where].visititems(lambda k, v, a=names: a.append(k)
+                                if isinstance(v, h5py.Dataset) and v.ndim <= 2 else None)
+            attrs = {k: _attr(v) for k, v in f[where].attrs.items()}
+
+            def get(k: str, where: str = where, names: list[str] = names) -> np.ndarray | None:
+                if k not in names:                # read on demand: one test in memory at a time
+                    return None
+                with h5py.File(path, "r") as fh:
+                    return fh[where][k][()]
+            out.append(SourceTest(path, name, get, lambda a=names: sorted(a), attrs))
         return out
 
 
