@@ -130,8 +130,36 @@ def _sets(inputs: list[str], args: argparse.Namespace) -> list[Any]:
                 sub.metadata["path"] = p
                 sets.append(sub)
         else:
-            sets.extend(frf_levels([p], args))
+            imported = _imported_frf(p)
+            sets.extend([imported] if imported is not None else frf_levels([p], args))
     return sets
+
+
+def _imported_frf(path: str) -> Any:
+    """An FRF a lab exported (imported into a run file's processed/frf) as one level, or
+    None when the run file holds none. Its level is unknown: reported as null."""
+    from labjoint.errors import InputError as _IE
+    from labjoint.signal.frfset import DRIVES, QUANTITIES, FrfSet
+    from labjoint.storage.importers import read_frf
+
+    if Path(path).suffix.lower() not in (".h5", ".hdf5"):
+        return None
+    try:
+        r = read_frf(path)
+    except (_IE, KeyError, OSError):
+        return None
+    if r.response_quantity not in QUANTITIES or r.drive_quantity not in DRIVES:
+        raise InputError(f"{path}: an FRF of {r.response_quantity} over {r.drive_quantity} has no modes "
+                         "labjoint can fit", field="frf")
+    keep = r.frequency_hz > 0
+    f, h = r.frequency_hz[keep], r.h[:, keep]
+    n = f.size
+    est = r.estimator.split()[0] if r.estimator.split() and r.estimator.split()[0] in ("H1", "H2", "Hv") \
+        else "stepped_sine"
+    s = FrfSet(f, np.ones(n), np.full(n, "up"), np.ones(n, complex), tuple(r.responses), h.T[:, :, None],
+               np.zeros((n, len(r.responses), 1)), r.response_quantity, None, (), {}, r.drive_quantity, est)
+    s.metadata.update(path=path, run=Path(path).stem, imported=True, estimator_text=r.estimator)
+    return s
 
 
 def run_modes(args: argparse.Namespace) -> int:
@@ -146,14 +174,16 @@ def run_modes(args: argparse.Namespace) -> int:
             modes = find_modes(s.frequencies_hz, h, s.quantity, s.sensors, b, args.order)
         except InputError as exc:
             raise InputError(f"{s.metadata.get('path', '')}: {exc}") from None
-        levels.append({"run": s.metadata.get("run"), "level": float(s.level_n[0]),
+        levels.append({"run": s.metadata.get("run"),
+                       "level": None if s.metadata.get("imported") else float(s.level_n[0]),
                        "level_units": s.level_units, "direction": str(s.direction[0]),
                        "units": s.units, "band_hz": list(b) if b else None, "modes": modes})
-    levels.sort(key=lambda lv: (lv["level"], lv["direction"]))
+    levels.sort(key=lambda lv: (lv["level"] is None, lv["level"] or 0.0, lv["direction"]))
     if getattr(args, "json", False):
         emit_json({"levels": levels})
         return 0
-    rows = [(lv["run"] or "", f"{lv['level']:.4g} {lv['level_units']}", i + 1, m["frequency_hz"],
+    rows = [(lv["run"] or "", "?" if lv["level"] is None else f"{lv['level']:.4g} {lv['level_units']}",
+             i + 1, m["frequency_hz"],
              m["damping_ratio"], m["half_power"]["frequency_hz"], m["half_power"]["damping_ratio"])
             for lv in levels for i, m in enumerate(lv["modes"])]
     print(table(["run", "level", "mode", "LSCF Hz", "LSCF zeta", "half-power Hz", "half-power zeta"], rows))
