@@ -13,8 +13,9 @@ Per level (an FRF set's sweep or broadband record), over every response sensor a
 5. LSFD modal constants of the chosen poles (sdypy-ema) give the mode shape at the
    sensors: the residues normalised to the largest, rotated to be real where the mode
    is real (the phase of the largest residue removed);
-6. modes whose LSFD peak contribution is below 2 % of the band's largest FRF magnitude
-   are left out (computational poles that stabilise on noise).
+6. modes whose LSFD peak contribution is below 10 % of the largest FRF magnitude within
+   5 % of their frequency are left out (computational poles that stabilise on noise; a
+   physical mode dominates its neighbourhood).
 
 Half-power (seed 001: zeta = delta_f / (2 f_n)) on the strongest sensor's mobility in the
 window between the neighbouring modes and within ten half-power widths of the LSCF pole, by :func:`labjoint.identify.modal.half_power`.
@@ -42,7 +43,7 @@ MAX_ZETA = 0.2
 STABLE_DF, STABLE_DZ = 0.01, 0.3
 CLUSTER_DF = 0.005
 MIN_SHARE = 0.3
-MIN_CONTRIBUTION = 0.02
+MIN_CONTRIBUTION = 0.1
 
 
 def find_modes(frequencies_hz: Any, frf: Any, quantity: str, sensors: Sequence[str],
@@ -79,13 +80,13 @@ def find_modes(frequencies_hz: Any, frf: Any, quantity: str, sensors: Sequence[s
     A = np.atleast_2d(np.asarray(A))
     poles = np.array([np.asarray(m.all_poles[c["order"]])[c["index"]] for c in chosen])
     mob = _mobility(f, h, quantity)
-    peak = float(np.max(np.abs(mob)))
     w = 2j * np.pi * f
     out = []
     for r, c in enumerate(chosen):
         single = A[:, r, None] / (w - poles[r]) + np.conj(A[:, r, None]) / (w - np.conj(poles[r]))
         contrib = float(np.max(np.abs(w * single)))   # LSFD residues are receptance's
-        if contrib < MIN_CONTRIBUTION * peak:
+        near = np.abs(f - c["f"]) <= max(0.05 * c["f"], 3 * df)
+        if contrib < MIN_CONTRIBUTION * float(np.max(np.abs(mob[:, near]))):
             continue
         shape = A[:, r]
         k = int(np.argmax(np.abs(shape)))

@@ -77,20 +77,39 @@ class BroadbandFrf:
     extra: dict[str, Any] = field(default_factory=dict)
 
 
-def active_part(drive: np.ndarray, fs: float) -> tuple[int, int]:
+def window_sums(drive: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """(sum of x, sum of x^2) over consecutive windows of 0.05 s (at least 8 samples),
+    and the window length: what the drive's envelope is made of (a record read in
+    pieces of whole windows gives the same sums piece by piece)."""
+    win = max(8, int(round(0.05 * fs)))
+    k = drive.size // win
+    x = np.asarray(drive[:k * win], float).reshape(k, win)
+    return x.sum(axis=1), np.einsum("kw,kw->k", x, x), win
+
+
+def envelope(s1: np.ndarray, s2: np.ndarray, win: int) -> np.ndarray:
+    """The moving RMS about the record's mean from :func:`window_sums`."""
+    m = s1.sum() / max(1, s1.size * win)
+    return np.sqrt(np.maximum(s2 / win - 2 * m * s1 / win + m * m, 0.0))
+
+
+def active_from(rms: np.ndarray, win: int, n: int) -> tuple[int, int]:
     """First and last+1 sample where the drive acts (module docstring); the whole record
     when the drive never falls silent."""
-    x = drive - np.median(drive)
-    win = max(8, int(round(0.05 * fs)))
-    k = x.size // win
-    if k < 4:
-        return 0, x.size
-    rms = np.sqrt(np.mean(x[:k * win].reshape(k, win) ** 2, axis=1))
+    k = rms.size
+    if k < 4 or not np.any(rms > 0):
+        return 0, n
     driven = rms > 0.1 * rms.max()
     on = rms > ACTIVE_FRACTION * np.median(rms[driven])
     idx = np.flatnonzero(on)
     a0, a1 = int(idx[0]) * win, (int(idx[-1]) + 1) * win
-    return a0, (x.size if a1 >= k * win else a1)
+    return a0, (n if a1 >= k * win else a1)
+
+
+def active_part(drive: np.ndarray, fs: float) -> tuple[int, int]:
+    """:func:`active_from` of a drive held in memory."""
+    s1, s2, win = window_sums(drive, fs)
+    return active_from(envelope(s1, s2, win), win, drive.size)
 
 
 def segment_length(n: int, fs: float) -> tuple[int, float]:
@@ -163,7 +182,20 @@ def _result(fr: np.ndarray, e: dict[str, np.ndarray], estimator: str, rms: float
     else:
         std = std[:, keep]
     return BroadbandFrf(fr[keep], h, std, e["coherence"][:, keep],
-                        {k: e[k][:, keep] for k in ESTIMATORS}, float(e["n_d"]), method, rms, active)
+                        {k: e[k][:, keep] for k in ESTIMATORS}, float(e["n_d"]), method, rms, active,
+                        {"drive_power": e["gff"][keep]})
+
+
+def drive_band(r: BroadbandFrf) -> list[float]:
+    """First and last line where the drive's power (smoothed over ~1/256 of the lines)
+    is above 1 % of its largest: the band the FRF is measured in."""
+    p = np.asarray(r.extra.get("drive_power", np.ones(r.freq_hz.size)), float)
+    if p.size == 0:
+        return [0.0, 0.0]
+    m = max(1, p.size // 256)
+    ps = np.convolve(p, np.ones(m) / m, mode="same") if m > 1 else p
+    ok = np.flatnonzero(ps > 0.01 * ps.max())
+    return [float(r.freq_hz[ok[0]]), float(r.freq_hz[ok[-1]])]
 
 
 def periodic(f: np.ndarray, y: np.ndarray, fs: float, n: int, estimator: str = "H1") -> BroadbandFrf:
@@ -235,14 +267,17 @@ def block(f: np.ndarray, y: np.ndarray, fs: float, estimator: str = "H1") -> Bro
 
 
 def bursts(drive: np.ndarray, fs: float) -> list[tuple[int, int]]:
-    """(start, end of drive) of each burst: active stretches (as :func:`active_part`) with
+    """:func:`bursts_from` of a drive held in memory."""
+    s1, s2, win = window_sums(drive, fs)
+    return bursts_from(envelope(s1, s2, win), win, drive.size)
+
+
+def bursts_from(rms: np.ndarray, win: int, n: int) -> list[tuple[int, int]]:
+    """(start, end of drive) of each burst: active stretches (as :func:`active_from`) with
     silence after each of at least a tenth of its block; [] when the drive never rests so."""
-    x = drive - np.median(drive)
-    win = max(8, int(round(0.05 * fs)))
-    k = x.size // win
-    if k < 8:
+    k = rms.size
+    if k < 8 or not np.any(rms > 0):
         return []
-    rms = np.sqrt(np.mean(x[:k * win].reshape(k, win) ** 2, axis=1))
     on = rms > ACTIVE_FRACTION * np.median(rms[rms > 0.1 * rms.max()])
     runs, i = [], 0
     while i < k:
@@ -257,7 +292,7 @@ def bursts(drive: np.ndarray, fs: float) -> list[tuple[int, int]]:
             i = j
         else:
             i += 1
-    starts = [a for a, _ in runs] + [x.size // win]
+    starts = [a for a, _ in runs] + [n // win]
     out = []
     for (a, b), nxt in zip(runs, starts[1:]):
         if (nxt - b) < 0.1 * (nxt - a):

@@ -4,8 +4,9 @@ Responses measured as different quantities (a vibrometer's velocity beside
 accelerometers) are brought to the first response's quantity in the frequency domain,
 exactly: H_q = H_p (i w)^(q - p), q and p the orders of displacement (0), velocity (1)
 and acceleration (2). The drive is a force (N) or a voltage (V); the set says which and
-its units, e.g. "m/s/V". The band where the drive carries power (its Welch density above
-1 % of its largest) goes in the metadata, for ``labjoint modes``, and by default only
+its units, e.g. "m/s/V". The band where the drive carries power (its power on the lines,
+smoothed, above 1 % of its largest: :func:`labjoint.signal.broadband.drive_band`) goes
+in the metadata, for ``labjoint modes``, and by default only
 the lines in it are kept (outside it the FRF is noise over a silent drive).
 """
 
@@ -16,7 +17,8 @@ from typing import Any
 import numpy as np
 
 from labjoint.errors import InputError
-from labjoint.signal.broadband import estimate
+from labjoint.signal import broadband
+from labjoint.signal.broadband import BroadbandFrf
 from labjoint.signal.frfset import DRIVES, QUANTITIES, FrfSet
 
 ORDER = {"displacement": 0, "velocity": 1, "acceleration": 2}
@@ -40,13 +42,23 @@ def frfset_from_arrays(drive: Any, drive_quantity: str, responses: dict[str, tup
             raise InputError(f"channel {name!r} measures {q!r}, not one of {QUANTITIES}",
                              field=name, file=source)
     names = list(responses)
-    target = responses[names[0]][0]
     y = np.vstack([np.asarray(responses[n][1], float) for n in names])
-    r = estimate(drive, y, fs, estimator=estimator, **options)
+    r = broadband.estimate(drive, y, fs, estimator=estimator, **options)
+    return frfset_from_result(r, drive_quantity, {n: q for n, (q, _) in responses.items()},
+                              level=level, run=run, estimator=estimator, source=source, band=band)
+
+
+def frfset_from_result(r: BroadbandFrf, drive_quantity: str, quantities: dict[str, str], *,
+                       level: float | None = None, run: str = "", estimator: str = "H1",
+                       source: str = "record", band: tuple[float, float] | str | None = "drive"
+                       ) -> FrfSet:
+    """The FrfSet level of an estimate (its responses' quantities in order, by name)."""
+    names = list(quantities)
+    target = quantities[names[0]]
     jw = 2j * np.pi * r.freq_hz
-    conv = np.array([jw ** (ORDER[target] - ORDER[responses[n][0]]) for n in names])
+    conv = np.array([jw ** (ORDER[target] - ORDER[quantities[n]]) for n in names])
     h, std, coh, lines = r.h * conv, r.std * np.abs(conv), r.coherence, r.freq_hz
-    drive_band = _band(drive, fs, r.freq_hz)
+    drive_band = broadband.drive_band(r)
     lo, hi = drive_band if band == "drive" else (band if band is not None else (0.0, np.inf))
     keep = (lines >= lo) & (lines <= hi)
     if keep.sum() < 2:
@@ -57,20 +69,8 @@ def frfset_from_arrays(drive: Any, drive_quantity: str, responses: dict[str, tup
     lv = float(level) if level else r.drive_rms
     md = {"method": r.method, "averages": r.averages, "drive_rms": r.drive_rms,
           "active_s": list(r.active_s), "band_hz": drive_band, "kind": "broadband",
-          "converted": {nm: f"{responses[nm][0]} -> {target}" for nm in names
-                        if responses[nm][0] != target}}
+          "converted": {nm: f"{quantities[nm]} -> {target}" for nm in names
+                        if quantities[nm] != target}}
     return FrfSet(lines, np.full(n, lv), np.full(n, "up"), np.ones(n, complex), tuple(names),
                   h.T[:, :, None], std.T[:, :, None], target, None, tuple([run] * n) if run else (),
                   md, drive_quantity, estimator, coh.T)
-
-
-def _band(drive: Any, fs: float, lines: np.ndarray) -> list[float]:
-    """Lines where the drive's Welch density is above 1 % of its peak (first and last)."""
-    from scipy.signal import welch
-    u = np.asarray(drive, float)
-    nper = int(min(u.size, 1 << int(np.log2(max(16, u.size // 8)))))
-    f, p = welch(u - u.mean(), fs, nperseg=nper)
-    ok = f[(p > 0.01 * p.max()) & (f > 0)]
-    if not ok.size:
-        return [float(lines[0]), float(lines[-1])]
-    return [float(ok[0]), float(ok[-1])]

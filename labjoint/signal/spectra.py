@@ -135,4 +135,5 @@ def estimates_from(gff: np.ndarray, gyy: np.ndarray, gfy: np.ndarray, n_d: float
         hv_mag_num = d + np.sqrt(d ** 2 + 4 * np.abs(gfy) ** 2)
         hv = np.where(ok & (np.abs(gfy) > 0), hv_mag_num / (2 * np.conj(gfy)), np.nan)
         eps = np.where(coh > 0, np.sqrt(1 - coh) / (np.sqrt(coh) * np.sqrt(2 * n_d)), np.inf)
-    return {"H1": h1, "H2": h2, "Hv": hv, "coherence": coh, "eps": eps, "n_d": np.asarray(n_d)}
+    return {"H1": h1, "H2": h2, "Hv": hv, "coherence": coh, "eps": eps, "n_d": np.asarray(n_d),
+            "gff": gff}
