@@ -45,12 +45,16 @@ def add_modes_arguments(p: argparse.ArgumentParser) -> None:
 
 def frf_levels(paths: list[str], args: argparse.Namespace) -> list[Any]:
     """One FrfSet level per record."""
-    from labjoint.cli.records import level_of, load
+    from labjoint.cli.records import level_of, load, streamed
     from labjoint.signal.frf_levels import frfset_from_arrays
 
     resp = [x.strip() for x in args.responses.split(",") if x.strip()] if args.responses else None
     out = []
     for path in paths:
+        with streamed(path) as st:
+            if st is not None:
+                out.append(_streamed_level(st, resp, args))
+                continue
         rec = load(path)
         d = rec.drive(args.drive)
         names = rec.responses(resp)
@@ -66,6 +70,30 @@ def frf_levels(paths: list[str], args: argparse.Namespace) -> list[Any]:
         s.metadata.update(drive=d, run=rec.name, path=path)
         out.append(s)
     return out
+
+
+def _streamed_level(st: Any, resp: list[str] | None, args: argparse.Namespace) -> Any:
+    """One level of a record too long to load, read in blocks (Welch sums streamed)."""
+    from labjoint.cli.records import level_of
+    from labjoint.signal.broadband_stream import estimate_streamed
+    from labjoint.signal.frf_levels import check_channels, frfset_from_result
+
+    d = st.drive(args.drive)
+    names = st.responses(resp)
+    quantities = {n: st.channels[n][0] for n in names}
+    check_channels(st.channels[d][0], quantities, st.path)
+    try:
+        r = estimate_streamed(lambda a, b: (st.read([d], a, b)[0], st.read(names, a, b)),
+                              lambda a, b: st.read([d], a, b)[0], st.n, st.fs, len(names),
+                              estimator=args.estimator, nperseg=args.nperseg, overlap=args.overlap,
+                              window=args.window, method=args.method)
+        s = frfset_from_result(r, st.channels[d][0], quantities,
+                               level=level_of(st), run=st.name, estimator=args.estimator,
+                               source=st.path, band=_frf_band(getattr(args, "frf_band", "drive")))
+    except InputError as exc:
+        raise InputError(f"{st.path}: {exc}") from None
+    s.metadata.update(drive=d, run=st.name, path=st.path)
+    return s
 
 
 def _summary(s: Any) -> dict[str, Any]:

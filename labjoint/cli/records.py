@@ -4,9 +4,10 @@
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable, Iterator
 
 import numpy as np
 
@@ -74,7 +75,7 @@ def load(path: str) -> Record:
     return Record(str(p), rec.name, float(rec.sample_rate_hz), chans, dict(rec.metadata))
 
 
-def level_of(rec: Record) -> float | None:
+def level_of(rec: Any) -> float | None:
     """The record's stated excitation level (metadata ``level``), if any."""
     for key in ("level", "excitation_level", "level_v", "level_n"):
         v = rec.metadata.get(key)
@@ -84,3 +85,60 @@ def level_of(rec: Record) -> float | None:
         except (TypeError, ValueError):
             continue
     return None
+
+
+#: records with more samples than this (over all channels) are read in blocks
+STREAM_VALUES = 1 << 24
+
+
+@dataclass
+class Streamed:
+    """A run file's channels (quantities and SI units) with a block reader."""
+
+    path: str
+    name: str
+    fs: float
+    n: int
+    channels: dict[str, tuple[str, str]]                 # name -> (quantity, unit)
+    metadata: dict[str, Any]
+    read: Callable[[list[str], int, int], np.ndarray]    # (names, start, stop) -> (len, m)
+
+    def drive(self, name: str | None = None) -> str:
+        return Record(self.path, self.name, self.fs, {k: (q, u, np.zeros(0)) for k, (q, u) in
+                                                      self.channels.items()}).drive(name)
+
+    def responses(self, names: list[str] | None = None) -> list[str]:
+        return Record(self.path, self.name, self.fs, {k: (q, u, np.zeros(0)) for k, (q, u) in
+                                                      self.channels.items()}).responses(names)
+
+
+@contextlib.contextmanager
+def streamed(path: str) -> Iterator[Streamed | None]:
+    """A long run file opened for block reading, or None (a CSV, or a record small enough
+    to load whole with :func:`load`)."""
+    from labjoint.storage.channels import spec_quantity
+    from labjoint.storage.reader import is_csv, open_run
+
+    p = Path(path)
+    if not p.exists():
+        raise InputError("no such file", file=str(p))
+    if is_csv(p):
+        yield None
+        return
+    with open_run(p) as rf:
+        specs = {s.name: s for s in rf.channels}
+        if rf.n_samples * len(specs) <= STREAM_VALUES:
+            yield None
+            return
+        qs = {n: spec_quantity(s) for n, s in specs.items()}
+
+        def read(names: list[str], a: int, b: int) -> np.ndarray:
+            out = np.empty((len(names), b - a))
+            for i, nm in enumerate(names):
+                rf.physical(nm, a, b, out=out[i])
+                if qs[nm][1] != 1.0:
+                    out[i] *= qs[nm][1]
+            return out
+
+        yield Streamed(str(p), rf.name, float(rf.sample_rate_hz), int(rf.n_samples),
+                       {n: (q[0], q[2]) for n, q in qs.items()}, dict(rf.metadata), read)

@@ -31,21 +31,26 @@ def frfset_from_arrays(drive: Any, drive_quantity: str, responses: dict[str, tup
     """One level: FRFs of ``responses`` {name: (quantity, samples)} over ``drive``, on the
     lines of ``band``: (lo, hi) in Hz, "drive" (where the drive carries power) or None
     (every line with drive power above 1e-12 of its largest)."""
-    if drive_quantity not in DRIVES:
-        raise InputError(f"the drive must be a force or a voltage, got {drive_quantity!r}",
-                         field="drive", file=source)
-    if not responses:
-        raise InputError("no response channel (displacement, velocity or acceleration)",
-                         field="responses", file=source)
-    for name, (q, _) in responses.items():
-        if q not in QUANTITIES:
-            raise InputError(f"channel {name!r} measures {q!r}, not one of {QUANTITIES}",
-                             field=name, file=source)
+    check_channels(drive_quantity, {n: q for n, (q, _) in responses.items()}, source)
     names = list(responses)
     y = np.vstack([np.asarray(responses[n][1], float) for n in names])
     r = broadband.estimate(drive, y, fs, estimator=estimator, **options)
     return frfset_from_result(r, drive_quantity, {n: q for n, (q, _) in responses.items()},
                               level=level, run=run, estimator=estimator, source=source, band=band)
+
+
+def check_channels(drive_quantity: str, quantities: dict[str, str], source: str) -> None:
+    """A force or voltage drive and at least one motion response, or InputError."""
+    if drive_quantity not in DRIVES:
+        raise InputError(f"the drive must be a force or a voltage, got {drive_quantity!r}",
+                         field="drive", file=source)
+    if not quantities:
+        raise InputError("no response channel (displacement, velocity or acceleration)",
+                         field="responses", file=source)
+    for name, q in quantities.items():
+        if q not in QUANTITIES:
+            raise InputError(f"channel {name!r} measures {q!r}, not one of {QUANTITIES}",
+                             field=name, file=source)
 
 
 def frfset_from_result(r: BroadbandFrf, drive_quantity: str, quantities: dict[str, str], *,

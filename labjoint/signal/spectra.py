@@ -1,6 +1,7 @@
 """Auto- and cross-spectra of one drive and several responses, accumulated over blocks.
 
-Welch's method: segments of ``nperseg`` samples, a window, an overlap; the one-sided
+Welch's method: segments of ``nperseg`` samples, each less its mean, a window, an
+overlap; the one-sided
 spectral densities G_ff, G_yy and G_fy (y against the drive f) are summed segment by
 segment, so a record of any length is processed in bounded memory (``feed`` takes the
 record in pieces of any size and keeps only the unfinished segment between calls).
@@ -83,6 +84,7 @@ class Welch:
             s1 = min(nseg, s0 + per)
             block = x[:, s0 * self.step: (s1 - 1) * self.step + self.nperseg]
             segs = sliding_window_view(block, self.nperseg, axis=1)[:, ::self.step]  # (C, k, L)
+            segs = segs - segs.mean(axis=-1, keepdims=True)    # constant detrend per segment
             X = sfft.rfft(segs * self.window, axis=-1)      # (C, k, f)
             cross = (X[0].conj() * X[1:]).sum(axis=1)
             power = (X.real ** 2 + X.imag ** 2).sum(axis=1)
