@@ -1,17 +1,18 @@
 """FRF and modes of a long broadband record: speed as a multiple of real time, memory bounded.
 
-A 10-minute, 4-channel (a drive and three responses), 51.2 kS/s record of a 2-DOF
-structure under random force is processed as ``labjoint frf`` + ``labjoint modes`` do (in single precision here):
-Welch sums accumulated block by block (:class:`labjoint.signal.spectra.Welch`, segments
-of 2^16 samples at half overlap, as :func:`labjoint.signal.broadband.segment_length`
-chooses for such a record), then H1/H2/Hv, coherence, random errors, and the automatic
-LSCF/LSFD mode selection (:func:`labjoint.identify.modes.find_modes`) over 5-300 Hz.
-
-The record is streamed from a pool of pre-computed blocks of 2^20 samples (the same
-samples repeat; generating 123 M random samples is not what is timed), so the working
-set is the pool plus one block's segments, whatever the record's length. Printed: record
-length / wall time ("x real time"), median over repeats with best and worst, the peak
-RSS of this process, and the load average before and after.
+A 10-minute, 4-channel (a force drive and three accelerometers), 51.2 kS/s record of a
+structure with modes at 20, 55 and 180 Hz under random force is written as a labjoint
+run file (HDF5, float64, 983 MB), block by block. Then, in a fresh subprocess each time,
+the command-line entry (``labjoint.cli.main.main``) runs exactly what a user types,
+``labjoint frf RUN --out FRF.json`` and ``labjoint modes FRF.json --band 5:300``, timed
+after the process's imports (the run file read in blocks of 2^20 samples, Welch sums
+accumulated block by block, 2^16-sample Hann segments end to end as
+:func:`labjoint.signal.broadband.segment_length` chooses for a record that long; H1,
+coherence, errors; automatic LSCF/LSFD). Printed: record length / wall time of the two
+commands ("x real time"; Python's start-up and the imports, about 2 s of CPU, are not
+counted), median over repeats with best and worst, their CPU time, the peak RSS of the
+process and its RSS after the imports, and the load average before and after. The numerical core alone (the sums
+fed from blocks already in memory, single precision) is timed in-process beside it.
 
 Usage: ``python benchmarks/bench_frf.py [--minutes 10] [--repeats 3] [--smoke]``.
 """
@@ -19,57 +20,128 @@ Usage: ``python benchmarks/bench_frf.py [--minutes 10] [--repeats 3] [--smoke]``
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import os
 import resource
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 from scipy import signal as sps
 
 FS = 51_200.0
 BLOCK = 1 << 20
-POOL = 4
+MODES_HZ = ((20.0, 0.02), (55.0, 0.015), (180.0, 0.01))
+MIX = np.array([[1.0, 0.6, 0.3], [0.8, -0.5, 0.4], [0.5, -0.9, -0.6]])
 
 
-def pool(seed: int = 0) -> list[np.ndarray]:
-    """POOL blocks (4, BLOCK): force and three responses of a 2-DOF chain (20, 55 Hz)
-    plus a 180 Hz mode, through stable IIR filters, with sensor noise."""
+def blocks(seconds: float, seed: int = 0):
+    """(4, m) blocks of the record: force, three accelerations (filters carried across)."""
     rng = np.random.default_rng(seed)
-    f = rng.normal(size=POOL * BLOCK)
-    out = [f]
-    for fn, z in [(20.0, 0.02), (55.0, 0.015), (180.0, 0.01)]:
+    filt = []
+    for fn, z in MODES_HZ:
         w = 2 * np.pi * fn
-        b, a = sps.bilinear([1.0, 0.0], [1.0, 2 * z * w, w * w], FS)
-        out.append(sps.lfilter(b, a, f) + 1e-3 * rng.normal(size=f.size))
-    x = np.vstack(out)
-    # the three "sensors" see every mode: mix the single-mode responses
-    x[1:] = np.array([[1.0, 0.6, 0.3], [0.8, -0.5, 0.4], [0.5, -0.9, -0.6]]) @ x[1:]
-    return [x[:, i * BLOCK:(i + 1) * BLOCK].astype(np.float32) for i in range(POOL)]
+        b, a = sps.bilinear([1.0, 0.0, 0.0], [1.0, 2 * z * w, w * w], FS)
+        filt.append((b, a, np.zeros(2)))
+    n = int(seconds * FS)
+    for start in range(0, n, BLOCK):
+        f = rng.normal(size=min(BLOCK, n - start))
+        modal = []
+        for i, (b, a, zi) in enumerate(filt):
+            y, zf = sps.lfilter(b, a, f, zi=zi)
+            filt[i] = (b, a, zf)
+            modal.append(y)
+        acc = MIX @ np.array(modal) + 1e-3 * rng.normal(size=(3, f.size))
+        yield np.vstack([f, acc])
 
 
-def one(blocks: list[np.ndarray], seconds: float) -> tuple[float, float, list[float]]:
+def write_run(path: Path, seconds: float) -> None:
+    import h5py
+
+    from labjoint.hardware.interfaces import ChannelSpec
+    from labjoint.storage import layout
+
+    specs = [ChannelSpec(name="force", sensor="force", quantity="force", unit="N", sensitivity=1.0,
+                         range_v=math.inf, coupling="DC")]
+    specs += [ChannelSpec(name=f"acc{i}", sensor="accelerometer", quantity="acceleration",
+                          unit="m/s^2", sensitivity=1.0, range_v=math.inf, coupling="DC")
+              for i in (1, 2, 3)]
+    with h5py.File(path, "w", libver="latest") as f:
+        layout.create_layout(f, name=path.stem, uid="bench-" + path.stem, channels=specs,
+                             sample_rate_hz=FS, metadata={"plan": "import"}, source="imported",
+                             signal=None, data_units=None)
+        data = f["entry/data"]
+        n = 0
+        for blk in blocks(seconds):
+            m = blk.shape[1]
+            for key, row in [("time", (n + np.arange(m)) / FS)] + list(zip([s.name for s in specs], blk)):
+                data[key].resize((n + m,))
+                data[key][n:n + m] = row
+            n += m
+        f["entry"]["n_samples"][()] = n
+        f["entry"]["status"][()] = np.bytes_(b"complete")
+
+
+CHILD = """
+import json, resource, sys, time
+from labjoint.cli.main import build_parser, main
+build_parser()                                   # every command module imported
+import sdypy.EMA, labjoint.identify.modes, labjoint.signal.broadband_stream  # noqa: E401
+rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+out = []
+for args in json.loads(sys.argv[1]):
+    t0, c0 = time.perf_counter(), time.process_time()
+    rc = main(args)
+    out.append([time.perf_counter() - t0, time.process_time() - c0, rc])
+print(json.dumps({"steps": out, "rss0": rss0,
+                  "rss": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss}), file=sys.stderr)
+"""
+
+
+def pipeline(run: Path, frf: str) -> tuple[float, float, int, int, list[float]]:
+    """`labjoint frf RUN --out FRF.json` then `labjoint modes FRF.json` in a fresh process,
+    timed after its imports: (wall s, CPU s, peak RSS kB, RSS after imports kB, modes)."""
+    steps = [["frf", str(run), "--out", frf, "--json", "--quiet"],
+             ["modes", frf, "--band", "5:300", "--json"]]
+    p = subprocess.run([sys.executable, "-c", CHILD, json.dumps(steps)], capture_output=True, text=True,
+                       env=dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1])))
+    try:
+        rep = json.loads(p.stderr.strip().splitlines()[-1])
+    except (ValueError, IndexError):
+        raise SystemExit(f"the pipeline failed: {p.stderr.strip()}") from None
+    if any(rc for _, _, rc in rep["steps"]):
+        raise SystemExit(f"the pipeline failed: {p.stderr.strip()}")
+    modes = json.loads(p.stdout.strip().splitlines()[-1])["levels"][0]["modes"]
+    wall = sum(w for w, _, _ in rep["steps"])
+    cpu = sum(c for _, c, _ in rep["steps"])
+    return wall, cpu, rep["rss"], rep["rss0"], [round(m["frequency_hz"], 3) for m in modes]
+
+
+def core(seconds: float) -> float:
+    """Wall time of the numerical core alone (the sums fed from blocks in memory, then the
+    modes), in this process."""
     from labjoint.identify.modes import find_modes
     from labjoint.signal.broadband import segment_length
     from labjoint.signal.spectra import Welch
 
+    pool = [b.astype(np.float32) for b, _ in zip(blocks(4 * BLOCK / FS, seed=1), range(4))]
     n = int(seconds * FS)
     L, ov = segment_length(n, FS)
-    t0, c0 = time.perf_counter(), time.process_time()
+    t0 = time.perf_counter()
     w = Welch(L, FS, 3, overlap=ov, dtype=np.float32)
-    done = 0
-    i = 0
+    done = i = 0
     while done < n:
-        b = blocks[i % len(blocks)]
+        b = pool[i % len(pool)]
         k = min(BLOCK, n - done)
         w.feed(b[0, :k], b[1:, :k])
-        done += k
-        i += 1
-    e = w.estimates()
-    fr = w.freq_hz
-    modes = find_modes(fr, e["H1"], "displacement", ["a", "b", "c"], (5.0, 300.0))
-    return (time.perf_counter() - t0, time.process_time() - c0,
-            [round(m["frequency_hz"], 3) for m in modes])
+        done, i = done + k, i + 1
+    find_modes(w.freq_hz, w.estimates()["H1"], "acceleration", ["a", "b", "c"], (5.0, 300.0))
+    return time.perf_counter() - t0
 
 
 def main() -> None:
@@ -81,22 +153,30 @@ def main() -> None:
     seconds = 20.0 if a.smoke else a.minutes * 60
     repeats = 1 if a.smoke else a.repeats
     load0 = os.getloadavg()
-    blocks = pool()
-    rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    times, cpu = [], []
-    for _ in range(repeats):
-        dt, dc, modes = one(blocks, seconds)
-        times.append(dt)
-        cpu.append(dc)
-    rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    ratios = sorted(seconds / t for t in times)
-    print(f"record: {seconds:g} s, 4 channels at {FS:g} S/s ({seconds * FS * 4 / 1e6:.1f} M samples)")
-    print(f"modes found (Hz): {modes}  (simulated 20, 55, 180)")
-    print(f"FRF + modes: {statistics.median(ratios):.0f}x real time (wall) (median of {repeats}; "
-          f"best {ratios[-1]:.0f}x, worst {ratios[0]:.0f}x); on CPU time "
-          f"{seconds / statistics.median(cpu):.0f}x (the machine is shared: wall time waits for it)")
-    print(f"peak RSS: {rss1 / 1024:.0f} MB (pool of {POOL} blocks: {POOL * BLOCK * 4 * 8 / 2**20:.0f} MB; "
-          f"{rss0 / 1024:.0f} MB before the runs)")
+    with tempfile.TemporaryDirectory() as d:
+        run = Path(d) / "long_random.h5"
+        t0 = time.perf_counter()
+        write_run(run, seconds)
+        written = time.perf_counter() - t0
+        frf = str(Path(d) / "frf.json")
+        walls, cpus, rss, rss0, modes = [], [], 0, 0, []
+        for _ in range(repeats):
+            w, c, r, r0, modes = pipeline(run, frf)
+            walls.append(w)
+            cpus.append(c)
+            rss, rss0 = max(rss, r), max(rss0, r0)
+        size = run.stat().st_size
+    ratios = sorted(seconds / t for t in walls)
+    core_s = core(seconds)
+    print(f"record: {seconds:g} s, 4 channels at {FS:g} S/s ({seconds * FS * 4 / 1e6:.1f} M samples), "
+          f"run file {size / 2**20:.0f} MB (written in {written:.1f} s)")
+    print(f"modes found (Hz): {modes}  (simulated {[m for m, _ in MODES_HZ]})")
+    print(f"`labjoint frf` + `labjoint modes` from the run file: {statistics.median(ratios):.0f}x real "
+          f"time (median of {repeats}; best {ratios[-1]:.0f}x, worst {ratios[0]:.0f}x), "
+          f"{seconds / statistics.median(cpus):.0f}x on their CPU time")
+    print(f"peak RSS of the process: {rss / 1024:.0f} MB, {rss0 / 1024:.0f} MB of it after the imports "
+          f"(the record: {size / 2**20:.0f} MB)")
+    print(f"numerical core alone (blocks in memory, float32): {seconds / core_s:.0f}x real time")
     print(f"load average before {load0[0]:.2f}, after {os.getloadavg()[0]:.2f}")
 
 

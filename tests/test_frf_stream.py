@@ -25,7 +25,7 @@ def test_streamed_welch_equals_the_whole_record():
     broadband_stream.BLOCK = 5000            # blocks that cut segments anywhere
     try:
         part = broadband_stream.estimate_streamed(lambda p, q: (f[p:q], y[:, p:q]), lambda p, q: f[p:q],
-                                                  n, fs, 2)
+                                                  n, fs, 2, dtype=np.float64)
     finally:
         broadband_stream.BLOCK = old
     assert np.allclose(part.h, whole.h, rtol=1e-9) and np.allclose(part.coherence, whole.coherence)
@@ -50,7 +50,7 @@ def test_cli_reads_a_long_record_in_blocks(tmp_path, capsys, monkeypatch):
     b = json.loads((tmp_path / "part.json").read_text())
     assert a["frequencies_hz"] == b["frequencies_hz"]
     ra, rb = np.array(a["response"]), np.array(b["response"])
-    assert np.allclose(ra, rb, rtol=1e-7, atol=1e-9 * np.abs(ra).max())
+    assert np.allclose(ra, rb, rtol=1e-4, atol=1e-6 * np.abs(ra).max())   # single precision
     assert main(["modes", str(p), "--band", "5:100", "--json"]) == 0
     lv = json.loads(capsys.readouterr().out)["levels"][0]
     fd = fs / np.pi * np.arctan(np.pi * 30.0 / fs)
