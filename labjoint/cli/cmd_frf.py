@@ -126,7 +126,9 @@ def run_frf(args: argparse.Namespace) -> int:
 
 
 def _frf_band(text: str) -> tuple[float, float] | str | None:
-    return {"drive": "drive", "all": None}.get(text) or _band(text, "--band")
+    if text in ("drive", "all"):
+        return "drive" if text == "drive" else None
+    return _band(text, "--band")
 
 
 def _band(text: str | None, name: str = "--band") -> tuple[float, float] | None:
@@ -148,7 +150,12 @@ def _sets(inputs: list[str], args: argparse.Namespace) -> list[Any]:
     for p in inputs:
         if Path(p).suffix.lower() == ".json":
             s = FrfSet.load(p)
-            for (lv, d), idx in s.groups():
+            if s.estimator != "stepped_sine" and s.runs:   # broadband: one level per record
+                parts = [(str(s.direction[0]), np.flatnonzero(np.asarray(s.runs) == r))
+                         for r in dict.fromkeys(s.runs)]
+            else:
+                parts = [(d, idx) for (_, d), idx in s.groups()]
+            for d, idx in parts:
                 sub = s.subset(idx)
                 sub.metadata.update(path=p, direction=d)
                 runs = {r for r in sub.runs}

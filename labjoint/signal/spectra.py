@@ -54,6 +54,9 @@ class Welch:
         self.step = max(1, int(round(nperseg * (1 - overlap))))
         self.dtype = np.dtype(dtype)
         self.window = get_window(window, self.nperseg).astype(self.dtype)
+        wf = np.fft.rfft(self.window.astype(float))
+        self._wlines = np.flatnonzero(np.abs(wf) > 1e-9 * np.abs(wf).max())
+        self._wf = wf[self._wlines].astype(np.result_type(self.dtype, np.complex64))
         # one-sided density scaling: 2 / (fs sum w^2), DC and Nyquist single
         self.scale = np.full(self.nperseg // 2 + 1, 2.0 / (fs * np.sum(self.window.astype(float) ** 2)))
         self.scale[0] /= 2
@@ -84,8 +87,11 @@ class Welch:
             s1 = min(nseg, s0 + per)
             block = x[:, s0 * self.step: (s1 - 1) * self.step + self.nperseg]
             segs = sliding_window_view(block, self.nperseg, axis=1)[:, ::self.step]  # (C, k, L)
-            segs = segs - segs.mean(axis=-1, keepdims=True)    # constant detrend per segment
             X = sfft.rfft(segs * self.window, axis=-1)      # (C, k, f)
+            # constant detrend per segment: (x - m) w transforms to X - m W, and W (the
+            # window's own transform) is non-zero on a few lines only (2 for Hann)
+            m = segs.mean(axis=-1, keepdims=True)
+            X[..., self._wlines] -= m * self._wf
             cross = (X[0].conj() * X[1:]).sum(axis=1)
             power = (X.real ** 2 + X.imag ** 2).sum(axis=1)
             self.gff += power[0]
