@@ -164,3 +164,27 @@ def test_cli_distortion_of_a_multisine_and_modes_of_a_run(tmp_path, capsys):
     assert lv["units"] == "m/s^2/N" and lv["level_units"] == "N"
     fd = 256.0 / np.pi * np.arctan(np.pi * 20.0 / 256.0)   # the bilinear map's 20 Hz
     assert lv["modes"][0]["frequency_hz"] == pytest.approx(fd, rel=2e-3)
+
+
+def test_two_records_at_one_level_stay_two_levels(tmp_path, capsys):
+    fs = 256.0
+    rng = np.random.default_rng(13)
+    w, z = 2 * np.pi * 25.0, 0.02
+    num, den, _ = sps.cont2discrete(([1.0, 0.0, 0.0], [1, 2 * z * w, w ** 2]), 1 / fs, "bilinear")
+    paths = []
+    for k in range(2):
+        b, a = sps.butter(4, 60.0, fs=fs)                 # the drive's band: 0-60 Hz
+        v = sps.lfilter(b, a, rng.normal(size=1 << 15))
+        paths.append(str(_run_file(tmp_path / f"r{k}.h5", {"f": ("force", "N", v),
+                                   "a": ("acceleration", "m/s^2", sps.lfilter(num.ravel(), den, v))},
+                                   fs, {"level": 2.0})))
+    assert main(["frf", *paths, "--out", str(tmp_path / "f.json"), "--json"]) == 0
+    lv = json.loads(capsys.readouterr().out)["levels"]
+    assert [x["level"] for x in lv] == [2.0, 2.0] and 60 < lv[0]["band_hz"][1] < 100   # 1 % power
+    assert main(["frf", *paths, "--out", str(tmp_path / "g.json"), "--band", "all", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["levels"][0]["lines"] > lv[0]["lines"]
+    assert main(["modes", str(tmp_path / "f.json"), "--json"]) == 0
+    levels = json.loads(capsys.readouterr().out)["levels"]
+    assert [x["run"] for x in levels] == ["r0", "r1"]
+    fd = fs / np.pi * np.arctan(np.pi * 25.0 / fs)
+    assert all(abs(x["modes"][0]["frequency_hz"] / fd - 1) < 2e-3 for x in levels)
