@@ -152,7 +152,7 @@ def test_cli_distortion_of_a_multisine_and_modes_of_a_run(tmp_path, capsys):
     r = json.loads(capsys.readouterr().out)["runs"][0]
     assert r["excitation"] == "multisine" and r["period_s"] == pytest.approx(2.0)
     assert r["summary"].startswith("nonlinear, odd,"), r["summary"]
-    assert r["channels"]["acc"]["units"] == "m/s^2"
+    assert r["channels"]["acc"]["units"] == "m/s^2" and r["channels"]["acc"]["harmonics"] == []
     # modes straight from a run file: one 20 Hz mode under random force
     v = rng.normal(size=1 << 15)
     w, z = 2 * np.pi * 20.0, 0.02

@@ -34,7 +34,7 @@ def one(path: str, args: argparse.Namespace) -> dict[str, Any]:
     try:
         if exc.kind == "multisine" and exc.period_s:
             n = int(round(exc.period_s * rec.fs))
-            chans = {name: {"quantity": q, "units": unit,
+            chans = {name: {"quantity": q, "units": unit, "harmonics": [],   # no single fundamental
                             **distortion.multisine(u, x, rec.fs, n, bands=args.bands)}
                      for name, (q, unit, x) in rec.channels.items() if name != d}
             worst = max((c for c in chans.values() if c["quantity"] != rec.channels[d][0]),
