@@ -172,3 +172,26 @@ def test_frfset_keeps_old_files_and_carries_drive_and_coherence(tmp_path):
     back = FrfSet.load(tmp_path / "f.json")
     assert back == b and back.units == "m/s/V" and back.level_units == "V"
     assert back.to_dict()["level_units"] == "V"
+
+
+def test_h1_h2_hv_against_noise_on_either_side(tmp_path):
+    """Noise on the drive biases H1 low by the noise's share (|H1| = |H| / (1 + N/S)) and
+    leaves H2 unbiased; noise on the response the other way; Hv lies between. The set
+    keeps all three."""
+    fs, n = 256.0, 1 << 17
+    rng = np.random.default_rng(21)
+    f = rng.normal(size=n)
+    y = 2.0 * f
+    r = estimate(f + 0.5 * rng.normal(size=n), y[None], fs, method="welch", nperseg=256)
+    band = r.freq_hz > 1
+    h1, h2, hv = (np.median(np.abs(r.alternatives[k][0, band])) for k in ("H1", "H2", "Hv"))
+    assert h1 == pytest.approx(2.0 / 1.25, rel=0.02) and h2 == pytest.approx(2.0, rel=0.02)
+    assert h1 < hv < h2
+    r = estimate(f, (y + 1.0 * rng.normal(size=n))[None], fs, method="welch", nperseg=256)
+    h1, h2 = (np.median(np.abs(r.alternatives[k][0, r.freq_hz > 1])) for k in ("H1", "H2"))
+    assert h1 == pytest.approx(2.0, rel=0.02) and h2 == pytest.approx(2.0 * 1.25, rel=0.02)
+    s = frfset_from_arrays(f, "force", {"y": ("displacement", y + rng.normal(size=n))}, fs,
+                           estimator="H2", method="welch", nperseg=256)
+    s.save(tmp_path / "s.json")
+    back = FrfSet.load(tmp_path / "s.json")
+    assert back.estimator == "H2" and set(back.alternatives) == {"H1", "Hv"} and back == s

@@ -100,7 +100,8 @@ def _summary(s: Any) -> dict[str, Any]:
     md = s.metadata
     return {"run": md.get("run"), "level": float(s.level_n[0]), "level_units": s.level_units,
             "drive": md.get("drive"), "drive_quantity": s.drive_quantity, "quantity": s.quantity,
-            "units": s.units, "estimator": s.estimator, "sensors": list(s.sensors), "lines": len(s),
+            "units": s.units, "estimator": s.estimator, "alternatives": sorted(s.alternatives),
+            "sensors": list(s.sensors), "lines": len(s),
             "frequency_hz": [float(s.frequencies_hz[0]), float(s.frequencies_hz[-1])],
             "band_hz": md.get("band_hz"), "averages": md.get("averages"), "method": md.get("method"),
             "median_coherence": None if s.coherence is None else float(np.median(s.coherence))}

@@ -70,6 +70,7 @@ def frfset_from_result(r: BroadbandFrf, drive_quantity: str, quantities: dict[st
         raise InputError(f"the band {lo:g}-{hi:g} Hz holds {int(keep.sum())} FRF lines", field="band",
                          file=source)
     h, std, coh, lines = h[:, keep], std[:, keep], coh[:, keep], lines[keep]
+    alts = {k: (v * conv)[:, keep].T for k, v in r.alternatives.items() if k != estimator}
     n = lines.size
     lv = float(level) if level else r.drive_rms
     md = {"method": r.method, "averages": r.averages, "drive_rms": r.drive_rms,
@@ -78,4 +79,4 @@ def frfset_from_result(r: BroadbandFrf, drive_quantity: str, quantities: dict[st
                         if quantities[nm] != target}}
     return FrfSet(lines, np.full(n, lv), np.full(n, "up"), np.ones(n, complex), tuple(names),
                   h.T[:, :, None], std.T[:, :, None], target, None, tuple([run] * n) if run else (),
-                  md, drive_quantity, estimator, coh.T)
+                  md, drive_quantity, estimator, coh.T, alts)

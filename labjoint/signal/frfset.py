@@ -9,7 +9,8 @@ the standard deviation of its estimate (the noise floor of the comparison).
 A broadband FRF (:mod:`labjoint.signal.broadband`) is stored in the same contract: one
 "step" per frequency line, ``level_n`` the record's level, ``force`` the unit phasor (1 in
 the drive's unit) so that ``response`` is the FRF itself, ``estimator`` H1, H2 or Hv, and
-``coherence`` per line and sensor. ``drive_quantity`` says what the drive is: "force"
+``coherence`` per line and sensor; ``alternatives`` holds the other estimators of the
+same lines ({"H2": (n, S), "Hv": (n, S)}, NaN where one is undefined). ``drive_quantity`` says what the drive is: "force"
 (N) or "voltage" (V, an amplifier or generator output; then ``level_n`` and ``force``
 are in volts, never newtons: :attr:`FrfSet.units`, e.g. "m/s/V", says so).
 
@@ -70,6 +71,7 @@ class FrfSet:
     drive_quantity: str = "force"       # "force" (N) or "voltage" (V): the unit of force, level_n
     estimator: str = "stepped_sine"     # or a broadband estimator: H1, H2, Hv
     coherence: np.ndarray | None = None  # (n, S) coherence of a broadband estimate (or None)
+    alternatives: dict[str, np.ndarray] = field(default_factory=dict)  # other estimators, (n, S)
 
     def __post_init__(self) -> None:
         put = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 - frozen dataclass
@@ -123,6 +125,13 @@ class FrfSet:
             if c.shape != r.shape[:2] or not np.all((c >= 0) & (c <= 1)):
                 raise InputError(f"must be {r.shape[:2]} values in [0, 1]", field="coherence")
             put("coherence", c)
+        alt = {}
+        for k, v in dict(self.alternatives).items():
+            a = _complex(v, f"alternatives.{k}")
+            if k not in ESTIMATORS[1:] or a.shape != r.shape[:2]:
+                raise InputError(f"must be H1, H2 or Hv shaped {r.shape[:2]}", field=f"alternatives.{k}")
+            alt[k] = a
+        put("alternatives", alt)
 
     @property
     def units(self) -> str:
@@ -161,7 +170,8 @@ class FrfSet:
                       self.quantity, None if self.drive_v is None else self.drive_v[idx],
                       tuple(self.runs[i] for i in idx) if self.runs else (), dict(self.metadata),
                       self.drive_quantity, self.estimator,
-                      None if self.coherence is None else self.coherence[idx])
+                      None if self.coherence is None else self.coherence[idx],
+                      {k: v[idx] for k, v in self.alternatives.items()})
 
     def to_dict(self, arrays: bool = False) -> dict[str, Any]:
         """Plain JSON types; complex numbers as [re, im] pairs (``arrays``: the numeric
@@ -176,7 +186,8 @@ class FrfSet:
                 "runs": list(self.runs), "metadata": self.metadata,
                 "drive_quantity": self.drive_quantity, "units": self.units,
                 "level_units": self.level_units, "estimator": self.estimator,
-                "coherence": None if self.coherence is None else lst(self.coherence)}
+                "coherence": None if self.coherence is None else lst(self.coherence),
+                "alternatives": {k: c(v) for k, v in self.alternatives.items()}}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "FrfSet":
@@ -184,8 +195,8 @@ class FrfSet:
         if not isinstance(d, dict) or d.get("format") != FORMAT:
             raise InputError(f"not an FRF set (format must be {FORMAT!r})", field="format")
 
-        def c(key: str) -> Any:
-            a = np.asarray(d[key], float)
+        def c(key: str, value: Any = None) -> Any:
+            a = np.asarray(d[key] if value is None else value, float)   # null -> NaN
             if a.ndim == 0 or a.shape[-1] != 2:
                 raise InputError("must be [re, im] pairs", field=key)
             return a[..., 0] + 1j * a[..., 1]
@@ -196,7 +207,8 @@ class FrfSet:
                        None if d.get("drive_v") is None else c("drive_v"),
                        tuple(d.get("runs", ())), dict(d.get("metadata", {})),
                        d.get("drive_quantity", "force"), d.get("estimator", "stepped_sine"),
-                       d.get("coherence"))
+                       d.get("coherence"),
+                       {k: c(f"alternatives.{k}", d["alternatives"][k]) for k in d.get("alternatives") or {}})
         except KeyError as exc:
             raise InputError("missing from the FRF set", field=str(exc.args[0])) from None
         except (TypeError, ValueError) as exc:
@@ -231,6 +243,10 @@ class FrfSet:
             return NotImplemented
         for f in fields(self):
             a, b = getattr(self, f.name), getattr(other, f.name)
+            if f.name == "alternatives":
+                if a.keys() != b.keys() or not all(np.array_equal(a[k], b[k], equal_nan=True) for k in a):
+                    return False
+                continue
             if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
                 if a is None or b is None or not np.array_equal(a, b):
                     return False
@@ -255,6 +271,8 @@ def concat(sets: "list[FrfSet]") -> FrfSet:
     coh = (None if any(s.coherence is None for s in sets)
            else np.concatenate([s.coherence for s in sets]))
     est = {s.estimator for s in sets}
+    common = set.intersection(*(set(s.alternatives) for s in sets))
+    alts = {k: np.concatenate([s.alternatives[k] for s in sets]) for k in sorted(common)}
     if len(est) > 1:
         raise InputError(f"the FRF sets mix estimators {sorted(est)}", field="frfsets")
     cat = lambda f: np.concatenate([f(s) for s in sets])  # noqa: E731
@@ -264,4 +282,4 @@ def concat(sets: "list[FrfSet]") -> FrfSet:
                   sets[0].quantity,
                   runs=tuple(r for s in sets for r in s.runs) if all(s.runs for s in sets) else (),
                   drive_quantity=sets[0].drive_quantity,
-                  estimator=est.pop(), coherence=coh)
+                  estimator=est.pop(), coherence=coh, alternatives=alts)
