@@ -152,6 +152,12 @@ def test_bendat_piersol_error_matches_the_scatter():
     assert 0.9 < np.sqrt(np.mean(z ** 2) / 2) < 1.15
 
 
+def test_a_steady_sine_is_not_broadband():
+    t = np.arange(8192) / 256.0
+    with pytest.raises(InputError, match="not broadband"):
+        estimate(np.sin(2 * np.pi * 20 * t), np.ones((1, t.size)), 256.0)
+
+
 def test_a_record_shorter_than_a_segment_is_refused():
     with pytest.raises(InputError, match="fewer than one segment"):
         estimate(np.random.default_rng(0).normal(size=64), np.ones((1, 64)), 100.0,

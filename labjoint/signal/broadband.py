@@ -140,8 +140,7 @@ def estimate(drive: Any, responses: Any, fs: float, *, estimator: str = "H1",
         n = int(round(per))
         if n and abs(per - n) < 1e-6 * n and f.size // n >= 3:
             return periodic(f, y, fs, n, estimator)
-        if exc.kind == "none":
-            raise InputError("the drive is silent: no FRF can be estimated", field="drive")
+        refuse_narrowband(exc)
         found = bursts(f, fs) if exc.kind in ("random", "transient") else []
         if found:
             return burst(f, y, fs, estimator, found)
@@ -171,6 +170,16 @@ def estimate(drive: Any, responses: Any, fs: float, *, estimator: str = "H1",
     return _result(w.freq_hz, e, estimator, float(np.std(f[a0:a1])), (a0 / fs, a1 / fs),
                    f"Welch {estimator} over the active drive ({a0 / fs:.4g}-{a1 / fs:.4g} s), "
                    f"{window} segments of {L} samples, overlap {ov:g}, {w.count} segments")
+
+
+def refuse_narrowband(exc: Excitation) -> None:
+    """A silent drive or a steady sine has no broadband FRF: say what handles it."""
+    if exc.kind == "none":
+        raise InputError("the drive is silent: no FRF can be estimated", field="drive")
+    if exc.kind == "sine":
+        raise InputError(f"the drive is {exc.describe()}, not broadband: an FRF set of step sines is "
+                         "`labjoint structure measured`, its harmonics `labjoint distortion`",
+                         field="drive")
 
 
 def _result(fr: np.ndarray, e: dict[str, np.ndarray], estimator: str, rms: float,

@@ -44,8 +44,7 @@ def estimate_streamed(read: Callable[[int, int], tuple[np.ndarray, np.ndarray]],
     if estimator not in broadband.ESTIMATORS:
         raise InputError(f"must be one of {broadband.ESTIMATORS}", field="estimator")
     exc = detect_streamed(read_drive, n, fs)
-    if exc.kind == "none":
-        raise InputError("the drive is silent: no FRF can be estimated", field="drive")
+    broadband.refuse_narrowband(exc)
     if method not in ("auto", "welch"):
         f, y = read(0, n)
         return broadband.estimate(f, y, fs, estimator=estimator, excitation=exc, nperseg=nperseg,

@@ -3,7 +3,8 @@
 One response over one force, through the broadband estimator every FRF of labjoint uses
 (:func:`labjoint.signal.broadband.estimate`: whole periods of a multisine at its excited
 lines, one unwindowed block per burst with its free decay, Welch over the active part of
-a steady random drive, one block for a sweep or an impact).
+a steady random drive, one block for a sweep or an impact; a steady sine through Welch,
+meaningful at its line only).
 
 >>> fs = 1000.0
 >>> t = np.arange(8 * 1000) / fs
@@ -21,7 +22,7 @@ import numpy as np
 
 from labjoint.signal import validate
 from labjoint.signal.broadband import estimate
-from labjoint.signal.excitation import Excitation
+from labjoint.signal.excitation import Excitation, detect_excitation
 
 
 @dataclass(frozen=True)
@@ -42,5 +43,7 @@ def frf_h1(force: np.ndarray, response: np.ndarray, fs: float,
     f = validate.signal(force, "force", min_samples=16)
     y = validate.signal(response, "response", min_samples=16)
     validate.same_length(f, y, "force", "response")
-    r = estimate(f, y[None, :], fs, excitation=excitation)
+    exc = excitation or detect_excitation(f, fs)
+    # a steady sine has no broadband FRF; Welch's, meaningful at its line, as before
+    r = estimate(f, y[None, :], fs, excitation=exc, method="welch" if exc.kind == "sine" else "auto")
     return FRF(r.freq_hz, r.h[0], r.coherence[0], r.method)
