@@ -6,6 +6,14 @@ f, the generator voltage phasor (for labs without a force sensor, responses per 
 and per sensor the response phasors at h f for h = 1..H (acceleration, m/s^2), each with
 the standard deviation of its estimate (the noise floor of the comparison).
 
+A broadband FRF (:mod:`labjoint.signal.broadband`) is stored in the same contract: one
+"step" per frequency line, ``level_n`` the record's level, ``force`` the unit phasor (1 in
+the drive's unit) so that ``response`` is the FRF itself, ``estimator`` H1, H2 or Hv, and
+``coherence`` per line and sensor; ``alternatives`` holds the other estimators of the
+same lines ({"H2": (n, S), "Hv": (n, S)}, NaN where one is undefined). ``drive_quantity`` says what the drive is: "force"
+(N) or "voltage" (V, an amplifier or generator output; then ``level_n`` and ``force``
+are in volts, never newtons: :attr:`FrfSet.units`, e.g. "m/s/V", says so).
+
 Phasor convention: a signal a cos(h w t + phi) has phasor a exp(i phi) at harmonic h
 (amplitude, not RMS). The accelerance at step k, sensor s is
 ``response[k, s, 0] / force[k]``.
@@ -21,7 +29,6 @@ True
 
 from __future__ import annotations
 
-import json
 import os
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -33,6 +40,10 @@ from labjoint.errors import InputError
 
 FORMAT = "labjoint.frfset/1"
 QUANTITIES = ("acceleration", "velocity", "displacement")
+#: SI unit of each response quantity and of each drive quantity
+RESPONSE_UNITS = {"acceleration": "m/s^2", "velocity": "m/s", "displacement": "m"}
+DRIVES = {"force": "N", "voltage": "V"}
+ESTIMATORS = ("stepped_sine", "H1", "H2", "Hv")
 
 
 def _complex(a: Any, name: str) -> np.ndarray:
@@ -57,6 +68,10 @@ class FrfSet:
     drive_v: np.ndarray | None = None   # (n,) generator voltage phasor at f, V (or None)
     runs: tuple[str, ...] = ()          # the run each step came from (or empty)
     metadata: dict[str, Any] = field(default_factory=dict)
+    drive_quantity: str = "force"       # "force" (N) or "voltage" (V): the unit of force, level_n
+    estimator: str = "stepped_sine"     # or a broadband estimator: H1, H2, Hv
+    coherence: np.ndarray | None = None  # (n, S) coherence of a broadband estimate (or None)
+    alternatives: dict[str, np.ndarray] = field(default_factory=dict)  # other estimators, (n, S)
 
     def __post_init__(self) -> None:
         put = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 - frozen dataclass
@@ -101,6 +116,32 @@ class FrfSet:
         if runs and len(runs) != n:
             raise InputError(f"must name {n} runs or none", field="runs")
         put("runs", runs)
+        if self.drive_quantity not in DRIVES:
+            raise InputError(f"must be one of {list(DRIVES)}", field="drive_quantity")
+        if self.estimator not in ESTIMATORS:
+            raise InputError(f"must be one of {ESTIMATORS}", field="estimator")
+        if self.coherence is not None:
+            c = np.asarray(self.coherence, float)
+            if c.shape != r.shape[:2] or not np.all((c >= 0) & (c <= 1)):
+                raise InputError(f"must be {r.shape[:2]} values in [0, 1]", field="coherence")
+            put("coherence", c)
+        alt = {}
+        for k, v in dict(self.alternatives).items():
+            a = _complex(v, f"alternatives.{k}")
+            if k not in ESTIMATORS[1:] or a.shape != r.shape[:2]:
+                raise InputError(f"must be H1, H2 or Hv shaped {r.shape[:2]}", field=f"alternatives.{k}")
+            alt[k] = a
+        put("alternatives", alt)
+
+    @property
+    def units(self) -> str:
+        """The FRF's unit, response over drive, e.g. "m/s^2/N" or "m/s/V"."""
+        return f"{RESPONSE_UNITS[self.quantity]}/{DRIVES[self.drive_quantity]}"
+
+    @property
+    def level_units(self) -> str:
+        """The unit of ``level_n`` and ``force``: "N" or "V"."""
+        return DRIVES[self.drive_quantity]
 
     @property
     def harmonics(self) -> int:
@@ -127,17 +168,26 @@ class FrfSet:
         return FrfSet(self.frequencies_hz[idx], self.level_n[idx], self.direction[idx],
                       self.force[idx], self.sensors, self.response[idx], self.response_std[idx],
                       self.quantity, None if self.drive_v is None else self.drive_v[idx],
-                      tuple(self.runs[i] for i in idx) if self.runs else (), dict(self.metadata))
+                      tuple(self.runs[i] for i in idx) if self.runs else (), dict(self.metadata),
+                      self.drive_quantity, self.estimator,
+                      None if self.coherence is None else self.coherence[idx],
+                      {k: v[idx] for k, v in self.alternatives.items()})
 
-    def to_dict(self) -> dict[str, Any]:
-        """Plain JSON types; complex numbers as [re, im] pairs."""
-        c = lambda a: np.stack([a.real, a.imag], -1).tolist()  # noqa: E731
-        return {"format": FORMAT, "frequencies_hz": self.frequencies_hz.tolist(),
-                "level_n": self.level_n.tolist(), "direction": self.direction.tolist(),
+    def to_dict(self, arrays: bool = False) -> dict[str, Any]:
+        """Plain JSON types; complex numbers as [re, im] pairs (``arrays``: the numeric
+        fields as float arrays, for a writer that takes them)."""
+        lst = np.ascontiguousarray if arrays else (lambda a: a.tolist())  # noqa: E731
+        c = lambda a: lst(np.stack([a.real, a.imag], -1))  # noqa: E731
+        return {"format": FORMAT, "frequencies_hz": lst(self.frequencies_hz),
+                "level_n": lst(self.level_n), "direction": self.direction.tolist(),
                 "force": c(self.force), "sensors": list(self.sensors), "response": c(self.response),
-                "response_std": self.response_std.tolist(), "quantity": self.quantity,
+                "response_std": lst(self.response_std), "quantity": self.quantity,
                 "drive_v": None if self.drive_v is None else c(self.drive_v),
-                "runs": list(self.runs), "metadata": self.metadata}
+                "runs": list(self.runs), "metadata": self.metadata,
+                "drive_quantity": self.drive_quantity, "units": self.units,
+                "level_units": self.level_units, "estimator": self.estimator,
+                "coherence": None if self.coherence is None else lst(self.coherence),
+                "alternatives": {k: c(v) for k, v in self.alternatives.items()}}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "FrfSet":
@@ -145,8 +195,8 @@ class FrfSet:
         if not isinstance(d, dict) or d.get("format") != FORMAT:
             raise InputError(f"not an FRF set (format must be {FORMAT!r})", field="format")
 
-        def c(key: str) -> Any:
-            a = np.asarray(d[key], float)
+        def c(key: str, value: Any = None) -> Any:
+            a = np.asarray(d[key] if value is None else value, float)   # null -> NaN
             if a.ndim == 0 or a.shape[-1] != 2:
                 raise InputError("must be [re, im] pairs", field=key)
             return a[..., 0] + 1j * a[..., 1]
@@ -155,27 +205,36 @@ class FrfSet:
                        tuple(d["sensors"]), c("response"), d["response_std"],
                        d.get("quantity", "acceleration"),
                        None if d.get("drive_v") is None else c("drive_v"),
-                       tuple(d.get("runs", ())), dict(d.get("metadata", {})))
+                       tuple(d.get("runs", ())), dict(d.get("metadata", {})),
+                       d.get("drive_quantity", "force"), d.get("estimator", "stepped_sine"),
+                       d.get("coherence"),
+                       {k: c(f"alternatives.{k}", d["alternatives"][k]) for k in d.get("alternatives") or {}})
         except KeyError as exc:
             raise InputError("missing from the FRF set", field=str(exc.args[0])) from None
         except (TypeError, ValueError) as exc:
             raise InputError(f"unreadable FRF set: {exc}", field="frfset") from None
 
     def save(self, path: str | Path) -> Path:
-        """Write as JSON in one step (a temporary file renamed over the target)."""
+        """Write as JSON in one step (a temporary file renamed over the target). orjson
+        writes the arrays straight from numpy (a broadband set holds 10^5-10^6 numbers:
+        the standard encoder took most of `labjoint frf`'s time on a 10-minute record)."""
+        import orjson
+
         p = Path(path)
         tmp = p.with_name(f".{p.name}.tmp")
-        tmp.write_text(json.dumps(self.to_dict()))
+        tmp.write_bytes(orjson.dumps(self.to_dict(arrays=True), option=orjson.OPT_SERIALIZE_NUMPY))
         os.replace(tmp, p)
         return p
 
     @classmethod
     def load(cls, path: str | Path) -> "FrfSet":
-        """Read a file written by :meth:`save`; errors name the file."""
+        """Read a file written by :meth:`save` (or any JSON of the format); errors name the file."""
+        import orjson
+
         p = Path(path)
         try:
-            d = json.loads(p.read_text())
-        except (OSError, ValueError) as exc:
+            d = orjson.loads(p.read_bytes())
+        except (OSError, orjson.JSONDecodeError) as exc:
             raise InputError(f"{p}: not a readable FRF set ({exc})", field="path") from None
         return cls.from_dict(d)
 
@@ -184,6 +243,10 @@ class FrfSet:
             return NotImplemented
         for f in fields(self):
             a, b = getattr(self, f.name), getattr(other, f.name)
+            if f.name == "alternatives":
+                if a.keys() != b.keys() or not all(np.array_equal(a[k], b[k], equal_nan=True) for k in a):
+                    return False
+                continue
             if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
                 if a is None or b is None or not np.array_equal(a, b):
                     return False
@@ -202,9 +265,21 @@ def concat(sets: "list[FrfSet]") -> FrfSet:
         raise InputError("the FRF sets name different sensors", field="frfsets")
     if len({s.quantity for s in sets}) > 1:
         raise InputError("the FRF sets measure different quantities", field="frfsets")
+    if len({s.drive_quantity for s in sets}) > 1:
+        raise InputError("the FRF sets have different drives (force and voltage)", field="frfsets")
     H = min(s.harmonics for s in sets)
+    coh = (None if any(s.coherence is None for s in sets)
+           else np.concatenate([s.coherence for s in sets]))
+    est = {s.estimator for s in sets}
+    common = set.intersection(*(set(s.alternatives) for s in sets))
+    alts = {k: np.concatenate([s.alternatives[k] for s in sets]) for k in sorted(common)}
+    if len(est) > 1:
+        raise InputError(f"the FRF sets mix estimators {sorted(est)}", field="frfsets")
     cat = lambda f: np.concatenate([f(s) for s in sets])  # noqa: E731
     return FrfSet(cat(lambda s: s.frequencies_hz), cat(lambda s: s.level_n),
                   cat(lambda s: s.direction), cat(lambda s: s.force), sets[0].sensors,
                   cat(lambda s: s.response[:, :, :H]), cat(lambda s: s.response_std[:, :, :H]),
-                  sets[0].quantity)
+                  sets[0].quantity,
+                  runs=tuple(r for s in sets for r in s.runs) if all(s.runs for s in sets) else (),
+                  drive_quantity=sets[0].drive_quantity,
+                  estimator=est.pop(), coherence=coh, alternatives=alts)
