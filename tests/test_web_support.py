@@ -115,10 +115,12 @@ class Watched:
         return self.errors + [f"off-site request: {u}" for u in self.offsite]
 
 
-def open_page(browser: Any, base_url: str, token: str | None = None) -> Watched:
-    """A fresh page (new context) on ``base_url`` that records errors and blocks any
-    request to another host; ``token`` is entered in the page's token box."""
-    ctx = browser.new_context(viewport={"width": 1400, "height": 1000})
+def open_page(browser: Any, base_url: str, token: str | None = None, width: int = 1400,
+              height: int = 1000) -> Watched:
+    """A fresh page (new context, ``width`` x ``height`` CSS px) on ``base_url`` that
+    records errors and blocks any request to another host; ``token`` is entered in the
+    page's token box."""
+    ctx = browser.new_context(viewport={"width": width, "height": height})
     page = ctx.new_page()
     w = Watched(page)
     host = urlsplit(base_url).netloc

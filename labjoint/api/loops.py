@@ -8,8 +8,14 @@ of the filter's settling length on each side (the overlap the streaming filter u
 filtering that stretch gives the samples the pipeline saw, and each cycle is resampled
 over exactly one period from its start (the fundamental's upward zero crossing) to at
 most ``points_per_cycle`` points. Per-cycle energy loss and stiffness are the pipeline's
-own numbers. Analyses are kept in a small cache keyed by the file's identity and length,
-so a page coming back to a run does not rerun it.
+own numbers. A finished run goes through :func:`labjoint.identify.analyze.analyze_file`,
+exactly as ``labjoint analyze`` runs it: a record that is not a steady sine (a multisine,
+a sweep) or has a clipped channel is refused with the pipeline's own message and no loop
+is drawn (issue 33 item 1); a run still being recorded streams through
+:func:`~labjoint.identify.analyze.analyze_blocks`. Every stored channel is also checked
+for flat tops (:func:`labjoint.signal.clipping.flat_top_fraction`) so the page can warn
+of a clipped one whichever pipeline looks at it. Analyses are kept in a small cache keyed
+by the file's identity and length, so a page coming back to a run does not rerun it.
 """
 
 from __future__ import annotations
@@ -25,8 +31,9 @@ import numpy as np
 from labjoint.api.analysis import loop_blocks
 from labjoint.api.resolve import roles
 from labjoint.errors import InputError
-from labjoint.identify.analyze import analyze_blocks
+from labjoint.identify.analyze import analyze_blocks, analyze_file
 from labjoint.identify.loop import LoopResult
+from labjoint.signal.clipping import MIN_FRACTION, flat_top_fraction
 from labjoint.signal.cycles import cycles
 from labjoint.signal.filter import PAPER_CUTOFF_HZ, PAPER_ORDER, butter_sos, lowpass, settling_samples
 from labjoint.storage import RunFile
@@ -44,17 +51,17 @@ class _Cache:
 
     def __init__(self, size: int) -> None:
         self.size = size
-        self._d: OrderedDict[tuple[Any, ...], LoopResult] = OrderedDict()
+        self._d: OrderedDict[tuple[Any, ...], Any] = OrderedDict()
         self._lock = threading.Lock()
 
-    def get(self, key: tuple[Any, ...]) -> LoopResult | None:
+    def get(self, key: tuple[Any, ...]) -> Any:
         with self._lock:
             hit = self._d.get(key)
             if hit is not None:
                 self._d.move_to_end(key)
             return hit
 
-    def put(self, key: tuple[Any, ...], value: LoopResult) -> None:
+    def put(self, key: tuple[Any, ...], value: Any) -> None:
         with self._lock:
             self._d[key] = value
             self._d.move_to_end(key)
@@ -65,16 +72,55 @@ class _Cache:
 _CACHE = _Cache(CACHE_SIZE)
 
 
-def analysis(rf: RunFile, force: str = "joint") -> LoopResult:
-    """The loop pipeline's result on the open run (``labjoint analyze``'s defaults)."""
+def _key(rf: RunFile, *what: Any) -> tuple[Any, ...]:
     st = Path(rf.path).stat()
-    key = (str(Path(rf.path).resolve()), st.st_mtime_ns, st.st_size, rf.n_samples, force)
+    return (str(Path(rf.path).resolve()), st.st_mtime_ns, st.st_size, rf.n_samples, *what)
+
+
+def analysis(rf: RunFile, force: str = "joint") -> LoopResult:
+    """The loop pipeline's result on the open run (``labjoint analyze``'s defaults); an
+    InputError (cached too) when the pipeline refuses the run."""
+    key = _key(rf, force)
     hit = _CACHE.get(key)
     if hit is None:
-        hit = analyze_blocks(loop_blocks(rf, force), rf.sample_rate_hz, rf.frequency_hz,
-                             PAPER_CUTOFF_HZ)
+        try:
+            if rf.status == "running":
+                hit = analyze_blocks(loop_blocks(rf, force), rf.sample_rate_hz,
+                                     rf.frequency_hz, PAPER_CUTOFF_HZ)
+            else:
+                hit = analyze_file(rf.path, force=force)
+        except InputError as exc:
+            hit = exc
         _CACHE.put(key, hit)
+    if isinstance(hit, InputError):        # a fresh one: several requests may see it
+        raise InputError(hit.message, file=hit.file, line=hit.line, column=hit.column,
+                         field=hit.field)
     return hit
+
+
+#: Samples read at a time when scanning a run's channels for flat tops.
+SCAN_SAMPLES = 1 << 18
+
+
+def clipped_channels(rf: RunFile) -> list[dict[str, Any]]:
+    """The stored channels that sat at their input range: flat tops over more than
+    ``MIN_FRACTION`` of a block's samples (cached like the analysis)."""
+    key = _key(rf, "clipped")
+    hit = _CACHE.get(key)
+    if hit is None:
+        hit = []
+        for name in rf.channel_names:
+            worst, level = 0.0, float("nan")
+            for a in range(0, rf.n_samples, SCAN_SAMPLES):
+                frac, lvl = flat_top_fraction(rf.physical(name, a, min(a + SCAN_SAMPLES,
+                                                                       rf.n_samples)))
+                if frac > worst:
+                    worst, level = frac, lvl
+            if worst > MIN_FRACTION:
+                hit.append({"channel": name, "level": level, "unit": rf.channel(name).unit,
+                            "fraction": worst})
+        _CACHE.put(key, hit)
+    return list(hit)
 
 
 def _filtered(rf: RunFile, force: str, a: int, b: int, cutoff: float | None) -> np.ndarray:
@@ -99,7 +145,8 @@ def empty(rf: RunFile, reason: str, **extra: Any) -> dict[str, Any]:
             "n_samples": rf.n_samples, "sample_rate_hz": rf.sample_rate_hz,
             "frequency_hz": rf.frequency_hz, "cutoff_hz": None, "n_cycles": 0, "n_steady": 0,
             "steady_start": None, "steady_stop": None, "points_per_cycle": 0, "cycles": [],
-            "summary": {}, "reason": reason, "warnings": [], **extra}
+            "summary": {}, "reason": reason, "refused": None, "clipped": [], "warnings": [],
+            **extra}
 
 
 def steady_loops(rf: RunFile, points_per_cycle: int = 128, max_cycles: int = 8,
@@ -108,13 +155,18 @@ def steady_loops(rf: RunFile, points_per_cycle: int = 128, max_cycles: int = 8,
     ``MAX_SPAN_SAMPLES``), each resampled to at most ``points_per_cycle`` points (fewer
     when a cycle holds fewer samples), with their loop quantities; an empty list and the
     reason when there is none."""
+    clipped = clipped_channels(rf) if rf.status != "running" else []
     try:
         res = analysis(rf, force)
     except InputError as exc:
         where = f"{exc.field} " if exc.field else ""
-        return empty(rf, f"no steady cycles: {where}{exc.message}")
+        refused = exc.field if exc.field == "excitation" or "clipped" in exc.message else None
+        if refused:
+            return empty(rf, f"refused by the loop pipeline: {where}{exc.message}",
+                         refused=refused, clipped=clipped)
+        return empty(rf, f"no steady cycles: {where}{exc.message}", clipped=clipped)
     md = res.metadata
-    base = empty(rf, "", frequency_hz=res.frequency_hz, cutoff_hz=md.get("cutoff_hz"),
+    base = empty(rf, "", clipped=clipped, frequency_hz=res.frequency_hz, cutoff_hz=md.get("cutoff_hz"),
                  n_samples=md.get("n_samples", rf.n_samples), n_cycles=res.n_cycles,
                  n_steady=int(res.steady.sum()), steady_start=md.get("steady_start"),
                  steady_stop=md.get("steady_stop"), warnings=list(md.get("warnings", [])),

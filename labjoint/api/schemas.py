@@ -281,6 +281,15 @@ class LoopCycle(BaseModel):
     force_n: list[float | None] = Field(description="joint force at the same instants")
 
 
+class ClippedChannel(BaseModel):
+    """A stored channel that sat at its input range (labjoint.signal.clipping)."""
+
+    channel: str
+    level: float = Field(description="the value it sat at, in the channel's unit")
+    unit: str
+    fraction: float = Field(description="fraction of the samples in flat tops")
+
+
 class RunLoops(BaseModel):
     """The hysteresis loops of a run's steady cycles (empty, with a reason, if none)."""
 
@@ -301,6 +310,11 @@ class RunLoops(BaseModel):
     summary: dict[str, float | int | None] = Field(
         description="mean and std over every steady cycle (labjoint analyze's fields)")
     reason: str | None = Field(description="why no cycle is returned; null when some are")
+    refused: str | None = Field(None, description="the field the loop pipeline refused the run "
+                                "for ('excitation': not a steady sine; a channel: clipped); "
+                                "null when it analysed the run or found no cycle")
+    clipped: list[ClippedChannel] = Field(default_factory=list, description="stored channels "
+                                          "whose input range was exceeded (flat tops)")
     warnings: list[str]
 
 

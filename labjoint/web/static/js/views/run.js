@@ -126,8 +126,9 @@ function identifySection(name) {
   const mu = h('input', { type: 'number', step: 'any', min: 0, max: 5, id: 'friction',
     placeholder: 'stored value', title: 'empty: the latest friction test stored on the server' });
   const render = (res) => {
-    out.replaceChildren(res ? identificationTable(res.row)
-      : h('p', { class: 'note' }, 'Not identified yet: start an analysis below.'));
+    out.replaceChildren(!res ? h('p', { class: 'note' }, 'Not identified yet: start an analysis below.')
+      : res.row.error ? h('p', { class: 'note error', id: 'identify-refused' }, `Refused: ${onPage(res.row.error)}`)
+        : identificationTable(res.row));
     if (res) out.append(h('p', { class: 'caption' }, `From the ${res.method} analysis finished ${when(res.finished)}.`));
   };
   async function start(method) {
@@ -137,7 +138,6 @@ function identifySection(name) {
       const result = await runJob('/analyses', '/analyses', { runs: [name], method, options },
         (job) => note(msg, `Identifying… ${Math.round(100 * job.progress)} % ${job.message || ''}`, 'busy'));
       const row = result.runs[0];
-      if (row.error) throw new Error(row.error);
       render({ row, method, finished: new Date().toISOString() });
       note(msg, '');
     } catch (err) {
@@ -180,9 +180,25 @@ function cycleCount(body, ch) {
     + `(a recording that starts and ends mid-cycle has one fewer whole cycle than it holds)`;
 }
 
-async function steadyLoopsSection(name, ch, asked) {
+// Channels that sat at their input range, in words (null when none did).
+export function clippedNote(clipped) {
+  if (!clipped || !clipped.length) return null;
+  const each = clipped.map((c) => `${c.channel} sat at ${fmt(c.level, 4)} ${c.unit} `
+    + `(flat tops over ${fmt(100 * c.fraction, 2)} % of the samples)`);
+  return `Clipped: ${each.join('; ')}. Its input range was exceeded: a loop, energy loss, `
+    + 'stiffness or friction coefficient taken from it would be wrong. Record it again with a larger input range.';
+}
+
+async function steadyLoopsSection(name, ch, asked, title, top) {
   const body = await asked;
   const n = body.cycles.length;
+  const clip = clippedNote(body.clipped);
+  if (clip) top.replaceChildren(h('p', { class: 'note error', id: 'run-clipped' }, clip));
+  if (body.refused) {
+    title.textContent = 'Hysteresis loops: refused';
+    return [h('p', { class: 'note error', id: 'loop-refused', 'data-field': body.refused },
+      `No loop is drawn and no energy loss or stiffness quoted: ${onPage(body.reason)}`)];
+  }
   if (!n) {
     return [loopPlot(body, { id: 'loop' }), h('p', { class: 'note', id: 'loop-reason' },
       `No steady cycle to draw. ${body.reason || ''}`)];
@@ -232,14 +248,16 @@ export async function show(el, routeInfo) {
   const raw = h('div', { id: 'raw' }, h('p', { class: 'note busy' }, 'Loading signals…'));
   const loops = h('div', { id: 'loops' }, h('p', { class: 'note busy' }, 'Finding the steady cycles…'));
   const state = stateNote(rec, ch);
-  el.append(h('h1', {}, name), ...(state ? [h('p', { class: 'note error', id: 'run-state' }, state)] : []),
+  const loopsTitle = h('h2', { id: 'loops-title' }, 'Hysteresis loops of the steady cycles');
+  const top = h('div', { id: 'run-warnings' });
+  el.append(h('h1', {}, name), ...(state ? [h('p', { class: 'note error', id: 'run-state' }, state)] : []), top,
     h('div', { class: 'grid2' }, section('Conditions', conditions(rec, ch),
       rec.status !== 'running' ? h('p', {}, h('a', { href: `/api/v1/runs/${encodeURIComponent(name)}/file`, download: `${name}.h5` }, 'Download the HDF5 run file')) : null),
-    section('Hysteresis loops of the steady cycles', loops)),
+    h('section', { class: 'card' }, loopsTitle, loops)),
     identifySection(name),
     section('Raw signals', raw));
   rawSignals(name, raw, ch.duration_s, dataP).catch((err) => raw.replaceChildren(h('p', { class: 'note error' }, err.message)));
-  const pending = rec.status === 'running' ? recordedLoops(name, rec, ch) : steadyLoopsSection(name, ch, loopsP);
+  const pending = rec.status === 'running' ? recordedLoops(name, rec, ch) : steadyLoopsSection(name, ch, loopsP, loopsTitle, top);
   pending.then((parts) => loops.replaceChildren(...parts.filter(Boolean)))
     .catch((err) => loops.replaceChildren(h('p', { class: 'note error' }, err.message)));
   return null;
