@@ -5,6 +5,7 @@ headless Chromium (Debian's /usr/bin/chromium, never downloaded) driven by Playw
 from __future__ import annotations
 
 import contextlib
+import os
 import socket
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -90,9 +91,13 @@ def site(tmp: Path) -> Iterator[Site]:
 
 @contextlib.contextmanager
 def chromium() -> Iterator[Any]:
-    """Headless Debian Chromium through Playwright (skips when it is not installed)."""
+    """Headless Debian Chromium through Playwright (skips when it is not installed,
+    fails instead under ``LABJOINT_REQUIRE_BROWSER=1``, as CI runs: .ci/run)."""
     if not CHROMIUM.exists():
-        pytest.skip(f"{CHROMIUM} is not installed (make browser: apt-get install chromium)")
+        why = f"{CHROMIUM} is not installed (make browser: apt-get install chromium)"
+        if os.environ.get("LABJOINT_REQUIRE_BROWSER") == "1":
+            pytest.fail(f"the browser tests must run here: {why}", pytrace=False)
+        pytest.skip(why)
     from playwright.sync_api import sync_playwright
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
