@@ -177,8 +177,33 @@ RunSummary = from_domain(RunRecord, "RunSummary", exclude=("path", "start_ts"),
                          doc="A run as the catalog lists it (storage.catalog.RunRecord).")
 
 
+#: The loop results a run list shows (labjoint analyze's fields, SI).
+RESULT_KEYS = ("energy_loss_j", "damping_ns_per_m", "stiffness_n_per_m", "below_resolution")
+
+
+class RunResult(BaseModel):
+    """A run's latest stored loop result (``labjoint reprocess --pipeline analyze``)."""
+
+    pipeline: str
+    status: Literal["complete", "not_applicable", "failed"] = Field(
+        description="complete: analysed; not_applicable: a run the pipeline does not handle "
+                    "(not a steady sine, no displacement sensor); failed: refused (error)")
+    computed_at: str
+    version: str = Field(description="pipeline version (code hash) that made it")
+    error: str | None = None
+    energy_loss_j: float | None = None
+    damping_ns_per_m: float | None = None
+    stiffness_n_per_m: float | None = None
+    below_resolution: bool | None = None
+
+
+class RunListItem(RunSummary):  # type: ignore[misc,valid-type]
+    result: RunResult | None = Field(None, description="latest stored loop result; null: "
+                                     "never analysed by reprocess")
+
+
 class RunList(BaseModel):
-    items: list[RunSummary]
+    items: list[RunListItem]
     limit: int
     offset: int
     next_offset: int | None = Field(description="offset of the next page, null on the last")

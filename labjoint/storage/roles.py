@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Iterable
 
-from labjoint.errors import InputError
+from labjoint.errors import InputError, NotApplicable
 
 FORCE_CHOICES = ("joint", "reference")
 
@@ -44,12 +44,16 @@ class ChannelRoles:
         """Displacement channel(s) and the ``kind`` force channel, all present, or an error
         naming the missing channel (and ``source``, the file)."""
         fch = self.force(kind)
+        if not self.displacement:
+            raise NotApplicable("run has no displacement channel (an accelerometer-only "
+                                f"record?); channels: {list(self.names)}", file=source,
+                                field="displacement_channels")
         if len(self.displacement) not in (1, 2):
             raise InputError("displacement_channels must name one or two channels",
                              file=source, field="displacement_channels")
         for c in [*self.displacement, fch]:
             if c not in self.names:
-                raise InputError(f"run has no channel {c!r}; channels: {list(self.names)}",
+                raise NotApplicable(f"run has no channel {c!r}; channels: {list(self.names)}",
                                  file=source, field=c)
         return list(self.displacement), fch
 
