@@ -14,7 +14,7 @@ from typing import Iterator
 
 import pytest
 
-from test_api_helpers import CONTROL, wait_for
+from test_api_helpers import CONTROL, SHORT, wait_for
 from test_web_support import FINISHED, chromium, open_page, run_plan, screenshot, site
 
 pytestmark = pytest.mark.browser
@@ -34,6 +34,10 @@ def day(tmp_path_factory):
         ms = run_plan(s.http, "multisine", **MULTISINE)
         assert ms["status"] == "done", ms
         s.multisine = ms["runs"][0]
+        low = run_plan(s.http, "amplitude_sweep", amplitudes_vpp=[4.0, 10.0, 20.0],
+                       frequency_hz=100, torque_nm=5, **SHORT)
+        assert low["status"] == "done", low
+        s.low = low["runs"]
         yield s, browser
 
 
@@ -222,3 +226,72 @@ def test_live_lists_every_job_and_the_stop_banner_leaves_every_page(day, width):
     assert page.locator(f"tr[data-job='{running}'] a", has_text=aborted_run).count() == 1
     assert not w.problems(), w.problems()
     assert not other.problems(), other.problems()
+
+
+def _reprocess_analyze(s) -> dict:
+    """labjoint reprocess --pipeline analyze over the site's catalog, in this process."""
+    from labjoint.batch.reprocess import SerialRunner, execute, plan_reprocess
+    from labjoint.storage.results import Results
+    cat = s.svc.app.state.catalog
+    results = Results(cat)
+    return execute(plan_reprocess(results, cat.query(), "analyze", {}), SerialRunner(), results)
+
+
+@pytest.mark.parametrize("width", WIDTHS)
+def test_the_runs_table_shows_each_runs_result_or_why_it_has_none(day, width):
+    """Item 13: W, C, K of an analysed run; 'not applicable' for the multisine."""
+    s, browser = day
+    rep = _reprocess_analyze(s)
+    assert rep["failed"] == 0, rep
+    by = {r["run"]: r for r in rep["runs"]}
+    assert by[s.multisine]["status"] in ("not_applicable", "skipped")
+    w = open_page(browser, s.url, width=width)
+    page = w.page
+    page.wait_for_selector(f"tr[data-run='{s.multisine}'] td.result")
+    res = page.locator(f"tr[data-run='{s.multisine}'] td.result")
+    assert res.get_attribute("data-result") == "not_applicable"
+    assert res.inner_text().startswith("not applicable") and "multisine" in res.inner_text()
+    name = s.sweep[-1]
+    stored = s.http.get("/runs", params={"search": name}).json()["items"][0]["result"]
+    assert stored["status"] == "complete"
+    cells = page.locator(f"tr[data-run='{name}'] td").all_inner_texts()
+    assert cells[11] == "analysed"
+    assert float(cells[8]) == pytest.approx(stored["energy_loss_j"] * 1e3, rel=1e-3)
+    assert float(cells[9]) == pytest.approx(stored["damping_ns_per_m"], rel=1e-3)
+    assert float(cells[10]) == pytest.approx(stored["stiffness_n_per_m"] * 1e-6, rel=1e-3)
+    assert _wide(page)[0] <= width
+    screenshot(page, f"runs-results-{width}")
+    assert not w.problems(), w.problems()
+
+
+@pytest.mark.parametrize("width", WIDTHS)
+def test_trends_refuse_one_exponent_across_frequencies_and_list_refusals_by_reason(day, width):
+    """Item 2: 100 Hz and 400 Hz sweeps get no common exponent; each series its own.
+    Item 13: the runs Trends cannot analyse, grouped by reason."""
+    s, browser = day
+    body = s.http.get("/trends", params={"plan": "amplitude_sweep", "status": "complete"}).json()
+    assert body["fit"]["error"] and "2 frequencies" in body["fit"]["error"], body["fit"]
+    got = {(f["frequency_hz"], f["torque_nm"]): f for f in body["series_fits"]}
+    assert set(got) == {(100.0, 5.0), (400.0, 5.0)}
+    assert all(f["error"] is None and f["exponent"] > 1.5 for f in got.values()), got
+    w = open_page(browser, s.url, width=width)
+    page = w.page
+    page.goto(f"{s.url}/#/trends?plan=amplitude_sweep&status=complete")
+    page.wait_for_selector("#trend-series li")
+    assert "no single exponent" in page.inner_text("#trend-exponent")
+    items = page.locator("#trend-series li").evaluate_all(
+        "ls => ls.map(l => [Number(l.dataset.frequency), Number(l.dataset.exponent)])")
+    assert sorted(map(tuple, items)) == sorted((k[0], got[k]["exponent"]) for k in got)
+    legend = page.locator("svg[data-plot=trend-energy_loss_j] .legend-text").evaluate_all(
+        "ts => ts.map(t => t.textContent)")
+    assert any("100 Hz" in t for t in legend) and any("400 Hz" in t for t in legend), legend
+    assert _wide(page)[0] <= width
+    screenshot(page, f"trends-series-{width}")
+    page.goto(f"{s.url}/#/trends?status=complete")                 # every plan: refusals
+    page.wait_for_selector("#trend-errors li")
+    every = s.http.get("/trends", params={"status": "complete"}).json()["errors"]
+    assert every and any(e["run"] == s.multisine for e in every)
+    counts = page.locator("#trend-errors li").evaluate_all("ls => ls.map(l => Number(l.dataset.runs))")
+    assert sum(counts) == len(every) and len(counts) <= len(every)
+    assert "multisine" in page.inner_text("#trend-errors")
+    assert not w.problems(), w.problems()

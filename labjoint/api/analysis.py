@@ -17,6 +17,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from labjoint.api.errors import ApiError
+from labjoint.api.clipped import friction_flag
 from labjoint.api.resolve import RunResolver, roles
 from labjoint.errors import InputError
 from labjoint.identify.analyze import analyze_blocks, analyze_file
@@ -144,5 +145,9 @@ def run_analysis(resolver: RunResolver, method: str, names: list[str],
         except (InputError, ApiError) as exc:
             out.append({"run": name, "error": exc.message if isinstance(exc, ApiError)
                         else str(exc)})
+            continue
+        flag = friction_flag(resolver, out[-1].get("friction_source"))
+        if flag:
+            out[-1]["friction_flag"] = flag
     progress(1.0, "done")
     return {"method": method, "options": opts, "runs": out}

@@ -13,7 +13,7 @@ exactly as ``labjoint analyze`` runs it: a record that is not a steady sine (a m
 a sweep) or has a clipped channel is refused with the pipeline's own message and no loop
 is drawn (issue 33 item 1); a run still being recorded streams through
 :func:`~labjoint.identify.analyze.analyze_blocks`. Every stored channel is also checked
-for flat tops (:func:`labjoint.signal.clipping.flat_top_fraction`) so the page can warn
+for flat tops (:mod:`labjoint.api.clipped`) so the page can warn
 of a clipped one whichever pipeline looks at it. Analyses are kept in a small cache keyed
 by the file's identity and length, so a page coming back to a run does not rerun it.
 """
@@ -29,11 +29,11 @@ from typing import Any
 import numpy as np
 
 from labjoint.api.analysis import loop_blocks
+from labjoint.api.clipped import clipped_channels, file_key
 from labjoint.api.resolve import roles
 from labjoint.errors import InputError
 from labjoint.identify.analyze import analyze_blocks, analyze_file
 from labjoint.identify.loop import LoopResult
-from labjoint.signal.clipping import MIN_FRACTION, flat_top_fraction
 from labjoint.signal.cycles import cycles
 from labjoint.signal.filter import PAPER_CUTOFF_HZ, PAPER_ORDER, butter_sos, lowpass, settling_samples
 from labjoint.storage import RunFile
@@ -72,15 +72,10 @@ class _Cache:
 _CACHE = _Cache(CACHE_SIZE)
 
 
-def _key(rf: RunFile, *what: Any) -> tuple[Any, ...]:
-    st = Path(rf.path).stat()
-    return (str(Path(rf.path).resolve()), st.st_mtime_ns, st.st_size, rf.n_samples, *what)
-
-
 def analysis(rf: RunFile, force: str = "joint") -> LoopResult:
     """The loop pipeline's result on the open run (``labjoint analyze``'s defaults); an
     InputError (cached too) when the pipeline refuses the run."""
-    key = _key(rf, force)
+    key = file_key(rf, force)
     hit = _CACHE.get(key)
     if hit is None:
         try:
@@ -96,31 +91,6 @@ def analysis(rf: RunFile, force: str = "joint") -> LoopResult:
         raise InputError(hit.message, file=hit.file, line=hit.line, column=hit.column,
                          field=hit.field)
     return hit
-
-
-#: Samples read at a time when scanning a run's channels for flat tops.
-SCAN_SAMPLES = 1 << 18
-
-
-def clipped_channels(rf: RunFile) -> list[dict[str, Any]]:
-    """The stored channels that sat at their input range: flat tops over more than
-    ``MIN_FRACTION`` of a block's samples (cached like the analysis)."""
-    key = _key(rf, "clipped")
-    hit = _CACHE.get(key)
-    if hit is None:
-        hit = []
-        for name in rf.channel_names:
-            worst, level = 0.0, float("nan")
-            for a in range(0, rf.n_samples, SCAN_SAMPLES):
-                frac, lvl = flat_top_fraction(rf.physical(name, a, min(a + SCAN_SAMPLES,
-                                                                       rf.n_samples)))
-                if frac > worst:
-                    worst, level = frac, lvl
-            if worst > MIN_FRACTION:
-                hit.append({"channel": name, "level": level, "unit": rf.channel(name).unit,
-                            "fraction": worst})
-        _CACHE.put(key, hit)
-    return list(hit)
 
 
 def _filtered(rf: RunFile, force: str, a: int, b: int, cutoff: float | None) -> np.ndarray:
@@ -205,3 +175,4 @@ def steady_loops(rf: RunFile, points_per_cycle: int = 128, max_cycles: int = 8,
             "displacement_m": cyc[0], "force_n": cyc[1]})
     base.update(points_per_cycle=m, cycles=out, reason=None)
     return base
+

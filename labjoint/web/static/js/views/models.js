@@ -70,6 +70,7 @@ function runPicker(onChange) {
       offset, search: search.value.trim() } });
     if (ask !== asked) return;
     items = page.items;
+    draw.rememberRuns(items);
     const sel = new Set(selectedRuns());
     list.replaceChildren(...items.map((r) => {
       const cb = h('input', { type: 'checkbox', value: r.name, checked: sel.has(r.name) });

@@ -6,7 +6,7 @@ import { h, note, section, table } from '../dom.js';
 import { plotXY } from '../plot/plot.js';
 import { display, fmt, pct, when } from '../units.js';
 import { lastCycles, loopPlot, steadyLoops } from './loops.js';
-import { identificationTable } from './table2.js';
+import { identificationTable, slidingFraction } from './table2.js';
 import { onPage } from '../words.js';
 
 const SCREEN_POINTS = 1500;
@@ -120,15 +120,16 @@ async function latestAnalysis(name) {
   return row ? { row, method: job.request.method, finished: job.finished_at } : null;
 }
 
-function identifySection(name) {
+function identifySection(name, loopsP) {
   const out = h('div', { id: 'identification' });
   const msg = h('p', { hidden: true });
   const mu = h('input', { type: 'number', step: 'any', min: 0, max: 5, id: 'friction',
     placeholder: 'stored value', title: 'empty: the latest friction test stored on the server' });
+  let measured = {};
   const render = (res) => {
     out.replaceChildren(!res ? h('p', { class: 'note' }, 'Not identified yet: start an analysis below.')
       : res.row.error ? h('p', { class: 'note error', id: 'identify-refused' }, `Refused: ${onPage(res.row.error)}`)
-        : identificationTable(res.row));
+        : identificationTable(res.row, measured));
     if (res) out.append(h('p', { class: 'caption' }, `From the ${res.method} analysis finished ${when(res.finished)}.`));
   };
   async function start(method) {
@@ -146,7 +147,11 @@ function identifySection(name) {
   }
   const bothBtn = h('button', { id: 'identify-both', onclick: () => start('both') }, 'Identify: both methods');
   const loopBtn = h('button', { class: 'secondary', onclick: () => start('hysteresis') }, 'Hysteresis loop only');
-  latestAnalysis(name).then(render, (err) => note(msg, err.message, 'error'));
+  // the measured loops say whether the joint slid as a whole (a plateau), which the
+  // stick-slip model's macro-slip fraction is checked against
+  const measuredP = Promise.resolve(loopsP).then((b) => { measured = { sliding: b ? slidingFraction(b.cycles) : null }; },
+    () => {});
+  Promise.all([latestAnalysis(name), measuredP]).then(([res]) => render(res), (err) => note(msg, err.message, 'error'));
   return section('Identification: both methods (seed 002 Table 2)', out, msg,
     h('div', { class: 'toolbar' }, h('label', { class: 'field inline' }, h('span', {}, 'Friction coefficient μ'), mu),
       bothBtn, loopBtn));
@@ -254,7 +259,7 @@ export async function show(el, routeInfo) {
     h('div', { class: 'grid2' }, section('Conditions', conditions(rec, ch),
       rec.status !== 'running' ? h('p', {}, h('a', { href: `/api/v1/runs/${encodeURIComponent(name)}/file`, download: `${name}.h5` }, 'Download the HDF5 run file')) : null),
     h('section', { class: 'card' }, loopsTitle, loops)),
-    identifySection(name),
+    identifySection(name, loopsP),
     section('Raw signals', raw));
   rawSignals(name, raw, ch.duration_s, dataP).catch((err) => raw.replaceChildren(h('p', { class: 'note error' }, err.message)));
   const pending = rec.status === 'running' ? recordedLoops(name, rec, ch) : steadyLoopsSection(name, ch, loopsP, loopsTitle, top);
