@@ -44,7 +44,7 @@ export function summary(fit, diag) {
 
 // Below this relative standard error a fitted parameter's covariance is numerically
 // singular (the data do not see it), not a precise measurement: "± 1.4e-12" on a mass.
-export const SINGULAR_REL = 1e-9;
+export const SINGULAR_REL = 1e-6;
 
 // How well the runs determine a parameter: 'ok', 'poor' (std. error above the value) or
 // 'undetermined' (no std. error, or a singular covariance), with the words shown.

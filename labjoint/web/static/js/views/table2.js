@@ -13,8 +13,9 @@ function pm(v, sd, k) {
   return sd != null && Number.isFinite(sd) ? `${fmt(v * k)} ± ${fmt(sd * k, 2)}` : fmt(v * k);
 }
 
-// The fraction of a measured cycle spent sliding: samples on the loop's flat tops, where
-// the force stays within 3 % of its extreme while the displacement moves (a plateau).
+// The fraction of a measured cycle spent sliding: steps on the loop's flat tops, where
+// the force stays within 3 % of its extreme and its slope dF/du is under 5 % of the
+// loop's secant stiffness (a plateau; an elliptic, viscous loop has none).
 export function slidingFraction(cycles) {
   let slid = 0;
   let total = 0;
@@ -22,11 +23,11 @@ export function slidingFraction(cycles) {
     const u = c.displacement_m;
     const F = c.force_n;
     const fmax = Math.max(...F.map(Math.abs));
-    const umax = Math.max(...u) - Math.min(...u);
+    const secant = fmax / ((Math.max(...u) - Math.min(...u)) / 2);
     for (let i = 1; i < F.length; i += 1) {
       total += 1;
-      const onTop = Math.abs(F[i]) >= 0.97 * fmax && Math.abs(F[i] - F[i - 1]) <= 0.01 * fmax;
-      if (onTop && Math.abs(u[i] - u[i - 1]) > 0.002 * umax) slid += 1;
+      const du = Math.abs(u[i] - u[i - 1]);
+      if (Math.abs(F[i]) >= 0.97 * fmax && du > 0 && Math.abs(F[i] - F[i - 1]) <= 0.05 * secant * du) slid += 1;
     }
   }
   return total ? slid / total : null;
