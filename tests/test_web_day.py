@@ -386,3 +386,23 @@ def test_a_friction_coefficient_from_a_clipped_run_is_flagged_where_it_is_used(d
         save_identified(s.data_dir, good)
     body = s.http.get("/trends", params={"run": s.sweep}).json()
     assert body["friction_flag"] is None
+
+
+@pytest.mark.parametrize("width", WIDTHS)
+def test_a_friction_test_that_slides_is_not_given_a_zero_macro_slip_fraction(day, width):
+    """Item 3: the simulated friction test's loop plateaus (gross slip); the stick-slip
+    model's macro-slip fraction of 0 % and its W are flagged, not shown as results."""
+    s, browser = day
+    name = s.http.get("/runs", params={"plan": "friction_test"}).json()["items"][0]["name"]
+    w = open_page(browser, s.url, token=CONTROL, width=width)
+    page = w.page
+    page.goto(f"{s.url}/#/run/{name}")
+    page.wait_for_selector("svg[data-plot=loop]")
+    page.click("#identify-both")
+    page.wait_for_selector("#macro-slip-flag", timeout=60000)
+    text = page.inner_text("#macro-slip-flag")
+    assert "slides on its plateaus" in text and "not a result" in text
+    assert "macro-slip fraction 0.0 %" not in page.inner_text("#identification")
+    assert _wide(page)[0] <= width
+    screenshot(page, f"friction-run-{width}")
+    assert not w.problems(), w.problems()
