@@ -341,7 +341,12 @@ def test_the_pages_own_checks_flag_what_is_not_determined(day):
         { run: 'r1', error: "'excitation': run r1 (force_ref) holds a multisine with period 0.05 s and 50 excited lines" },
         { run: 'r22', error: "'excitation': run r22 (force_ref) holds a multisine with period 0.2 s and 193 excited lines" },
         { run: 'r3', error: "r3.h5, 'disp_1': run has no channel 'disp_1'; channels: ['force_ref', 'accel']" }]);
-      return { det, se: [...table.querySelectorAll('tbody tr')].map((r) => [r.dataset.determination, r.children[2].textContent]),
+      const steps = [{ model: 'linear_stiffness', runs: [{ run: 'v1', energy_loss_error_pct: -40 }, { run: 'v20', energy_loss_error_pct: -30 }] },
+        { model: 'linear_stiffness+iwan', added: 'iwan', runs: [{ run: 'v1', energy_loss_error_pct: -2.9 }, { run: 'v20', energy_loss_error_pct: 1 }] },
+        { model: 'linear_stiffness+iwan+cubic_stiffness', added: 'cubic_stiffness', runs: [{ run: 'v1', energy_loss_error_pct: -12.3 }, { run: 'v20', energy_loss_error_pct: 1.5 }] }];
+      const worse = mp.worseSteps(steps);
+      const note = mp.worseNote(steps);
+      return { worse, noteText: note ? note.textContent : null, none: mp.worseNote(steps.slice(0, 2)), det, se: [...table.querySelectorAll('tbody tr')].map((r) => [r.dataset.determination, r.children[2].textContent]),
         jenkins: t2.slidingFraction([jenkins]), ellipse: t2.slidingFraction([ellipse]), cols,
         groups: groups.map((g) => g.runs) };
     }""", [{"displacement_m": u, "force_n": F}, ellipse])
@@ -355,6 +360,10 @@ def test_the_pages_own_checks_flag_what_is_not_determined(day):
     assert got["ellipse"] < 0.02                    # well under the 5 % the page flags at
     assert got["cols"] == ["0.348 µm · 2 N m", "0.348 µm · 5 N m", "0.348 µm · 8 N m"]
     assert sorted(got["groups"]) == [["r1", "r22"], ["r3"]]
+    # item 4: the step that took the 1 Vpp run's energy-loss error from -2.9 % to -12.3 %
+    assert [(x["step"], x["run"], x["before"], x["after"]) for x in got["worse"]] == [
+        (2, "v1", -2.9, -12.3)]
+    assert "-2.9 % → -12.3 %" in got["noteText"] and got["none"] is None
     assert not w.problems(), w.problems()
 
 

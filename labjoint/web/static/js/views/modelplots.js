@@ -296,3 +296,33 @@ export function ladderChart(steps, noiseFloor, id = 'ladder') {
   }), table(['Step', 'Model', 'Added', 'NRMSE'], steps.map((s, i) => [String(i), s.model, s.added || '–', nrmse(s.nrmse)]),
     { class: 'ladder-steps' }));
 }
+
+// A ladder step that made a run's energy-loss error worse (|error| up by more than
+// WORSE_PCT points and by half again): [{step, added, run, before, after}], from the
+// per-run errors each step carries (a diagnosis's runs, or a saved ladder's).
+export const WORSE_PCT = 2;
+
+export function worseSteps(steps) {
+  const out = [];
+  for (let i = 1; i < (steps || []).length; i += 1) {
+    const prev = new Map((steps[i - 1].runs || []).map((r) => [r.run, r.energy_loss_error_pct]));
+    for (const r of steps[i].runs || []) {
+      const a = prev.get(r.run);
+      const b = r.energy_loss_error_pct;
+      if (a == null || b == null || !Number.isFinite(a) || !Number.isFinite(b)) continue;
+      if (Math.abs(b) > Math.abs(a) + WORSE_PCT && Math.abs(b) > 1.5 * Math.abs(a)) {
+        out.push({ step: i, added: steps[i].added, model: steps[i].model, run: r.run, before: a, after: b });
+      }
+    }
+  }
+  return out;
+}
+
+export function worseNote(steps, id = 'ladder-worse') {
+  const worse = worseSteps(steps);
+  if (!worse.length) return null;
+  return h('div', { class: 'note error', id }, h('p', {}, 'Steps that made the energy loss worse on some runs '
+    + '(the set\'s NRMSE fell, but these runs\' dissipation moved away from the measurement):'),
+  h('ul', {}, worse.map((w) => h('li', { 'data-step': w.step, 'data-run': w.run },
+    `step ${w.step} (+${w.added || w.model}): ${w.run}: energy-loss error ${pct(w.before)} → ${pct(w.after)}`))));
+}
