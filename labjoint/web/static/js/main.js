@@ -150,13 +150,17 @@ function rigStatus(rig) {
 }
 
 function followRig() {
+  let refused = false;       // reads need a token this page does not hold: wait for one
+  window.addEventListener('labjoint:token', () => { refused = false; });
   const refresh = async () => {
+    if (refused) return;
     const asked = pressed;
     try {
       const rig = await api('/rig');
       if (asked === pressed) rigStatus(rig);
-    } catch {
-      // the service line says when the service is unreachable
+    } catch (err) {
+      refused = err.status === 401 || err.status === 403;
+      // otherwise the service line says when the service is unreachable
     }
   };
   const tick = async () => {
