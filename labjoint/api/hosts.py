@@ -10,8 +10,8 @@
   unread, the request still served), and a token-less emergency stop from loopback is
   allowed; browsers name the page's origin in ``Origin`` on every such request (and
   ``Sec-Fetch-Site`` says ``cross-site``), so the service refuses them with 403 unless
-  the origin is its own (the scheme and Host the request was sent to) or is listed in
-  ``[api] allowed_origins``. Scripts and the CLI send no ``Origin``: unaffected.
+  the origin is its own (the host and port the request was sent to, whatever the
+  scheme: behind a TLS proxy the page is https) or is listed in ``[api] allowed_origins``. Scripts and the CLI send no ``Origin``: unaffected.
 """
 
 from __future__ import annotations
@@ -69,6 +69,11 @@ def _origin(url: str) -> str:
     return f"{p.scheme}://{host}" + ("" if port in (None, default) else f":{port}")
 
 
+def _netloc(origin: str) -> str:
+    """``host[:port]`` of a normalised origin (default ports already left out)."""
+    return origin.split("://", 1)[-1]
+
+
 class OriginCheck:
     """ASGI middleware: 403 for a state-changing request from a foreign web page."""
 
@@ -87,9 +92,11 @@ class OriginCheck:
         if origin.lower() == "null":
             return "an opaque origin (null: a sandboxed frame, a file or a redirect)"
         host = headers.get(b"host", b"").decode("latin-1").strip()
-        own = _origin(f"{scope.get('scheme', 'http')}://{host}")
+        # the page's host and port against the Host it sent: the scheme is left out, as a
+        # TLS proxy in front (https page, http hop to this service) changes only that
+        own = _netloc(_origin(f"{scope.get('scheme', 'http')}://{host}"))
         mine = _origin(origin)
-        return None if mine == own or mine in self.allowed else origin
+        return None if _netloc(mine) == own or mine in self.allowed else origin
 
     async def __call__(self, scope: dict[str, Any], receive: Any, send: Any) -> None:
         if scope["type"] == "http" and scope.get("method", "GET").upper() not in SAFE_METHODS:
