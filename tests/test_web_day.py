@@ -104,7 +104,7 @@ def test_no_page_is_wider_than_the_screen_and_the_runs_table_scrolls_inside(day,
         box = page.locator("#estop").bounding_box()
         assert box and box["x"] >= 0 and box["x"] + box["width"] <= inner, view
         assert page.locator("#rig-output").inner_text().startswith("output"), view
-        screenshot(page, f"phone-{view.split('?')[0].replace('/', '-')[:40]}-{width}")
+        screenshot(page, f"phone-{view.split('?')[0].split('/')[0]}-{width}")
     page.goto(f"{s.url}/#/runs")
     page.wait_for_selector("tr[data-run]")
     heights = page.locator("tr[data-run] td:nth-child(2) a").evaluate_all(

@@ -107,15 +107,15 @@ function jobsTable(jobs, onResume, onCancel) {
   if (!jobs.length) return h('p', { class: 'note' }, 'No plan yet.');
   const rows = jobs.map((j) => h('tr', { 'data-job': j.id, 'data-status': j.status },
     h('td', {}, h('span', { class: `status ${j.status}` }, j.status)),
+    h('td', { class: 'actions' },
+      j.status === 'held' ? h('button', { class: 'small', 'data-action': 'resume', onclick: () => onResume(j.id) }, 'Resume') : null,
+      ACTIVE.includes(j.status) ? h('button', { class: 'small secondary', 'data-action': 'cancel', onclick: () => onCancel(j.id) }, 'Cancel') : null),
     h('td', {}, h('strong', {}, j.plan.plan), h('br'), h('span', { class: 'count' }, j.id)),
     h('td', { class: 'num' }, `${Math.round(100 * (j.progress || 0))} %`),
     h('td', { class: 'runs-cell' }, (j.runs || []).length
       ? j.runs.map((r, i) => [i ? ', ' : '', h('a', { href: `#/run/${encodeURIComponent(r)}` }, r)])
-      : '–', j.error ? h('div', { class: 'caption' }, j.error) : null),
-    h('td', { class: 'actions' },
-      j.status === 'held' ? h('button', { class: 'small', 'data-action': 'resume', onclick: () => onResume(j.id) }, 'Resume') : null,
-      ACTIVE.includes(j.status) ? h('button', { class: 'small secondary', 'data-action': 'cancel', onclick: () => onCancel(j.id) }, 'Cancel') : null)));
-  return h('div', { class: 'scroll' }, table(['Status', 'Plan', 'Done', 'Runs', ''], rows, { id: 'jobs-table', class: 'jobs' }));
+      : '–', j.error ? h('div', { class: 'caption' }, j.error) : null)));
+  return h('div', { class: 'scroll' }, table(['Status', '', 'Plan', 'Done', 'Runs'], rows, { id: 'jobs-table', class: 'jobs' }));
 }
 
 export async function show(el) {
