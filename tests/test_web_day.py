@@ -67,6 +67,9 @@ def test_a_multisine_run_shows_the_refusal_and_its_clipping_not_loops(day, width
     assert "steady cycles" not in page.inner_text("#loops-title")
     assert page.locator("svg[data-plot=loop]").count() == 0
     assert "force_ref" in page.inner_text("#run-clipped")
+    conditions = page.inner_text("section.card:has(h2:text-is('Conditions'))")
+    assert "multisine from 60 Hz to 1000 Hz, 48 lines: not a steady sine" in conditions
+    assert "Excitation frequency" not in conditions
     page.click("#identification ~ .toolbar button.secondary")         # hysteresis loop only
     page.wait_for_selector("#identify-refused", timeout=30000)
     assert "multisine" in page.inner_text("#identify-refused")

@@ -14,10 +14,15 @@ const SCREEN_POINTS = 1500;
 function conditions(r, ch) {
   const md = r.metadata || {};
   const steady = md.steady || {};
+  const wave = md.excitation && typeof md.excitation === 'object' && md.excitation.kind
+    && md.excitation.kind !== 'sine' ? md.excitation : null;
+  const band = wave && Array.isArray(wave.band_hz) ? ` from ${fmt(wave.band_hz[0])} Hz to ${fmt(wave.band_hz[1])} Hz` : '';
   const rows = [
     ['Status', h('span', { class: `status ${r.status}` }, r.status)],
     ['Plan', `${r.plan || '–'}${r.plan_step != null ? ` step ${r.plan_step}` : ''}`],
-    ['Excitation frequency', `${fmt(r.frequency_hz)} Hz`],
+    ...(wave ? [['Excitation', `${wave.kind.replace('_', ' ')}${band}${wave.n_lines ? `, ${wave.n_lines} lines` : ''}: not a steady sine`],
+      ['Repetition frequency', `${fmt(r.frequency_hz)} Hz (1 / period: the line spacing, not a drive frequency)`]]
+      : [['Excitation frequency', `${fmt(r.frequency_hz)} Hz`]]),
     ['Excitation amplitude', `${fmt(r.excitation_vpp)} Vpp`],
     ['Bolt torque', `${fmt(r.torque_nm)} N m`],
     ['Normal force', `${fmt(r.normal_force_n)} N`],
