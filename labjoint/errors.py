@@ -42,6 +42,11 @@ class InputError(LabjointError, ValueError):
         return (", ".join(where) + ": " if where else "") + self.message
 
 
+class NotApplicable(InputError):
+    """The run is sound but not what the pipeline handles (not a steady sine, no
+    displacement sensor): a reprocess counts it as "not applicable", not as a failure."""
+
+
 class ConfigError(InputError):
     """A configuration file or value is invalid."""
 

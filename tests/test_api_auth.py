@@ -36,11 +36,14 @@ def _err(r: httpx.Response, status: int) -> dict:
     return body["error"]
 
 
-@pytest.mark.parametrize("method,path,body", [
+WRITES = [
     ("POST", "/plans", DWELL), ("POST", "/estop/clear", None),
     ("POST", "/analyses", {"runs": ["x"]}), ("POST", "/models/fit", {"runs": ["x"]}),
     ("POST", "/plans/abc/cancel", None), ("POST", "/plans/abc/torque", {"torque_nm": 5}),
-    ("POST", "/plans/abc/resume", None)])
+    ("POST", "/plans/abc/resume", None)]
+
+
+@pytest.mark.parametrize("method,path,body", WRITES)
 def test_write_endpoints_need_a_control_token(http, method, path, body):
     """(The emergency stop itself is the one exception, from loopback only:
     tests/test_estop_hold.py.)"""
@@ -190,3 +193,44 @@ def test_plan_types_list_every_plan_with_defaults(http):
     # seed 002 Table 3 levels
     assert sweep["amplitudes_vpp"]["default"] == [1.0, 4.0, 8.0, 12.0, 16.0, 20.0]
     assert types["dwell"]["parameters"]["frequency_hz"]["required"] is True
+
+
+FOREIGN = "http://evil.example"
+
+
+def test_a_foreign_web_page_cannot_press_the_emergency_stop_or_write(http):
+    """Issue 33 item 16: a browser's no-cors POST from another page carries that page's
+    Origin; token-less from loopback it used to stop the rig. Every state-changing call
+    from a foreign origin is refused (403) whatever the token, before it acts."""
+    port = str(http.base_url.port)
+    for origin in (FOREIGN, f"http://127.0.0.1:{int(port) + 1}", "null",
+                   f"http://localhost:{port}"):          # another name: another site's page
+        r = http.post("/estop", json={"reason": "drive-by"}, headers={"Origin": origin})
+        err = _err(r, 403)
+        assert err["code"] == "foreign_origin" and "another origin" in err["message"], err
+        assert http.get("/rig").json()["estop"] is None      # nothing was stopped
+    # a no-cors form post (no JSON type) and a cross-site fetch without Origin: refused
+    r = http.post("/estop", content=b"reason=x", headers={
+        "Content-Type": "text/plain", "Sec-Fetch-Site": "cross-site"})
+    assert _err(r, 403)["code"] == "foreign_origin"
+    queued = http.get("/plans").json()["items"]
+    for method, path, body in WRITES:                      # with the control token too
+        r = http.request(method, path, json=body, headers={**AUTH, "Origin": FOREIGN})
+        assert _err(r, 403)["code"] == "foreign_origin", (method, path)
+    assert http.get("/plans").json()["items"] == queued    # nothing queued
+    # reads from anywhere (CORS still keeps their answers from the page); own page writes
+    assert http.get("/rig", headers={"Origin": FOREIGN}).status_code == 200
+    for own in (f"http://127.0.0.1:{port}", f"HTTP://127.0.0.1:{port}",
+                f"https://127.0.0.1:{port}"):                  # its page behind a TLS proxy
+        r = http.post("/estop", json={"reason": "own page"}, headers={"Origin": own,
+                                                                      "Sec-Fetch-Site": "same-origin"})
+        assert r.status_code == 200 and http.get("/rig").json()["estop"] == "own page"
+        assert http.post("/estop/clear", headers={**AUTH, "Origin": own}).status_code == 200
+
+
+def test_an_allowed_origin_may_write(tmp_path):
+    server, _ = _serve(tmp_path, control_tokens=[CONTROL], allowed_origins=["https://lab.example"])
+    with server as url, httpx.Client(base_url=url + "/api/v1") as client:
+        r = client.post("/estop", json={}, headers={"Origin": "https://lab.example:443"})
+        assert r.status_code == 200, r.text
+        assert client.post("/estop/clear", headers={**AUTH, "Origin": FOREIGN}).status_code == 403

@@ -81,3 +81,50 @@ def test_bad_options_and_an_empty_query_answer_422_naming_them(served):
     assert r.status_code == 422 and "options.model" in r.text
     r = http.post("/reprocess", json={"pipeline": "analyze", "query": {"torque_nm": 99}})
     assert r.status_code == 422 and "matches no runs" in r.text
+
+
+def _accelerometer_run(data_dir, cat, name: str = "accel_only"):
+    """A run with a force and an accelerometer and no displacement sensor (an impact
+    hammer test's channels): the loop pipeline does not apply to it."""
+    import numpy as np
+
+    from labjoint.documents import Block, RunStart, RunStop
+    from labjoint.hardware.interfaces import ChannelSpec
+    from labjoint.storage.writer import RunWriter
+    fs, n = 20000.0, 6000
+    t = np.arange(n) / fs
+    volts = np.stack([np.sin(2 * np.pi * 100 * t), 0.5 * np.sin(2 * np.pi * 100 * t + 0.3)])
+    chans = [ChannelSpec("force_ref", "force", "force", "N", 50.0),
+             ChannelSpec("accel", "accelerometer", "acceleration", "m/s^2", 100.0)]
+    w = RunWriter(data_dir, catalog=cat)
+    w("start", RunStart(f"uid-{name}", name, chans, fs, {"frequency_hz": 100.0,
+                                                         "torque_nm": 5.0, "plan": "dwell"}))
+    w("block", Block(f"uid-{name}", 0, volts))
+    w("stop", RunStop(f"uid-{name}", "complete", n_samples=n))
+
+
+def test_runs_a_pipeline_does_not_handle_are_not_applicable_and_the_run_list_shows_results(
+        served, tmp_path):
+    """Issue 33 item 13: an accelerometer-only run is 'not applicable' to analyze, not a
+    failure; GET /runs gives each run's latest loop result (W, C, K) or why it has none."""
+    http, cat = served
+    _accelerometer_run(tmp_path, cat)
+    before = {r["name"]: r["result"] for r in http.get("/runs").json()["items"]}
+    assert before and all(v is None for v in before.values())       # nothing analysed yet
+    job = _finished(http, http.post("/reprocess", json={"pipeline": "analyze"}).json()["id"])
+    rep = job["result"]
+    assert (rep["computed"], rep["not_applicable"], rep["failed"]) == (4, 1, 0), rep
+    by = {x["run"]: x for x in rep["runs"]}
+    assert by["accel_only"]["status"] == "not_applicable"
+    assert "has no channel 'disp_1'" in by["accel_only"]["error"]
+    listed = {r["name"]: r["result"] for r in http.get("/runs").json()["items"]}
+    for name, (u, k, c, _) in CASES.items():
+        res = listed[name]
+        assert res["status"] == "complete" and res["error"] is None
+        assert res["damping_ns_per_m"] == pytest.approx(c, rel=0.01)
+        assert res["stiffness_n_per_m"] == pytest.approx(k, rel=0.01)
+        # W of the viscous part over one cycle: pi c omega U^2 (seed 002 Eq. 1)
+        assert res["energy_loss_j"] == pytest.approx(3.141592653589793 * c * 2 * 3.141592653589793
+                                                     * 100.0 * u ** 2, rel=0.02)
+    assert listed["accel_only"]["status"] == "not_applicable"
+    assert "has no channel 'disp_1'" in listed["accel_only"]["error"]

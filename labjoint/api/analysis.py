@@ -1,8 +1,8 @@
 """The identification pipelines as API jobs: options validated up front, runs streamed.
 
-``hysteresis`` runs seed 002's hysteresis-loop pipeline (Eq. 1) on each run, reading
-it a block at a time (:func:`labjoint.identify.analyze.analyze_blocks`), so a long run
-never sits in memory. ``stick_slip`` runs the stick-slip-boundary pipeline (Eqs. 2-9)
+``hysteresis`` runs seed 002's hysteresis-loop pipeline (Eq. 1) on each run as ``labjoint
+analyze`` does (:func:`labjoint.identify.analyze.analyze_file`: excitation and clipping
+checks, sensor phase), reading it a block at a time, so a long run never sits in memory. ``stick_slip`` runs the stick-slip-boundary pipeline (Eqs. 2-9)
 and ``both`` the two side by side with their difference in % (seed 002 Tables 2-4),
 through :func:`labjoint.identify.methods.analyze_runs`. A run that cannot be analysed
 gets its own error entry; the others still get results.
@@ -17,9 +17,10 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from labjoint.api.errors import ApiError
+from labjoint.api.clipped import friction_flag
 from labjoint.api.resolve import RunResolver, roles
 from labjoint.errors import InputError
-from labjoint.identify.analyze import analyze_blocks
+from labjoint.identify.analyze import analyze_blocks, analyze_file
 from labjoint.identify.identified import load_identified
 from labjoint.identify.stickslip import MAX_FRICTION, MIN_FRICTION
 from labjoint.identify.methods import analyze_runs
@@ -100,9 +101,14 @@ def loop_blocks(rf: RunFile, force: str) -> Iterator[np.ndarray]:
 def hysteresis_run(rf: RunFile, opts: dict[str, Any]) -> dict[str, Any]:
     """Summary of the loop pipeline on one open run (design.md ``analyze`` fields)."""
     f = opts["frequency_hz"] if opts["frequency_hz"] is not None else rf.frequency_hz
-    result = analyze_blocks(loop_blocks(rf, opts["force"]), rf.sample_rate_hz, f,
-                            opts["cutoff_hz"], rel_tol=opts["rel_tol"],
-                            min_cycles=opts["min_cycles"])
+    if rf.status == "running":
+        result = analyze_blocks(loop_blocks(rf, opts["force"]), rf.sample_rate_hz, f,
+                                opts["cutoff_hz"], rel_tol=opts["rel_tol"],
+                                min_cycles=opts["min_cycles"])
+    else:       # as `labjoint analyze` runs it: not a steady sine, or clipped: refused
+        result = analyze_file(rf.path, force=opts["force"], frequency_hz=f,
+                              cutoff_hz=opts["cutoff_hz"], rel_tol=opts["rel_tol"],
+                              min_cycles=opts["min_cycles"])
     md = result.metadata
     return {"run": rf.name, **result.summary,
             "torque_nm": rf.metadata.get("torque_nm"),
@@ -139,5 +145,9 @@ def run_analysis(resolver: RunResolver, method: str, names: list[str],
         except (InputError, ApiError) as exc:
             out.append({"run": name, "error": exc.message if isinstance(exc, ApiError)
                         else str(exc)})
+            continue
+        flag = friction_flag(resolver, out[-1].get("friction_source"))
+        if flag:
+            out[-1]["friction_flag"] = flag
     progress(1.0, "done")
     return {"method": method, "options": opts, "runs": out}

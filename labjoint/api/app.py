@@ -22,7 +22,7 @@ from starlette.routing import compile_path
 from labjoint import __version__
 from labjoint.api.docs import install_docs
 from labjoint.api.errors import install_error_handlers
-from labjoint.api.hosts import HostCheck
+from labjoint.api.hosts import HostCheck, OriginCheck
 from labjoint.api.jobs import JobRunner, JobStore
 from labjoint.api.limits import BodySizeLimit
 from labjoint.api.resolve import RunResolver
@@ -81,6 +81,7 @@ def create_app(settings: ApiSettings, daemon: Any = None, queue: Any = None,
     app.add_middleware(GZipMiddleware, minimum_size=GZIP_MIN_BYTES, compresslevel=GZIP_LEVEL,
                        exclude_content_types=NOT_GZIPPED)
     app.add_middleware(BodySizeLimit, max_bytes=settings.max_request_bytes)
+    app.add_middleware(OriginCheck, allowed=settings.allowed_origins)
     app.add_middleware(HostCheck, names=settings.host_names())
     table = [(r.path_regex, set(r.methods)) for r in app.routes
              if getattr(r, "methods", None) and hasattr(r, "path_regex")]

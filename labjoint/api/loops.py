@@ -8,8 +8,14 @@ of the filter's settling length on each side (the overlap the streaming filter u
 filtering that stretch gives the samples the pipeline saw, and each cycle is resampled
 over exactly one period from its start (the fundamental's upward zero crossing) to at
 most ``points_per_cycle`` points. Per-cycle energy loss and stiffness are the pipeline's
-own numbers. Analyses are kept in a small cache keyed by the file's identity and length,
-so a page coming back to a run does not rerun it.
+own numbers. A finished run goes through :func:`labjoint.identify.analyze.analyze_file`,
+exactly as ``labjoint analyze`` runs it: a record that is not a steady sine (a multisine,
+a sweep) or has a clipped channel is refused with the pipeline's own message and no loop
+is drawn (issue 33 item 1); a run still being recorded streams through
+:func:`~labjoint.identify.analyze.analyze_blocks`. Every stored channel is also checked
+for flat tops (:mod:`labjoint.api.clipped`) so the page can warn
+of a clipped one whichever pipeline looks at it. Analyses are kept in a small cache keyed
+by the file's identity and length, so a page coming back to a run does not rerun it.
 """
 
 from __future__ import annotations
@@ -17,15 +23,15 @@ from __future__ import annotations
 import math
 import threading
 from collections import OrderedDict
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from labjoint.api.analysis import loop_blocks
+from labjoint.api.clipped import clipped_channels, file_key
 from labjoint.api.resolve import roles
 from labjoint.errors import InputError
-from labjoint.identify.analyze import analyze_blocks
+from labjoint.identify.analyze import analyze_blocks, analyze_file
 from labjoint.identify.loop import LoopResult
 from labjoint.signal.cycles import cycles
 from labjoint.signal.filter import PAPER_CUTOFF_HZ, PAPER_ORDER, butter_sos, lowpass, settling_samples
@@ -44,17 +50,17 @@ class _Cache:
 
     def __init__(self, size: int) -> None:
         self.size = size
-        self._d: OrderedDict[tuple[Any, ...], LoopResult] = OrderedDict()
+        self._d: OrderedDict[tuple[Any, ...], Any] = OrderedDict()
         self._lock = threading.Lock()
 
-    def get(self, key: tuple[Any, ...]) -> LoopResult | None:
+    def get(self, key: tuple[Any, ...]) -> Any:
         with self._lock:
             hit = self._d.get(key)
             if hit is not None:
                 self._d.move_to_end(key)
             return hit
 
-    def put(self, key: tuple[Any, ...], value: LoopResult) -> None:
+    def put(self, key: tuple[Any, ...], value: Any) -> None:
         with self._lock:
             self._d[key] = value
             self._d.move_to_end(key)
@@ -66,14 +72,23 @@ _CACHE = _Cache(CACHE_SIZE)
 
 
 def analysis(rf: RunFile, force: str = "joint") -> LoopResult:
-    """The loop pipeline's result on the open run (``labjoint analyze``'s defaults)."""
-    st = Path(rf.path).stat()
-    key = (str(Path(rf.path).resolve()), st.st_mtime_ns, st.st_size, rf.n_samples, force)
+    """The loop pipeline's result on the open run (``labjoint analyze``'s defaults); an
+    InputError (cached too) when the pipeline refuses the run."""
+    key = file_key(rf, force)
     hit = _CACHE.get(key)
     if hit is None:
-        hit = analyze_blocks(loop_blocks(rf, force), rf.sample_rate_hz, rf.frequency_hz,
-                             PAPER_CUTOFF_HZ)
+        try:
+            if rf.status == "running":
+                hit = analyze_blocks(loop_blocks(rf, force), rf.sample_rate_hz,
+                                     rf.frequency_hz, PAPER_CUTOFF_HZ)
+            else:
+                hit = analyze_file(rf.path, force=force)
+        except InputError as exc:
+            hit = exc
         _CACHE.put(key, hit)
+    if isinstance(hit, InputError):        # a fresh one: several requests may see it
+        raise InputError(hit.message, file=hit.file, line=hit.line, column=hit.column,
+                         field=hit.field)
     return hit
 
 
@@ -99,7 +114,8 @@ def empty(rf: RunFile, reason: str, **extra: Any) -> dict[str, Any]:
             "n_samples": rf.n_samples, "sample_rate_hz": rf.sample_rate_hz,
             "frequency_hz": rf.frequency_hz, "cutoff_hz": None, "n_cycles": 0, "n_steady": 0,
             "steady_start": None, "steady_stop": None, "points_per_cycle": 0, "cycles": [],
-            "summary": {}, "reason": reason, "warnings": [], **extra}
+            "summary": {}, "reason": reason, "refused": None, "clipped": [], "warnings": [],
+            **extra}
 
 
 def steady_loops(rf: RunFile, points_per_cycle: int = 128, max_cycles: int = 8,
@@ -108,13 +124,18 @@ def steady_loops(rf: RunFile, points_per_cycle: int = 128, max_cycles: int = 8,
     ``MAX_SPAN_SAMPLES``), each resampled to at most ``points_per_cycle`` points (fewer
     when a cycle holds fewer samples), with their loop quantities; an empty list and the
     reason when there is none."""
+    clipped = clipped_channels(rf) if rf.status != "running" else []
     try:
         res = analysis(rf, force)
     except InputError as exc:
         where = f"{exc.field} " if exc.field else ""
-        return empty(rf, f"no steady cycles: {where}{exc.message}")
+        refused = exc.field if exc.field == "excitation" or "clipped" in exc.message else None
+        if refused:
+            return empty(rf, f"refused by the loop pipeline: {where}{exc.message}",
+                         refused=refused, clipped=clipped)
+        return empty(rf, f"no steady cycles: {where}{exc.message}", clipped=clipped)
     md = res.metadata
-    base = empty(rf, "", frequency_hz=res.frequency_hz, cutoff_hz=md.get("cutoff_hz"),
+    base = empty(rf, "", clipped=clipped, frequency_hz=res.frequency_hz, cutoff_hz=md.get("cutoff_hz"),
                  n_samples=md.get("n_samples", rf.n_samples), n_cycles=res.n_cycles,
                  n_steady=int(res.steady.sum()), steady_start=md.get("steady_start"),
                  steady_stop=md.get("steady_stop"), warnings=list(md.get("warnings", [])),
@@ -153,3 +174,4 @@ def steady_loops(rf: RunFile, points_per_cycle: int = 128, max_cycles: int = 8,
             "displacement_m": cyc[0], "force_n": cyc[1]})
     base.update(points_per_cycle=m, cycles=out, reason=None)
     return base
+

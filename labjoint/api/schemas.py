@@ -177,8 +177,33 @@ RunSummary = from_domain(RunRecord, "RunSummary", exclude=("path", "start_ts"),
                          doc="A run as the catalog lists it (storage.catalog.RunRecord).")
 
 
+#: The loop results a run list shows (labjoint analyze's fields, SI).
+RESULT_KEYS = ("energy_loss_j", "damping_ns_per_m", "stiffness_n_per_m", "below_resolution")
+
+
+class RunResult(BaseModel):
+    """A run's latest stored loop result (``labjoint reprocess --pipeline analyze``)."""
+
+    pipeline: str
+    status: Literal["complete", "not_applicable", "failed"] = Field(
+        description="complete: analysed; not_applicable: a run the pipeline does not handle "
+                    "(not a steady sine, no displacement sensor); failed: refused (error)")
+    computed_at: str
+    version: str = Field(description="pipeline version (code hash) that made it")
+    error: str | None = None
+    energy_loss_j: float | None = None
+    damping_ns_per_m: float | None = None
+    stiffness_n_per_m: float | None = None
+    below_resolution: bool | None = None
+
+
+class RunListItem(RunSummary):  # type: ignore[misc,valid-type]
+    result: RunResult | None = Field(None, description="latest stored loop result; null: "
+                                     "never analysed by reprocess")
+
+
 class RunList(BaseModel):
-    items: list[RunSummary]
+    items: list[RunListItem]
     limit: int
     offset: int
     next_offset: int | None = Field(description="offset of the next page, null on the last")
@@ -281,6 +306,15 @@ class LoopCycle(BaseModel):
     force_n: list[float | None] = Field(description="joint force at the same instants")
 
 
+class ClippedChannel(BaseModel):
+    """A stored channel that sat at its input range (labjoint.signal.clipping)."""
+
+    channel: str
+    level: float = Field(description="the value it sat at, in the channel's unit")
+    unit: str
+    fraction: float = Field(description="fraction of the samples in flat tops")
+
+
 class RunLoops(BaseModel):
     """The hysteresis loops of a run's steady cycles (empty, with a reason, if none)."""
 
@@ -301,6 +335,11 @@ class RunLoops(BaseModel):
     summary: dict[str, float | int | None] = Field(
         description="mean and std over every steady cycle (labjoint analyze's fields)")
     reason: str | None = Field(description="why no cycle is returned; null when some are")
+    refused: str | None = Field(None, description="the field the loop pipeline refused the run "
+                                "for ('excitation': not a steady sine; a channel: clipped); "
+                                "null when it analysed the run or found no cycle")
+    clipped: list[ClippedChannel] = Field(default_factory=list, description="stored channels "
+                                          "whose input range was exceeded (flat tops)")
     warnings: list[str]
 
 

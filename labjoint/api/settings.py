@@ -8,6 +8,7 @@ Keys of ``[api]`` (all optional)::
     control_tokens = []           # tokens allowed to move hardware or write (also read)
     read_tokens = []              # tokens allowed to read
     read_requires_token = false   # true: every read endpoint needs a read or control token
+    allowed_origins = []          # other web pages allowed to write (own page always is)
     max_request_bytes = 1048576   # larger request bodies are refused with 413
     analysis_workers = 2          # threads running analysis/model jobs
     max_points = 20000            # most points one data slice may return
@@ -51,6 +52,9 @@ class ApiSettings(BaseModel):
     #: names a request's Host header may carry (DNS rebinding); empty: loopback names, the
     #: bound address, and on a wildcard bind this machine's name and addresses
     allowed_hosts: tuple[str, ...] = ()
+    #: web pages of other origins allowed to write (``https://lab.example``); the
+    #: service's own page always is (labjoint.api.hosts.OriginCheck)
+    allowed_origins: tuple[str, ...] = ()
     port: int = Field(8000, ge=0, le=65535)
     control_tokens: tuple[str, ...] = ()
     read_tokens: tuple[str, ...] = ()

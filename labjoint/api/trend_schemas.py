@@ -4,7 +4,7 @@ the dissipation-exponent fits (:mod:`labjoint.identify.trends`). SI units throug
 
 from __future__ import annotations
 
-from typing import Optional
+from typing import Any, Optional
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -123,4 +123,8 @@ class Trends(BaseModel):
     fit: ExponentFit = Field(description="loop W against force amplitude: the dissipation "
                              "exponent")
     fits: list[ExponentFit] = Field(description="each method's W against each amplitude")
+    series_fits: list[dict[str, Any]] = Field(
+        default_factory=list, description="the main fit (loop W against force amplitude) of "
+        "each series, one frequency and one bolt torque, with its frequency_hz and torque_nm, "
+        "when the runs hold several (one exponent is refused across them)")
     notes: list[str]

@@ -123,7 +123,9 @@ def execute(plan: Plan, runner: Any, results: Results, progress: Progress | None
             ) -> dict[str, Any]:
     """Run the plan's tasks on ``runner`` (``run(tasks)`` yielding (task, result dict or
     exception) as they end), recording each; the report {"pipeline", "version",
-    "computed", "skipped", "failed", "runs": [...]}."""
+    "computed", "skipped", "not_applicable", "failed", "runs": [...]}: a run the pipeline
+    does not handle (:class:`~labjoint.errors.NotApplicable`: not a steady sine, no
+    displacement sensor) is "not_applicable", not "failed"."""
     rows: list[dict[str, Any]] = list(plan.skipped) + list(plan.failed)
     total, done = len(plan.tasks), 0
     stream = runner.run(plan.tasks)
@@ -139,7 +141,8 @@ def execute(plan: Plan, runner: Any, results: Results, progress: Progress | None
             close()                      # a cancelled reprocess starts no more tasks
     order = {n: i for i, n in enumerate(_names(plan))}
     rows.sort(key=lambda r: order.get(r["run"], len(order)))
-    count = {s: sum(1 for r in rows if r["status"] == s) for s in ("computed", "skipped", "failed")}
+    count = {s: sum(1 for r in rows if r["status"] == s)
+             for s in ("computed", "skipped", "not_applicable", "failed")}
     return {"pipeline": plan.pipeline, "version": plan.version, **count, "runs": rows}
 
 
@@ -164,7 +167,8 @@ def record_task(results: Results, task: Task, res: dict[str, Any] | BaseExceptio
             labjoint_version=res.get("labjoint_version", "") or ResultRow.labjoint_version,
             input_sha256=res["input_sha256"].get(name, ""), options=task.options,
             summary=res["summary"], error=res["error"]))
-        row = {"run": name, "status": "computed" if res["status"] == "complete" else "failed",
+        row = {"run": name, "status": "computed" if res["status"] == "complete" else
+               "not_applicable" if res.get("not_applicable") else "failed",
                "version": task.version}
         if len(task.names) > 1 or task.options.get("group"):
             row["group"] = task.key

@@ -17,7 +17,7 @@ from typing import Any
 from labjoint import __version__
 from labjoint.batch.pipelines import get_pipeline, pipeline_version
 from labjoint.documents import utc_now
-from labjoint.errors import LabjointError
+from labjoint.errors import LabjointError, NotApplicable
 from labjoint.storage.checksum import raw_sha256
 
 
@@ -61,6 +61,9 @@ def run_task(task: Task, executor: Any = None, threads: bool = True) -> dict[str
         out["summary"] = pipe.run([Path(p) for p in task.paths], opts, executor)
     except LabjointError as exc:
         out["error"] = str(exc)
+        if isinstance(exc, NotApplicable):       # kept with the result: not a failure
+            out["not_applicable"] = True
+            out["summary"] = {"not_applicable": True}
         return out
     out["status"] = "complete"
     out["computed_at"] = utc_now()

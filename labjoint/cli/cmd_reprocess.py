@@ -112,5 +112,6 @@ def run(args: argparse.Namespace) -> int:
         print(table(["run", "status", "version"],
                     [[r["run"], r["status"], r["version"]] for r in report["runs"]]))
         print(f"\n{report['computed']} computed, {report['skipped']} skipped (current), "
-              f"{report['failed']} failed; pipeline version {report['version']}")
+              f"{report['not_applicable']} not applicable, {report['failed']} failed; "
+              f"pipeline version {report['version']}")
     return 2 if failed else 0

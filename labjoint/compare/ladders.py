@@ -51,6 +51,10 @@ class LadderStep:
              "candidates": self.candidates}
         if self.tie:
             d["tie"] = self.tie
+        if self.diagnosis is not None:   # per run: a step may help the set, hurt some runs
+            d["runs"] = [{"run": r.name, "energy_loss_error_pct": r.energy_loss_error_pct,
+                          "stiffness_error_pct": r.stiffness_error_pct}
+                         for r in self.diagnosis.evaluation.runs]
         return d
 
 

@@ -46,6 +46,12 @@ REFERENCE = (f"seed 001: Segalman's Iwan joint dissipates W ~ F^(3 + chi); micro
 FIT_FIELDS = tuple(PowerLawFit.__dataclass_fields__)
 #: Conditions a table is laid out by (seed 002 Table 3: excitation, Table 4: torque).
 CONDITIONS = ("excitation_vpp", "torque_nm")
+#: Conditions one dissipation exponent must not span: W ~ F^n holds for one joint state
+#: (bolt torque) and one excitation frequency; runs at 100 and 400 Hz, or at 2 and 8 N m,
+#: are separate series, each fitted on its own (issue 33 item 2).
+SERIES = ("frequency_hz", "torque_nm")
+#: Frequencies within this relative difference are one (a run's measured frequency).
+SAME_FREQUENCY = 0.01
 
 
 def _sem(summary: dict[str, Any], key: str) -> float:
@@ -120,6 +126,12 @@ def exponent_fit(rows: list[dict[str, Any]], method: str = "loop",
     ids = {id(r) for r in used}
     out["excluded"] = [r["run"] for r in rows if id(r) not in ids]
     out["runs"] = [r["run"] for r in used]
+    mixed = mixed_series(used)
+    if mixed:
+        out["error"] = (f"no single exponent: the runs span {mixed}; W ~ F^n holds for one "
+                        "frequency and one bolt torque: see each series' own fit (or filter "
+                        "the runs to one)")
+        return out
     try:
         fit = fit_power_law([r[against] for r in used], [r[p + "energy_loss_j"] for r in used],
                             [r.get(p + "energy_loss_j_uncertainty") for r in used],
@@ -131,6 +143,50 @@ def exponent_fit(rows: list[dict[str, Any]], method: str = "loop",
         return out
     out.update(fit.to_dict())
     out["error"] = None
+    return out
+
+
+def series_key(row: dict[str, Any]) -> tuple[Any, Any]:
+    """(frequency Hz rounded to 3 significant digits, torque N m) of a row: its series."""
+    f = row.get("frequency_hz")
+    f = float(f"{f:.3g}") if isinstance(f, (int, float)) and math.isfinite(f) else None
+    return f, row.get("torque_nm")
+
+
+def _distinct(values: list[Any], rel: float = 0.0) -> list[Any]:
+    out: list[Any] = []
+    for v in sorted(v for v in values if v is not None):
+        if not out or abs(v - out[-1]) > rel * abs(out[-1]):
+            out.append(v)
+    return out
+
+
+def mixed_series(rows: list[dict[str, Any]]) -> str:
+    """'' when the rows share one frequency and one torque, else which differ, in words
+    ("2 frequencies (100, 400 Hz)")."""
+    parts = []
+    freqs = _distinct([r.get("frequency_hz") for r in rows], SAME_FREQUENCY)
+    if len(freqs) > 1:
+        parts.append(f"{len(freqs)} frequencies ({', '.join(f'{f:.4g}' for f in freqs)} Hz)")
+    torques = _distinct([r.get("torque_nm") for r in rows])
+    if len(torques) > 1:
+        parts.append(f"{len(torques)} bolt torques ({', '.join(f'{t:.4g}' for t in torques)} N m)")
+    return " and ".join(parts)
+
+
+def series_fits(rows: list[dict[str, Any]], method: str = "loop",
+                against: str = "force_amplitude_n") -> list[dict[str, Any]]:
+    """The exponent fit of each series (one frequency, one torque) when the rows hold
+    more than one; each fit with its ``frequency_hz`` and ``torque_nm``."""
+    groups: dict[tuple[Any, Any], list[dict[str, Any]]] = {}
+    for r in rows:
+        groups.setdefault(series_key(r), []).append(r)
+    if len(groups) < 2:
+        return []
+    out = []
+    for (f, t), members in sorted(groups.items(), key=lambda kv: (kv[0][0] or 0, kv[0][1] or 0)):
+        fit = exponent_fit(members, method, against)
+        out.append({**fit, "frequency_hz": f, "torque_nm": t})
     return out
 
 
@@ -179,7 +235,7 @@ def build_trends(rows: list[dict[str, Any]], errors: list[dict[str, str]] | None
                                                    "power_law": k in AMPLITUDE_AXES}
                                                for k, v in AXES.items()},
             "table": table_layout(rows), "fit": {**main, "reference": REFERENCE},
-            "fits": fits, "notes": notes}
+            "fits": fits, "series_fits": series_fits(rows, *MAIN_FIT), "notes": notes}
 
 
 #: Display units of the text table: SI unit -> (shown unit, factor).
@@ -230,7 +286,10 @@ def format_trends(body: dict[str, Any]) -> str:
     text = ["  ".join(h.rjust(w) for h, w in zip(heads, widths)),
             "  ".join("-" * w for w in widths)]
     text += ["  ".join(c.rjust(w) for c, w in zip(x, widths)) for x in lines]
-    text += ["", describe_fit(body["fit"]), body["fit"]["reference"]]
+    text += ["", describe_fit(body["fit"])]
+    text += [f"  at {_num(f['frequency_hz'])} Hz, {_num(f['torque_nm'])} N m: {describe_fit(f)}"
+             for f in body.get("series_fits", [])]
+    text.append(body["fit"]["reference"])
     if "stickslip" in body["methods"]:
         text.append(table["note"])
     text += body["notes"]

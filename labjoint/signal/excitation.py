@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from labjoint.errors import InputError
+from labjoint.errors import InputError, NotApplicable
 from labjoint.signal import validate
 
 KINDS = ("none", "sine", "swept_sine", "multisine", "random", "transient")
@@ -153,7 +153,7 @@ def require_sine(found: Excitation, pipeline: str, source: str = "the record") -
     handler = ("record the excitation first" if found.kind == "none" else
                f"use {BROADBAND_COMMANDS}" if found.kind in ("multisine", "random", "swept_sine")
                else "it has no steady cycles to analyse")
-    raise InputError(f"{source} holds {found.describe()}, not a steady sine, and {pipeline} "
+    raise NotApplicable(f"{source} holds {found.describe()}, not a steady sine, and {pipeline} "
                      f"needs a steady sine ({found.evidence}): {handler}", field="excitation")
 
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Iterable
 
-from labjoint.errors import InputError
+from labjoint.errors import InputError, NotApplicable
 
 FORCE_CHOICES = ("joint", "reference")
 
@@ -60,21 +60,25 @@ class ChannelRoles:
         """Displacement channel(s) and the ``kind`` force channel, all present, or an error
         naming the missing channel (and ``source``, the file)."""
         fch = self.force(kind)
+        if not self.displacement:
+            raise NotApplicable("run has no displacement channel (an accelerometer-only "
+                                f"record?); channels: {list(self.names)}", file=source,
+                                field="displacement_channels")
         q = self.quantities
         if q and (fch not in self.names or q.get(fch) == "voltage"):
             volts = [c for c in self.drives if q.get(c) == "voltage"] or \
                 [c for c in self.names if q.get(c) == "voltage"]
             if fch not in self.names and not any(q.get(c) == "force" for c in self.names) and volts:
-                raise InputError(f"no force channel: the drive is a voltage ({', '.join(volts)}), "
+                raise NotApplicable(f"no force channel: the drive is a voltage ({', '.join(volts)}), "
                                  "never used as a force; this pipeline needs a measured force",
                                  file=source, field=volts[0])
             if q.get(fch) == "voltage":
-                raise InputError(f"no force channel: {fch!r} is a voltage, never used as a force",
+                raise NotApplicable(f"no force channel: {fch!r} is a voltage, never used as a force",
                                  file=source, field=fch)
         if q and not any(c in self.names for c in self.displacement):
             motion = [f"{c} ({q[c]})" for c in self.names if q.get(c) in ("velocity", "acceleration")]
             if motion:
-                raise InputError("no displacement channel: the responses are "
+                raise NotApplicable("no displacement channel: the responses are "
                                  f"{', '.join(motion)}; this pipeline needs the relative "
                                  "displacement across the joint", file=source,
                                  field=self.displacement[0] if self.displacement else "displacement")
@@ -87,7 +91,7 @@ class ChannelRoles:
                              file=source, field="displacement_channels")
         for c in [*self.displacement, fch]:
             if c not in self.names:
-                raise InputError(f"run has no channel {c!r}; channels: {list(self.names)}",
+                raise NotApplicable(f"run has no channel {c!r}; channels: {list(self.names)}",
                                  file=source, field=c)
         return list(self.displacement), fch
 

@@ -17,12 +17,13 @@ from labjoint.api.errors import ApiError, errors_doc
 from labjoint.api.jobs import json_safe
 from labjoint.api.loops import steady_loops
 from labjoint.api.resolve import RunResolver, roles
-from labjoint.api.schemas import (RUN_NAME, DataSlice, RunChannels, RunLadders, RunList,
-                                  RunLoops, RunSummary, SavedLadder)
+from labjoint.api.schemas import (RESULT_KEYS, RUN_NAME, DataSlice, RunChannels, RunLadders,
+                                  RunList, RunLoops, RunSummary, SavedLadder)
 from labjoint.compare.store import PREFIX as LADDER_PREFIX
 from labjoint.compare.store import load_ladder
 from labjoint.errors import InputError
 from labjoint.storage import RunFile, RunRecord, open_run
+from labjoint.storage.results import Results
 
 router = APIRouter(prefix="/runs", tags=["runs"], dependencies=[Depends(require_read)])
 
@@ -36,6 +37,27 @@ ISO_TIME = r"^\d{4}-\d{2}-\d{2}([T ]\d{2}:\d{2}(:\d{2}(\.\d{1,6})?)?)?(Z|[+-]\d{
 
 def resolver(request: Request) -> RunResolver:
     return request.app.state.resolver
+
+
+#: Pipelines whose latest stored result the run list shows (labjoint reprocess).
+LISTED = ("analyze",)
+
+
+def _results(catalog: Any, names: list[str]) -> dict[str, dict[str, Any]]:
+    """run -> its latest stored loop result: W, C, K when analysed; the reason when
+    refused ("not_applicable": not what the pipeline handles; "failed")."""
+    out: dict[str, dict[str, Any]] = {}
+    for run, rows in Results(catalog).for_runs(names).items():
+        rows = [r for r in rows if r.pipeline in LISTED]
+        if not rows:
+            continue
+        r = max(rows, key=lambda x: x.computed_at)
+        status = r.status if r.status == "complete" else \
+            "not_applicable" if r.summary.get("not_applicable") else "failed"
+        out[run] = {"pipeline": r.pipeline, "status": status, "computed_at": r.computed_at,
+                    "version": r.version, "error": r.error or None,
+                    **{k: r.summary.get(k) for k in RESULT_KEYS}}
+    return out
 
 
 def summary(rec: RunRecord) -> dict[str, Any]:
@@ -75,7 +97,9 @@ def list_runs(
     catalog = resolver(request).catalog
     recs = catalog.query(**filters, order=order, limit=limit + 1, offset=offset)
     more = len(recs) > limit
-    return {"items": [summary(r) for r in recs[:limit]], "limit": limit, "offset": offset,
+    found = _results(catalog, [r.name for r in recs[:limit]])
+    items = [{**summary(r), "result": json_safe(found.get(r.name))} for r in recs[:limit]]
+    return {"items": items, "limit": limit, "offset": offset,
             "next_offset": offset + limit if more else None, "total": catalog.count(**filters)}
 
 

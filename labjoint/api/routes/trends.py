@@ -13,6 +13,7 @@ from fastapi.responses import JSONResponse
 from labjoint.api.auth import require_read
 from labjoint.api.errors import errors_doc
 from labjoint.api.jobs import json_safe
+from labjoint.api.clipped import friction_flag
 from labjoint.api.routes.runs import list_runs
 from labjoint.api.schemas import RUN_NAME
 from labjoint.api.trend_schemas import Trends
@@ -78,6 +79,10 @@ def trends(
         except LabjointError as exc:
             errors.append({"run": n, "error": _message(exc)})
     body = build_trends(rows, errors)
+    flag = friction_flag(res, getattr(mu, "source", None)) if body["methods"] != ["loop"] else None
+    body["friction_flag"] = flag
+    if flag:
+        body["notes"].insert(0, f"Stick-slip columns: {flag}")
     body["selection"] = {"runs": names, "truncated": truncated}
     if truncated:
         body["notes"].append(f"more runs match than the {len(names)} taken (limit): "

@@ -112,10 +112,16 @@ function tokenBox() {
 
 // The emergency stop sits in the header of every page. From the machine itself the
 // service accepts it without a token (loopback); from elsewhere the control token is sent.
+// The header follows the rig (every STATUS_MS): "STOPPED" while a stop is latched, gone
+// once it is cleared (from any page, the CLI or another browser), and the output state.
+const STATUS_MS = 2000;
+let pressed = 0;          // stop presses so far: a status asked for before one is stale
+
 function estopButton() {
   const btn = document.getElementById('estop');
   const out = document.getElementById('estop-msg');
   btn.addEventListener('click', async () => {
+    pressed += 1;
     try {
       const r = await api('/estop', { method: 'POST', body: { reason: 'emergency stop from the dashboard' } });
       out.textContent = `STOPPED: ${r.estop}. Output off; queued plans held.`;
@@ -126,6 +132,43 @@ function estopButton() {
     }
     window.dispatchEvent(new Event('labjoint:estop'));
   });
+}
+
+function rigStatus(rig) {
+  const out = document.getElementById('estop-msg');
+  const state = document.getElementById('rig-output');
+  if (rig.estop) {
+    out.textContent = `STOPPED: ${rig.estop}. Output off; queued plans held.`;
+    out.className = 'estop-msg sent';
+  } else if (out.classList.contains('sent')) {
+    out.textContent = '';
+    out.className = 'estop-msg';
+  }
+  const g = (rig.daemon || {}).generator || {};
+  state.textContent = rig.mode === 'none' ? '' : `output ${g.output == null ? '?' : g.output ? 'ON' : 'off'}`;
+  state.className = `rig-output${g.output ? ' on' : ''}`;
+}
+
+function followRig() {
+  let refused = false;       // reads need a token this page does not hold: wait for one
+  window.addEventListener('labjoint:token', () => { refused = false; });
+  const refresh = async () => {
+    if (refused) return;
+    const asked = pressed;
+    try {
+      const rig = await api('/rig');
+      if (asked === pressed) rigStatus(rig);
+    } catch (err) {
+      refused = err.status === 401 || err.status === 403;
+      // otherwise the service line says when the service is unreachable
+    }
+  };
+  const tick = async () => {
+    await refresh();
+    setTimeout(tick, STATUS_MS);
+  };
+  tick();
+  window.addEventListener('labjoint:estop-cleared', refresh);
 }
 
 async function service() {
@@ -142,5 +185,6 @@ async function service() {
 tokenBox();
 estopButton();
 service();
+followRig();
 window.addEventListener('hashchange', route);
 route();

@@ -87,6 +87,37 @@ function jobView(job, onTorque, onResume, onCancel) {
   return h('div', {}, parts);
 }
 
+// Every job that is not over (held by an e-stop, queued, running, waiting for a torque)
+// and the last few that are, aborted ones with the runs they recorded: one row each,
+// with Resume (held) and Cancel (not over) buttons.
+const ACTIVE = ['running', 'waiting_torque', 'held', 'queued'];
+const RECENT = 10;
+
+async function allJobs() {
+  const lists = await Promise.all([...ACTIVE.map((status) => api('/plans', { query: { status, limit: 200 } })),
+    api('/plans', { query: { limit: RECENT } })]);
+  const seen = new Map();
+  for (const l of lists) for (const j of l.items) seen.set(j.id, j);
+  const rank = (j) => (ACTIVE.includes(j.status) ? ACTIVE.indexOf(j.status) : ACTIVE.length);
+  return [...seen.values()].sort((a, b) => rank(a) - rank(b)
+    || (a.submitted_at < b.submitted_at ? 1 : a.submitted_at > b.submitted_at ? -1 : 0));
+}
+
+function jobsTable(jobs, onResume, onCancel) {
+  if (!jobs.length) return h('p', { class: 'note' }, 'No plan yet.');
+  const rows = jobs.map((j) => h('tr', { 'data-job': j.id, 'data-status': j.status },
+    h('td', {}, h('span', { class: `status ${j.status}` }, j.status)),
+    h('td', { class: 'actions' },
+      j.status === 'held' ? h('button', { class: 'small', 'data-action': 'resume', onclick: () => onResume(j.id) }, 'Resume') : null,
+      ACTIVE.includes(j.status) ? h('button', { class: 'small secondary', 'data-action': 'cancel', onclick: () => onCancel(j.id) }, 'Cancel') : null),
+    h('td', {}, h('strong', {}, j.plan.plan), h('br'), h('span', { class: 'count' }, j.id)),
+    h('td', { class: 'num' }, `${Math.round(100 * (j.progress || 0))} %`),
+    h('td', { class: 'runs-cell' }, (j.runs || []).length
+      ? j.runs.map((r, i) => [i ? ', ' : '', h('a', { href: `#/run/${encodeURIComponent(r)}` }, r)])
+      : '–', j.error ? h('div', { class: 'caption' }, j.error) : null)));
+  return h('div', { class: 'scroll' }, table(['Status', '', 'Plan', 'Done', 'Runs'], rows, { id: 'jobs-table', class: 'jobs' }));
+}
+
 export async function show(el) {
   let alive = true;
   let timer = null;
@@ -95,6 +126,7 @@ export async function show(el) {
   const banner = h('div', { class: 'banner', hidden: true, id: 'estop-banner' });
   const rigBox = h('div');
   const jobBox = h('div', { id: 'plan-box' });
+  const jobsBox = h('div', { id: 'jobs' });
   const loopBox = h('div', { id: 'live-loop' }, loopPlot(null, { id: 'live-loop-plot' }));
   const loopCaption = h('p', { class: 'caption', id: 'live-caption' }, 'Nothing recorded yet.');
   const clearBtn = h('button', { class: 'secondary', id: 'estop-clear', type: 'button', hidden: true }, 'Clear the emergency stop');
@@ -105,6 +137,7 @@ export async function show(el) {
       needToken();
       await api('/estop/clear', { method: 'POST' });
       note(msg, 'Emergency stop cleared: plans it held wait until you resume or cancel them.', 'ok');
+      window.dispatchEvent(new Event('labjoint:estop-cleared'));
     } catch (err) {
       note(msg, err.message, 'error');
     }
@@ -113,6 +146,7 @@ export async function show(el) {
     try {
       needToken();
       await api(`/plans/${id}/resume`, { method: 'POST' });
+      note(msg, `Job ${id} resumed: back in the queue.`, 'ok');
     } catch (err) {
       note(msg, err.message, 'error');
     }
@@ -121,6 +155,7 @@ export async function show(el) {
     try {
       needToken();
       await api(`/plans/${id}/cancel`, { method: 'POST' });
+      note(msg, `Job ${id} cancelled.`, 'ok');
     } catch (err) {
       note(msg, err.message, 'error');
     }
@@ -155,6 +190,7 @@ export async function show(el) {
 
   let lastDrawn = null;
   let lastRun = null;
+  let lastJobs = null;
   async function poll() {
     try {
       const rig = await api('/rig');
@@ -166,6 +202,10 @@ export async function show(el) {
       if (rig.mode !== 'none') {
         const job = d.job ? await api(`/plans/${d.job}`) : (await api('/plans', { query: { limit: 1 } })).items[0];
         jobBox.replaceChildren(jobView(job, onTorque, onResume, onCancel));
+        const jobs = await allJobs();
+        const jobsKey = JSON.stringify(jobs.map((j) => [j.id, j.status, Math.round(100 * (j.progress || 0)), j.runs, j.error]));
+        if (jobsKey !== lastJobs) jobsBox.replaceChildren(jobsTable(jobs, onResume, onCancel));
+        lastJobs = jobsKey;
       } else {
         jobBox.replaceChildren(h('p', { class: 'note' }, 'This service runs without a daemon: nothing to watch.'));
       }
@@ -188,6 +228,7 @@ export async function show(el) {
     h('div', { class: 'card live-top' }, clearBtn, msg),
     h('div', { class: 'grid2' }, section('Current loop', loopBox, loopCaption),
       h('div', {}, section('Plan', jobBox), section('Rig', rigBox))),
+    section('Jobs: held, queued, running, and the latest ended', jobsBox),
     section('Queue a plan', planForm(types, msg)));
   poll();
   return { leave: () => { alive = false; clearTimeout(timer); } };

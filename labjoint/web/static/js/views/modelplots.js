@@ -42,13 +42,30 @@ export function summary(fit, diag) {
     + `${(diag.validation_runs || []).length}${diag.split ? ` (${onPage(diag.split)})` : ''}.`) : null);
 }
 
+// Below this relative standard error a fitted parameter's covariance is numerically
+// singular (the data do not see it), not a precise measurement: "± 1.4e-12" on a mass.
+export const SINGULAR_REL = 1e-6;
+
+// How well the runs determine a parameter: 'ok', 'poor' (std. error above the value) or
+// 'undetermined' (no std. error, or a singular covariance), with the words shown.
+export function determination(p) {
+  const v = Math.abs(p.value);
+  if (p.stderr == null || !Number.isFinite(p.stderr)) return ['undetermined', 'not determined (no standard error: the covariance is singular)'];
+  if (v > 0 && p.stderr < SINGULAR_REL * v) return ['undetermined', 'not determined (the covariance is singular: a standard error this small is not an uncertainty)'];
+  if (p.stderr > v) return ['poor', 'not determined by these runs: the standard error exceeds the value'];
+  return ['ok', ''];
+}
+
 export function parameters(fit) {
   const rows = Object.entries(fit.parameters || {}).map(([name, p]) => {
     const d = paramDisplay(p.unit);
-    const se = p.stderr == null ? '–' : fmt(p.stderr * d.k, 2);
-    return [name, fmt(p.value * d.k), se, d.unit];
+    const [state, why] = determination(p);
+    const se = state === 'undetermined' ? 'NaN' : fmt(p.stderr * d.k, 2);
+    return h('tr', { 'data-param': name, 'data-determination': state, class: state === 'ok' ? '' : 'flagged' },
+      h('td', {}, name), h('td', {}, fmt(p.value * d.k)), h('td', {}, se), h('td', {}, d.unit),
+      h('td', { class: state === 'ok' ? '' : 'verdict bad' }, why));
   });
-  return table(['Parameter', 'Value', 'Std. error', 'Unit'], rows, { class: 'params', id: 'params' });
+  return table(['Parameter', 'Value', 'Std. error', 'Unit', ''], rows, { class: 'params', id: 'params' });
 }
 
 export function perRun(fit) {
@@ -94,8 +111,23 @@ export function loops(fit) {
   }));
 }
 
+// Catalog records of the runs the page has listed (name -> record): the grid's columns
+// name each run's bolt torque from them.
+export const knownRuns = new Map();
+
+export function rememberRuns(items) {
+  for (const r of items || []) knownRuns.set(r.name, r);
+}
+
+// The torque(s) of a grid column's runs, as a label part ('' when unknown).
+function torqueOf(names) {
+  const t = [...new Set(names.filter(Boolean).map((n) => knownRuns.get(n)?.torque_nm).filter((v) => v != null))];
+  return t.length ? `${t.map((v) => fmt(v, 3)).join('/')} N m` : '';
+}
+
 // Heat map of NRMSE on the amplitude x frequency grid: one row per frequency class,
-// amplitude ranks across (each cell labelled by its run's amplitude).
+// amplitude ranks across (each cell labelled by its run's amplitude, and by its bolt
+// torque when the runs hold several: three torques at one amplitude are told apart).
 function gridMap(g) {
   const freqs = g.frequencies_hz || [];
   const cols = Math.max(0, ...(g.nrmse || []).map((r) => r.length));
@@ -107,6 +139,14 @@ function gridMap(g) {
     const lo = Math.min(...col);
     const hi = Math.max(...col);
     labels.push(!col.length ? '–' : hi - lo <= 0.1 * hi ? fmt((lo + hi) / 2, 3) : `${fmt(lo, 2)}–${fmt(hi, 2)}`);
+  }
+  const names = g.runs || [];
+  const torques = new Set(names.flat().filter(Boolean).map((n) => knownRuns.get(n)?.torque_nm).filter((v) => v != null));
+  if (torques.size > 1 || new Set(labels).size < labels.length) {
+    for (let j = 0; j < cols; j += 1) {
+      const t = torqueOf(names.map((r) => r[j]));
+      if (t) labels[j] = `${labels[j]} µm · ${t}`;
+    }
   }
   return heatMap({ id: 'residual-grid', x: labels,
     y: freqs.map((f) => parseFloat(f.toPrecision(4))), z: (g.nrmse || []).map(P1), xlabel: 'displacement amplitude (µm)',
@@ -255,4 +295,34 @@ export function ladderChart(steps, noiseFloor, id = 'ladder') {
     format: fmtP(3),
   }), table(['Step', 'Model', 'Added', 'NRMSE'], steps.map((s, i) => [String(i), s.model, s.added || '–', nrmse(s.nrmse)]),
     { class: 'ladder-steps' }));
+}
+
+// A ladder step that made a run's energy-loss error worse (|error| up by more than
+// WORSE_PCT points and by half again): [{step, added, run, before, after}], from the
+// per-run errors each step carries (a diagnosis's runs, or a saved ladder's).
+export const WORSE_PCT = 2;
+
+export function worseSteps(steps) {
+  const out = [];
+  for (let i = 1; i < (steps || []).length; i += 1) {
+    const prev = new Map((steps[i - 1].runs || []).map((r) => [r.run, r.energy_loss_error_pct]));
+    for (const r of steps[i].runs || []) {
+      const a = prev.get(r.run);
+      const b = r.energy_loss_error_pct;
+      if (a == null || b == null || !Number.isFinite(a) || !Number.isFinite(b)) continue;
+      if (Math.abs(b) > Math.abs(a) + WORSE_PCT && Math.abs(b) > 1.5 * Math.abs(a)) {
+        out.push({ step: i, added: steps[i].added, model: steps[i].model, run: r.run, before: a, after: b });
+      }
+    }
+  }
+  return out;
+}
+
+export function worseNote(steps, id = 'ladder-worse') {
+  const worse = worseSteps(steps);
+  if (!worse.length) return null;
+  return h('div', { class: 'note error', id }, h('p', {}, 'Steps that made the energy loss worse on some runs '
+    + '(the set\'s NRMSE fell, but these runs\' dissipation moved away from the measurement):'),
+  h('ul', {}, worse.map((w) => h('li', { 'data-step': w.step, 'data-run': w.run },
+    `step ${w.step} (+${w.added || w.model}): ${w.run}: energy-loss error ${pct(w.before)} → ${pct(w.after)}`))));
 }

@@ -39,7 +39,7 @@ function savedView(list, runs, onUse) {
   h('h3', {}, `${l.start} → ${l.final_model}`),
   h('p', { class: 'caption' }, `${l.exact ? 'These runs' : `${l.runs.length} run(s): ${l.runs.join(', ')}`} · `
     + `${l.adequate ? 'adequate' : 'not adequate'}${l.stop_reason ? ` (${onPage(l.stop_reason)})` : ''} · saved ${when(l.saved_at)}`),
-  ladderChart(l, i),
+  ladderChart(l, i), draw.worseNote(l.steps, `saved-ladder-worse-${i}`),
   h('button', { type: 'button', class: 'small secondary use-ladder', onclick: () => onUse(l) },
     'Continue from this ladder'))));
 }
@@ -70,6 +70,7 @@ function runPicker(onChange) {
       offset, search: search.value.trim() } });
     if (ask !== asked) return;
     items = page.items;
+    draw.rememberRuns(items);
     const sel = new Set(selectedRuns());
     list.replaceChildren(...items.map((r) => {
       const cb = h('input', { type: 'checkbox', value: r.name, checked: sel.has(r.name) });
@@ -162,8 +163,9 @@ export async function show(el) {
     out.physics.replaceChildren(fit ? draw.physics(fit) : '');
     out.cands.replaceChildren(diag ? draw.candidates(diag, addEffect, state.busy) : state.ladder.length
       ? h('p', { class: 'note' }, 'Fit and diagnose the last model to see its candidates.') : '');
-    out.ladder.replaceChildren(state.ladder.length ? draw.ladderChart(state.ladder, state.noiseFloor)
-      : h('p', { class: 'note' }, 'The ladder starts with the first fit.'));
+    out.ladder.replaceChildren(...(state.ladder.length ? [draw.ladderChart(state.ladder, state.noiseFloor),
+      draw.worseNote(state.ladder)].filter(Boolean)
+      : [h('p', { class: 'note' }, 'The ladder starts with the first fit.')]));
     results.forEach((x, i) => { x.hidden = !(fit || diag || (i === 0 && state.ladder.length)); });
     [fitBtn, ladderBtn].forEach((b) => { b.disabled = state.busy; });
   }
@@ -208,14 +210,15 @@ export async function show(el) {
         loops: diag.loops || fit.loops, curves: diag.curves || fit.curves };
       state.diag = diag;
       state.noiseFloor = diag.noise_floor ?? fit.noise_floor ?? state.noiseFloor;
-      const step = { model: state.model, added: added || null, nrmse: diag.nrmse ?? fit.nrmse };
+      const step = { model: state.model, added: added || null, nrmse: diag.nrmse ?? fit.nrmse,
+        runs: (state.fit.runs || []).map((r) => ({ run: r.run, energy_loss_error_pct: r.energy_loss_error_pct })) };
       state.ladder = added ? [...state.ladder, step] : [step];
     });
   }
 
   // a saved ladder as the current one: its steps and noise floor, its last model to go on from
   function useLadder(l) {
-    state.ladder = l.steps.map((st) => ({ model: st.model, added: st.added, nrmse: st.nrmse }));
+    state.ladder = l.steps.map((st) => ({ model: st.model, added: st.added, nrmse: st.nrmse, runs: st.runs }));
     state.noiseFloor = l.noise_floor;
     state.model = l.final_model;
     expr.value = state.model;

@@ -21,11 +21,12 @@ function body(form) {
 }
 
 function report(res) {
-  const rows = res.runs.map((r) => [r.run, r.group || '–', r.status, r.error || '']);
+  const rows = res.runs.map((r) => [r.run, r.group || '–', r.status === 'not_applicable' ? 'not applicable' : r.status, r.error || '']);
   return h('div', { id: 'reprocess-report' },
     h('p', { id: 'reprocess-summary' }, `${res.computed} computed, ${res.skipped} skipped (current), `
+      + `${res.not_applicable ?? 0} not applicable (not what ${res.pipeline} handles), `
       + `${res.failed} failed · pipeline version ${res.version}`),
-    table(['run', 'group', 'status', 'error'], rows, { id: 'reprocess-runs' }));
+    h('div', { class: 'scroll' }, table(['run', 'group', 'status', 'reason'], rows, { id: 'reprocess-runs' })));
 }
 
 export async function show(el) {

@@ -6,7 +6,7 @@ import { h, note, section, table } from '../dom.js';
 import { plotXY } from '../plot/plot.js';
 import { display, fmt, pct, when } from '../units.js';
 import { lastCycles, loopPlot, steadyLoops } from './loops.js';
-import { identificationTable } from './table2.js';
+import { identificationTable, slidingFraction } from './table2.js';
 import { onPage } from '../words.js';
 
 const SCREEN_POINTS = 1500;
@@ -14,10 +14,15 @@ const SCREEN_POINTS = 1500;
 function conditions(r, ch) {
   const md = r.metadata || {};
   const steady = md.steady || {};
+  const wave = md.excitation && typeof md.excitation === 'object' && md.excitation.kind
+    && md.excitation.kind !== 'sine' ? md.excitation : null;
+  const band = wave && Array.isArray(wave.band_hz) ? ` from ${fmt(wave.band_hz[0])} Hz to ${fmt(wave.band_hz[1])} Hz` : '';
   const rows = [
     ['Status', h('span', { class: `status ${r.status}` }, r.status)],
     ['Plan', `${r.plan || '–'}${r.plan_step != null ? ` step ${r.plan_step}` : ''}`],
-    ['Excitation frequency', `${fmt(r.frequency_hz)} Hz`],
+    ...(wave ? [['Excitation', `${wave.kind.replace('_', ' ')}${band}${wave.n_lines ? `, ${wave.n_lines} lines` : ''}: not a steady sine`],
+      ['Repetition frequency', `${fmt(r.frequency_hz)} Hz (1 / period: the line spacing, not a drive frequency)`]]
+      : [['Excitation frequency', `${fmt(r.frequency_hz)} Hz`]]),
     ['Excitation amplitude', `${fmt(r.excitation_vpp)} Vpp`],
     ['Bolt torque', `${fmt(r.torque_nm)} N m`],
     ['Normal force', `${fmt(r.normal_force_n)} N`],
@@ -120,14 +125,16 @@ async function latestAnalysis(name) {
   return row ? { row, method: job.request.method, finished: job.finished_at } : null;
 }
 
-function identifySection(name) {
+function identifySection(name, loopsP) {
   const out = h('div', { id: 'identification' });
   const msg = h('p', { hidden: true });
   const mu = h('input', { type: 'number', step: 'any', min: 0, max: 5, id: 'friction',
     placeholder: 'stored value', title: 'empty: the latest friction test stored on the server' });
+  let measured = {};
   const render = (res) => {
-    out.replaceChildren(res ? identificationTable(res.row)
-      : h('p', { class: 'note' }, 'Not identified yet: start an analysis below.'));
+    out.replaceChildren(!res ? h('p', { class: 'note' }, 'Not identified yet: start an analysis below.')
+      : res.row.error ? h('p', { class: 'note error', id: 'identify-refused' }, `Refused: ${onPage(res.row.error)}`)
+        : identificationTable(res.row, measured));
     if (res) out.append(h('p', { class: 'caption' }, `From the ${res.method} analysis finished ${when(res.finished)}.`));
   };
   async function start(method) {
@@ -137,7 +144,6 @@ function identifySection(name) {
       const result = await runJob('/analyses', '/analyses', { runs: [name], method, options },
         (job) => note(msg, `Identifying… ${Math.round(100 * job.progress)} % ${job.message || ''}`, 'busy'));
       const row = result.runs[0];
-      if (row.error) throw new Error(row.error);
       render({ row, method, finished: new Date().toISOString() });
       note(msg, '');
     } catch (err) {
@@ -146,7 +152,11 @@ function identifySection(name) {
   }
   const bothBtn = h('button', { id: 'identify-both', onclick: () => start('both') }, 'Identify: both methods');
   const loopBtn = h('button', { class: 'secondary', onclick: () => start('hysteresis') }, 'Hysteresis loop only');
-  latestAnalysis(name).then(render, (err) => note(msg, err.message, 'error'));
+  // the measured loops say whether the joint slid as a whole (a plateau), which the
+  // stick-slip model's macro-slip fraction is checked against
+  const measuredP = Promise.resolve(loopsP).then((b) => { measured = { sliding: b ? slidingFraction(b.cycles) : null }; },
+    () => {});
+  Promise.all([latestAnalysis(name), measuredP]).then(([res]) => render(res), (err) => note(msg, err.message, 'error'));
   return section('Identification: both methods (seed 002 Table 2)', out, msg,
     h('div', { class: 'toolbar' }, h('label', { class: 'field inline' }, h('span', {}, 'Friction coefficient μ'), mu),
       bothBtn, loopBtn));
@@ -180,9 +190,25 @@ function cycleCount(body, ch) {
     + `(a recording that starts and ends mid-cycle has one fewer whole cycle than it holds)`;
 }
 
-async function steadyLoopsSection(name, ch, asked) {
+// Channels that sat at their input range, in words (null when none did).
+export function clippedNote(clipped) {
+  if (!clipped || !clipped.length) return null;
+  const each = clipped.map((c) => `${c.channel} sat at ${fmt(c.level, 4)} ${c.unit} `
+    + `(flat tops over ${fmt(100 * c.fraction, 2)} % of the samples)`);
+  return `Clipped: ${each.join('; ')}. Its input range was exceeded: a loop, energy loss, `
+    + 'stiffness or friction coefficient taken from it would be wrong. Record it again with a larger input range.';
+}
+
+async function steadyLoopsSection(name, ch, asked, title, top) {
   const body = await asked;
   const n = body.cycles.length;
+  const clip = clippedNote(body.clipped);
+  if (clip) top.replaceChildren(h('p', { class: 'note error', id: 'run-clipped' }, clip));
+  if (body.refused) {
+    title.textContent = 'Hysteresis loops: refused';
+    return [h('p', { class: 'note error', id: 'loop-refused', 'data-field': body.refused },
+      `No loop is drawn and no energy loss or stiffness quoted: ${onPage(body.reason)}`)];
+  }
   if (!n) {
     return [loopPlot(body, { id: 'loop' }), h('p', { class: 'note', id: 'loop-reason' },
       `No steady cycle to draw. ${body.reason || ''}`)];
@@ -232,14 +258,16 @@ export async function show(el, routeInfo) {
   const raw = h('div', { id: 'raw' }, h('p', { class: 'note busy' }, 'Loading signals…'));
   const loops = h('div', { id: 'loops' }, h('p', { class: 'note busy' }, 'Finding the steady cycles…'));
   const state = stateNote(rec, ch);
-  el.append(h('h1', {}, name), ...(state ? [h('p', { class: 'note error', id: 'run-state' }, state)] : []),
+  const loopsTitle = h('h2', { id: 'loops-title' }, 'Hysteresis loops of the steady cycles');
+  const top = h('div', { id: 'run-warnings' });
+  el.append(h('h1', {}, name), ...(state ? [h('p', { class: 'note error', id: 'run-state' }, state)] : []), top,
     h('div', { class: 'grid2' }, section('Conditions', conditions(rec, ch),
       rec.status !== 'running' ? h('p', {}, h('a', { href: `/api/v1/runs/${encodeURIComponent(name)}/file`, download: `${name}.h5` }, 'Download the HDF5 run file')) : null),
-    section('Hysteresis loops of the steady cycles', loops)),
-    identifySection(name),
+    h('section', { class: 'card' }, loopsTitle, loops)),
+    identifySection(name, loopsP),
     section('Raw signals', raw));
   rawSignals(name, raw, ch.duration_s, dataP).catch((err) => raw.replaceChildren(h('p', { class: 'note error' }, err.message)));
-  const pending = rec.status === 'running' ? recordedLoops(name, rec, ch) : steadyLoopsSection(name, ch, loopsP);
+  const pending = rec.status === 'running' ? recordedLoops(name, rec, ch) : steadyLoopsSection(name, ch, loopsP, loopsTitle, top);
   pending.then((parts) => loops.replaceChildren(...parts.filter(Boolean)))
     .catch((err) => loops.replaceChildren(h('p', { class: 'note error' }, err.message)));
   return null;

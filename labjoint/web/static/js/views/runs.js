@@ -58,6 +58,15 @@ function apiQuery(query) {
   return q;
 }
 
+// A run's latest stored loop result in words: analysed, not applicable or refused (why).
+export function resultText(res) {
+  if (!res || !res.status) return 'not analysed';
+  if (res.status === 'complete') return res.below_resolution ? 'analysed: W below resolution' : 'analysed';
+  const why = (res.error || '').replace(/^[^:]*'[^']*': /, '');
+  const short = why.length > 90 ? `${why.slice(0, 90)}…` : why;
+  return res.status === 'not_applicable' ? `not applicable: ${short}` : `refused: ${short}`;
+}
+
 function row(r, selected) {
   const box = h('input', { type: 'checkbox', checked: selected.has(r.name), 'aria-label': `select ${r.name}` });
   box.addEventListener('change', () => {
@@ -67,6 +76,9 @@ function row(r, selected) {
     document.dispatchEvent(new CustomEvent('labjoint:selection'));
   });
   const dur = r.n_samples && r.sample_rate_hz ? r.n_samples / r.sample_rate_hz : null;
+  const res = r.result || {};
+  const ok = res.status === 'complete';
+  const below = ok && res.below_resolution;
   return h('tr', { 'data-run': r.name },
     h('td', {}, box),
     h('td', {}, h('a', { href: `#/run/${encodeURIComponent(r.name)}` }, r.name)),
@@ -76,6 +88,10 @@ function row(r, selected) {
     h('td', { class: 'num' }, fmt(r.torque_nm)),
     h('td', { class: 'num' }, dur == null ? '–' : fmt(dur, 3)),
     h('td', {}, h('span', { class: `status ${r.status}` }, r.status || '–')),
+    h('td', { class: 'num' }, ok && !below ? fmt(res.energy_loss_j * 1e3) : '–'),
+    h('td', { class: 'num' }, ok && !below ? fmt(res.damping_ns_per_m) : '–'),
+    h('td', { class: 'num' }, ok ? fmt(res.stiffness_n_per_m * 1e-6) : '–'),
+    h('td', { class: 'result', 'data-result': res.status || 'none', title: res.error || '' }, resultText(res)),
     h('td', {}, when(r.start_time)));
 }
 
@@ -106,7 +122,7 @@ export async function show(el, routeInfo) {
     h('div', { class: 'toolbar' }, count, selCount, compare),
     h('div', { class: 'scroll' }, h('table', { class: 'runs' },
       h('thead', {}, h('tr', {}, ['', 'Run', 'Plan', 'f (Hz)', 'Vpp', 'Torque (N m)', 'Duration (s)',
-        'Status', 'Started (UTC)'].map((x) => h('th', {}, x)))),
+        'Status', 'W (mJ)', 'C (Ns/m)', 'K (MN/m)', 'Result (reprocess analyze)', 'Started (UTC)'].map((x) => h('th', {}, x)))),
       body)),
     more));
   showSel();

@@ -102,6 +102,36 @@ export function describeFit(f, axisLabel) {
     + `${f.n_points} runs at ${f.n_amplitudes} amplitudes, ${f.weighted ? 'weighted' : 'unweighted'} least squares on log axes`;
 }
 
+// A run's series: its frequency (3 significant digits) and bolt torque, as the server
+// groups them (identify/trends.py series_key); one exponent never spans two series.
+const seriesKey = (r) => `${r.frequency_hz == null ? '?' : fmt(r.frequency_hz, 3)} Hz, ${r.torque_nm == null ? '?' : fmt(r.torque_nm, 3)} N m`;
+
+export function seriesOf(rows) {
+  return [...new Set(rows.map(seriesKey))];
+}
+
+// Refusals grouped by reason: the run names and numbers taken out of each message.
+export function groupErrors(errors) {
+  const groups = new Map();
+  for (const e of errors) {
+    const reason = String(e.error).split(e.run).join('RUN').replace(/\(([^()]*)\)/g, '')
+      .replace(/-?\d+(\.\d+)?(e[-+]?\d+)?/gi, '#').replace(/\s+/g, ' ').split(':').slice(0, 2).join(':').trim();
+    if (!groups.has(reason)) groups.set(reason, { reason, example: e.error, runs: [] });
+    groups.get(reason).runs.push(e.run);
+  }
+  return [...groups.values()].sort((a, b) => b.runs.length - a.runs.length);
+}
+
+function errorList(errors) {
+  if (!errors.length) return null;
+  const groups = groupErrors(errors);
+  return h('div', { class: 'note error', id: 'trend-errors' },
+    h('p', {}, `${errors.length} run(s) could not be analysed, for ${groups.length} reason(s):`),
+    h('ul', {}, groups.map((g) => h('li', { 'data-runs': g.runs.length },
+      h('strong', {}, `${g.runs.length} run${g.runs.length === 1 ? '' : 's'}`), `: ${g.example.split(g.runs[0]).join('(run)')} `,
+      h('details', {}, h('summary', {}, 'which runs'), h('p', { class: 'caption' }, g.runs.join(', ')))))));
+}
+
 function plotOne(body, q, axis) {
   const ax = body.axes[axis];
   const dx = display(ax.unit);
@@ -110,12 +140,22 @@ function plotOne(body, q, axis) {
   const logx = ax.power_law;
   const logy = logx && q.key === 'energy_loss_j';
   const series = [];
+  const groups = seriesOf(rows);
   for (const m of METHODS.filter((mm) => body.methods.includes(mm.key))) {
     const ok = rows.filter((r) => usable(r, m, q) && r[m.prefix + q.key] != null);
     const xs = ok.map((r) => r[axis] * dx.k);
     const ys = ok.map((r) => r[m.prefix + q.key] * dy.k);
     const us = ok.map((r) => (r[`${m.prefix}${q.key}_uncertainty`] ?? NaN) * dy.k);
-    series.push({ name: m.name, x: xs, y: ys, mode: 'points', color: m.color, r: m.key === 'loop' ? 5 : 3.5 });
+    if (groups.length > 1) {       // one colour per series (frequency, torque): told apart
+      groups.forEach((g, gi) => {
+        const mine = ok.filter((r) => seriesKey(r) === g);
+        series.push({ name: `${m.key === 'loop' ? 'loop' : 'model'} · ${g}`, x: mine.map((r) => r[axis] * dx.k),
+          y: mine.map((r) => r[m.prefix + q.key] * dy.k), mode: 'points', color: color(2 + gi),
+          r: m.key === 'loop' ? 5 : 3 });
+      });
+    } else {
+      series.push({ name: m.name, x: xs, y: ys, mode: 'points', color: m.color, r: m.key === 'loop' ? 5 : 3.5 });
+    }
     series.push({ name: `${m.name} ±u`, ...bars(xs, ys, us, logy), mode: 'line', color: m.color, legend: false, width: 1.2 });
     const f = logy ? fitFor(body, m.key, axis) : null;
     if (f && !f.error && xs.length) {
@@ -198,7 +238,10 @@ function results(el, body, query) {
     const model = ax.power_law ? fitFor(body, 'stickslip', axis) : null;
     exponent.replaceChildren(h('strong', {}, 'Dissipation exponent: '), describeFit(loop, ax.label.toLowerCase()),
       model && !model.error ? ` · stick-slip model: n = ${fmt(model.exponent, 3)}` : '',
-      h('br'), h('span', { class: 'caption' }, body.fit.reference));
+      (body.series_fits || []).length ? h('ul', { id: 'trend-series' }, body.series_fits.map((f) => h('li',
+        { 'data-frequency': f.frequency_hz, 'data-torque': f.torque_nm, 'data-exponent': f.error ? '' : f.exponent },
+        `${fmt(f.frequency_hz, 3)} Hz, ${fmt(f.torque_nm, 3)} N m: `, describeFit(f, ax.label.toLowerCase())))) : null,
+      h('span', { class: 'caption' }, body.fit.reference));
     exponent.dataset.exponent = loop && !loop.error ? String(loop.exponent) : '';
   };
   const exports = h('div', { class: 'buttons' },
@@ -211,9 +254,7 @@ function results(el, body, query) {
       download(await svgToPng(plotsSvg([...plots.querySelectorAll('svg.plot')])), 'labjoint-trends.png');
     } }, 'PNG'));
   const pick = axisPicker(body, axis, (k) => { axis = k; draw(); });
-  const problems = body.errors.length ? h('p', { class: 'note error', id: 'trend-errors' },
-    `${body.errors.length} run(s) could not be analysed: `,
-    body.errors.map((e) => `${e.run}: ${e.error}`).join(' · ')) : null;
+  const problems = errorList(body.errors);
   el.append(h('div', { class: 'grid2' },
     h('section', { class: 'card' }, h('h2', {}, 'Against amplitude and torque'),
       h('div', { class: 'toolbar' }, pick, h('span', { class: 'count' }, 'Export:'), exports),
