@@ -26,7 +26,9 @@ def run(args: argparse.Namespace) -> int:
     if not data.is_dir():
         raise InputError("no such data directory", file=str(data), field="--data")
     catalog = catalog_for(cfg, data)
-    done = recover_all(data, catalog=catalog)
+    cleared: list[Path] = []
+    unreadable: dict[str, str] = {}
+    done = recover_all(data, catalog=catalog, cleared=cleared, unreadable=unreadable)
     stale = []
     for rec in catalog.query(status="running"):
         p = Path(rec.path)
@@ -37,7 +39,10 @@ def run(args: argparse.Namespace) -> int:
             catalog.add(p)             # re-read the file's own status
     synced = catalog.sync(data)
     stale += synced["removed"]
-    res = {"recovered": [str(p) for p in done], "removed_from_catalog": stale,
+    for f, why in unreadable.items():
+        synced["skipped"].setdefault(f, why)
+    res = {"recovered": [str(p) for p in done], "cleared_flags": [str(p) for p in cleared],
+           "removed_from_catalog": stale,
            "added_to_catalog": synced["added"], "not_indexed": synced["skipped"],
            "still_running": [r.name for r in catalog.query(status="running")]}
     if args.json:
@@ -45,6 +50,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     for p in done:
         print(f"recovered {p}: marked incomplete")
+    for p in cleared:
+        print(f"cleared {p}: open-for-write flags left by a dead writer (e.g. a killed reprocess)")
     for n in stale:
         print(f"catalog: removed {n} (its file is gone)")
     for n in synced["added"]:
@@ -53,6 +60,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"catalog: not indexed {f}: {why}")
     for n in res["still_running"]:
         print(f"{n}: still being written by a live process")
-    if not (done or stale or synced["added"] or synced["skipped"] or res["still_running"]):
+    if not (done or cleared or stale or synced["added"] or synced["skipped"] or res["still_running"]):
         print("nothing to recover")
     return 0

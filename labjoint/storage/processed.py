@@ -73,7 +73,7 @@ def write_processed(path: str | Path, group_name: str, arrays: Mapping[str, Any]
         raise InputError("no such run file", file=str(p)) from None
     except OSError as exc:
         raise InputError(f"cannot open run file for writing ({exc}); if its writer died, "
-                         "run labjoint.storage.recover() first", file=str(p)) from None
+                         "`labjoint recover` clears its flags", file=str(p)) from None
     with f:
         root = f.get("entry/processed")
         if root is None:

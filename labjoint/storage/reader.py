@@ -29,6 +29,7 @@ from labjoint.errors import InputError
 from labjoint.hardware.interfaces import ChannelSpec
 from labjoint.storage import layout
 from labjoint.storage.csv_parse import parse_csv
+from labjoint.storage.h5open import H5_FILE_ERRORS, open_swmr_reader
 from labjoint.storage.roles import channel_roles
 from labjoint.storage.run import Run
 
@@ -104,7 +105,7 @@ class RunFile:
             self.channels: list[ChannelSpec] = list(chans)
             self._static = copy.deepcopy(static)
             self.refresh()
-        except (KeyError, ValueError, OSError, TypeError) as exc:
+        except H5_FILE_ERRORS as exc:
             self.close()
             raise InputError(f"damaged run file: {exc}", file=str(path)) from None
 
@@ -322,21 +323,24 @@ def _open_handle(p: Path) -> _Handle:
     swmr = False
     try:
         f = h5py.File(p, "r")
-    except OSError as exc:
+    except H5_FILE_ERRORS as exc:
         if "already open for write" not in str(exc):
             raise InputError(f"not a readable HDF5 file: {exc}", file=str(p)) from None
         try:  # a writer has it (or had it, and died): read it the SWMR way
-            f = h5py.File(p, "r", swmr=True)
+            f = open_swmr_reader(p)
             swmr = True
-        except OSError as exc2:
+        except H5_FILE_ERRORS as exc2:
             raise InputError(f"not a readable HDF5 file: {exc2}", file=str(p)) from None
-    e = f.get("entry")
-    if not isinstance(e, h5py.Group) or "labjoint_format" not in e.attrs or "data" not in e:
-        f.close()
-        raise InputError("not a labjoint run file (no /entry with @labjoint_format)", file=str(p))
     try:
+        e = f.get("entry")
+        if not isinstance(e, h5py.Group) or "labjoint_format" not in e.attrs or "data" not in e:
+            raise InputError("not a labjoint run file (no /entry with @labjoint_format)",
+                             file=str(p))
         return _Handle(f, swmr)
-    except (KeyError, ValueError, OSError, TypeError) as exc:
+    except InputError:
+        f.close()
+        raise
+    except H5_FILE_ERRORS as exc:
         f.close()
         raise InputError(f"damaged run file: {exc}", file=str(p)) from None
 
