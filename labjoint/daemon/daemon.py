@@ -278,7 +278,8 @@ class Daemon:
                                  on_abort=self._note_abort, publish=self._publish)
             prefix = f"{datetime.now(timezone.utc):%Y%m%dT%H%M%SZ}-{job.id[:8]}"
             result = engine.run(plan, name_prefix=prefix)
-            status, message, error = job_outcome(result, tracker.n_gaps, self._cancelled(job.id))
+            status, message, error = job_outcome(result, tracker.n_gaps, self._cancelled(job.id),
+                                                 tracker.unconverged)
         except Exception as exc:  # plan code or a callback crashed: the engine cleaned up
             error = f"{type(exc).__name__}: {exc}"
             message = f"failed: {error}"
