@@ -97,3 +97,21 @@ class Calibrations:
             log.info("calibrations applied: %s", {n: len(v) for n, v in sources.items()})
             self.specs = specs
         self.sources = sources
+
+
+def outage_note(pending: dict[Path, str]) -> str:
+    """What a job says when the catalog could not index its runs (``pending``: file -> why)."""
+    return (f"the catalog could not index {len(pending)} run(s) ({next(iter(pending.values()))}); "
+            "their files are complete and are indexed when it is back")
+
+
+def index_left_out(catalog: Any, pending: dict[Path, str]) -> None:
+    """Index the run files a catalog outage left out (removed from ``pending`` as they
+    are); stops at the first failure (still unreachable: tried again later)."""
+    for p in list(pending):
+        try:
+            catalog.add(p)
+        except Exception:
+            return
+        del pending[p]
+        log.warning("catalog: indexed %s, left out by an outage", p.name)
