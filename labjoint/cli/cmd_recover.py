@@ -44,6 +44,7 @@ def run(args: argparse.Namespace) -> int:
     res = {"recovered": [str(p) for p in done], "cleared_flags": [str(p) for p in cleared],
            "removed_from_catalog": stale,
            "added_to_catalog": synced["added"], "not_indexed": synced["skipped"],
+           "copies_not_indexed": synced["copies"],
            "still_running": [r.name for r in catalog.query(status="running")]}
     if args.json:
         emit_json(res)
@@ -58,8 +59,13 @@ def run(args: argparse.Namespace) -> int:
         print(f"catalog: added {n} (a run file it did not hold)")
     for f, why in synced["skipped"].items():
         print(f"catalog: not indexed {f}: {why}")
+    for name, files in synced["copies"].items():
+        held = catalog.get(name)
+        print(f"catalog: {len(files)} cop{'y' if len(files) == 1 else 'ies'} of run {name} not "
+              f"indexed (the catalog holds {held.path if held else 'it'}), e.g. {files[0]}")
     for n in res["still_running"]:
         print(f"{n}: still being written by a live process")
-    if not (done or cleared or stale or synced["added"] or synced["skipped"] or res["still_running"]):
+    if not (done or cleared or stale or synced["added"] or synced["skipped"] or synced["copies"]
+            or res["still_running"]):
         print("nothing to recover")
     return 0

@@ -54,7 +54,8 @@ def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from labjoint.acquisition.plans import amplitude_sweep, load_plan
+    from labjoint.acquisition.admission import check_plan
+    from labjoint.acquisition.plans import load_plan, read_plan_file
     from labjoint.acquisition.rig import open_rig
     from labjoint.cli.cmd_analyze import analyze_paths, print_loop_table
     from labjoint.cli.signals import terminate_as_interrupt
@@ -76,12 +77,17 @@ def run(args: argparse.Namespace) -> int:
     cfg = load_config(args.config, overrides)
     if args.cycles < 1:
         raise InputError("must be at least 1", field="--cycles")
+    spec = (read_plan_file(Path(args.plan)) if args.plan else
+            {"plan": "amplitude_sweep", "amplitudes_vpp": args.sweep,
+             "frequency_hz": args.frequency, "torque_nm": args.torque, "n_cycles": args.cycles})
+    try:                           # the admission check submit and REST apply
+        check_plan(spec, cfg)
+    except InputError as exc:
+        raise InputError(exc.message, file=args.plan or exc.file, field=exc.field) from None
+    plan = load_plan(spec)
     out = Path(args.out or cfg.rig.data_dir)
     out.mkdir(parents=True, exist_ok=True)
     cfg, sources = calibrated_config(cfg, out)
-    plan = (load_plan(args.plan) if args.plan else
-            amplitude_sweep(args.sweep, frequency_hz=args.frequency, torque_nm=args.torque,
-                            n_cycles=args.cycles))
     n_runs = len(args.sweep) if not args.plan else 1
     bar = Progress(n_runs, "simulate", enabled=not (args.json or args.quiet))
     writer = RunWriter(out, catalog=catalog_for(cfg, out))

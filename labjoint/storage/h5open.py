@@ -63,3 +63,24 @@ def open_swmr_reader(path: str | Path) -> h5py.File:
     if _LIB is None:     # an h5py built against a system HDF5: its default retries
         return h5py.File(path, "r", swmr=True)
     return h5py.File(path, "r", swmr=True, driver=_DRIVER)
+
+
+def run_identity(path: str | Path) -> tuple[str, str]:
+    """(name, uid) of a run file, read without the rest of it (a catalog sync checks
+    whether a file is a copy of a catalogued run before reading it whole)."""
+    from labjoint.errors import InputError
+
+    p = Path(path)
+    try:
+        try:
+            f = h5py.File(p, "r")
+        except OSError as exc:
+            if "already open for write" not in str(exc):
+                raise
+            f = open_swmr_reader(p)
+        with f:
+            name, uid = f["entry/title"][()], f["entry/entry_identifier"][()]
+    except H5_FILE_ERRORS as exc:
+        raise InputError(f"not a readable run file: {exc}", file=str(p)) from None
+    return tuple(v.decode().rstrip("\x00") if isinstance(v, bytes) else str(v)
+                 for v in (name, uid))  # type: ignore[return-value]

@@ -1,0 +1,62 @@
+"""Bad input at the CLI (issue 33 item 18): simulate --plan through the admission check,
+an unknown structure --set key, 1,000 copies of one run at recover, and the like. Each
+gives one clear line (exit 2) or a report, never a traceback or a silent wrong answer."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+
+from labjoint.cli.main import main
+from labjoint.storage import Catalog
+from test_storage_fixtures import FS, write_run
+
+ROOT = Path(__file__).resolve().parents[1]
+SEED000 = str(ROOT / "configs" / "structure-seed000.toml")
+
+
+def test_simulate_plan_is_refused_by_the_admission_check_before_anything_runs(tmp_path,
+                                                                               capsys):
+    plan = tmp_path / "long.toml"
+    plan.write_text('plan = "dwell"\nfrequency_hz = 400.0\namplitude_vpp = 1.0\n'
+                    'n_cycles = 1000000000000\n')            # 1e12 cycles: 79 years
+    out = tmp_path / "d"
+    assert main(["simulate", "--plan", str(plan), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert str(plan) in err and "max_record_s" in err and err.count("\n") == 1
+    assert not out.exists()                                   # nothing written
+    over = tmp_path / "over.toml"
+    over.write_text('plan = "dwell"\nfrequency_hz = 400.0\namplitude_vpp = 50.0\n')
+    assert main(["simulate", "--plan", str(over), "--out", str(out), "--quiet"]) == 2
+    assert "max_vpp" in capsys.readouterr().err
+
+
+def test_structure_set_of_an_unknown_parameter_is_refused_naming_it(capsys):
+    assert main(["structure", "modes", SEED000, "--set", "UNKNOWN=5", "--json"]) == 2
+    err = capsys.readouterr().err
+    assert "UNKNOWN" in err and "E_e_pa" in err and err.count("\n") == 1
+
+
+def test_copies_of_one_run_are_reported_once_and_not_added_again(tmp_path, capsys):
+    t = np.arange(1000) / FS
+    src = write_run(tmp_path, "orig", np.vstack([np.sin(2 * np.pi * 400 * t)] * 4) * 0.1)
+    for k in range(300):
+        shutil.copy(src, tmp_path / f"copy_{k:04d}.h5")
+    reports, times = [], []
+    for _ in range(2):
+        t0 = time.perf_counter()
+        assert main(["recover", "--data", str(tmp_path), "--json"]) == 0
+        times.append(time.perf_counter() - t0)
+        reports.append(json.loads(capsys.readouterr().out))
+    first, second = reports
+    assert first["added_to_catalog"] == ["orig"] and second["added_to_catalog"] == []
+    assert [len(v) for v in second["copies_not_indexed"].values()] == [300]
+    held = Catalog(tmp_path / "catalog.sqlite").get("orig").path   # one file: the first
+    assert held not in second["copies_not_indexed"]["orig"] and Path(held).exists()
+    assert main(["recover", "--data", str(tmp_path)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert sum("300 copies of run orig" in ln for ln in lines) == 1 and len(lines) == 1
