@@ -5,7 +5,10 @@ gives one clear line (exit 2) or a report, never a traceback or a silent wrong a
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -17,6 +20,8 @@ from test_storage_fixtures import FS, write_run
 
 ROOT = Path(__file__).resolve().parents[1]
 SEED000 = str(ROOT / "configs" / "structure-seed000.toml")
+ENV = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+MAIN = "import sys; from labjoint.cli.main import main; sys.exit(main())"
 
 
 def test_simulate_plan_is_refused_by_the_admission_check_before_anything_runs(tmp_path,
@@ -60,3 +65,25 @@ def test_copies_of_one_run_are_reported_once_and_not_added_again(tmp_path, capsy
     assert main(["recover", "--data", str(tmp_path)]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert sum("300 copies of run orig" in ln for ln in lines) == 1 and len(lines) == 1
+
+
+def _cli_bytes(*args: bytes) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable.encode(), b"-c", MAIN.encode(), *args], env=ENV,
+                          capture_output=True, timeout=300)
+
+
+def test_binary_bytes_are_escaped_not_echoed_raw(tmp_path):
+    """A file name or a value carrying ESC sequences and non-UTF-8 bytes: the terminal
+    gets them escaped (\\x1b, \\xff), on stdout and stderr."""
+    r = _cli_bytes(b"structure", b"modes", SEED000.encode(), b"--set", b"\x1b[2J\xff=5")
+    assert r.returncode == 2 and b"\x1b" not in r.stderr and b"\xff" not in r.stderr
+    assert b"\\x1b[2J\\xff" in r.stderr and r.stderr.count(b"\n") == 1
+    d = tmp_path / "d"
+    d.mkdir()
+    bad = os.path.join(os.fsencode(d), b"run\x1b[31m\xff.h5")
+    with open(bad, "wb") as fh:
+        fh.write(b"\x89HDF\r\n\x1a\n" + bytes(range(256)) * 4)    # a header, then garbage
+    r = _cli_bytes(b"recover", b"--data", os.fsencode(d))
+    assert r.returncode == 0, r.stderr
+    assert b"\x1b" not in r.stdout + r.stderr and b"\xff" not in r.stdout + r.stderr
+    assert b"run\\x1b[31m\\xff.h5" in r.stdout

@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from labjoint.cli.output import emit_json
+from labjoint.cli.output import emit_json, terminal_safe
 
 
 def add_recover_arguments(p: argparse.ArgumentParser) -> None:
@@ -50,21 +50,23 @@ def run(args: argparse.Namespace) -> int:
         emit_json(res)
         return 0
     for p in done:
-        print(f"recovered {p}: marked incomplete")
+        print(terminal_safe(f"recovered {p}: marked incomplete"))
     for p in cleared:
-        print(f"cleared {p}: open-for-write flags left by a dead writer (e.g. a killed reprocess)")
+        print(terminal_safe(f"cleared {p}: open-for-write flags left by a dead writer "
+                            "(e.g. a killed reprocess)"))
     for n in stale:
-        print(f"catalog: removed {n} (its file is gone)")
+        print(terminal_safe(f"catalog: removed {n} (its file is gone)"))
     for n in synced["added"]:
-        print(f"catalog: added {n} (a run file it did not hold)")
+        print(terminal_safe(f"catalog: added {n} (a run file it did not hold)"))
     for f, why in synced["skipped"].items():
-        print(f"catalog: not indexed {f}: {why}")
+        print(terminal_safe(f"catalog: not indexed {f}: {why}"))
     for name, files in synced["copies"].items():
         held = catalog.get(name)
-        print(f"catalog: {len(files)} cop{'y' if len(files) == 1 else 'ies'} of run {name} not "
-              f"indexed (the catalog holds {held.path if held else 'it'}), e.g. {files[0]}")
+        print(terminal_safe(
+            f"catalog: {len(files)} cop{'y' if len(files) == 1 else 'ies'} of run {name} not "
+            f"indexed (the catalog holds {held.path if held else 'it'}), e.g. {files[0]}"))
     for n in res["still_running"]:
-        print(f"{n}: still being written by a live process")
+        print(terminal_safe(f"{n}: still being written by a live process"))
     if not (done or cleared or stale or synced["added"] or synced["skipped"] or synced["copies"]
             or res["still_running"]):
         print("nothing to recover")

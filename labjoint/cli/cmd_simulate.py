@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from labjoint.cli.output import Progress, emit_json
+from labjoint.cli.output import Progress, emit_json, terminal_safe
 from labjoint.errors import InputError
 
 
@@ -118,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         print_loop_table(rows)
         for e in skipped:
-            print(f"{Path(e['file']).name}: not analysed here ({e['error']})")
+            print(terminal_safe(f"{Path(e['file']).name}: not analysed here ({e['error']})"))
         units = {c.name: c.unit for c in cfg.daq.channels}
         for name, pts in sources.items():
             print(f"{name}: stored calibration, " + ", ".join(
@@ -126,8 +126,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"\n{len(paths)} run files in {out} ({result.status}{': ' + result.reason if result.reason else ''}); "
               f"{elapsed:.1f} s")
     if pending:
-        print(f"warning: the catalog {writer.catalog.location} could not index {len(pending)} of "
-              f"{len(result.runs)} run(s) ({next(iter(pending.values()))}); their files are "
-              "complete: `labjoint recover` indexes them when the catalog is back",
-              file=sys.stderr)
+        print(terminal_safe(
+            f"warning: the catalog {writer.catalog.location} could not index {len(pending)} of "
+            f"{len(result.runs)} run(s) ({next(iter(pending.values()))}); their files are "
+            "complete: `labjoint recover` indexes them when the catalog is back"), file=sys.stderr)
     return 0 if result.status == "complete" and not pending else 1
