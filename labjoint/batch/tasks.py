@@ -4,8 +4,9 @@ A task receives run names and paths (never the records: the worker reads the fil
 itself, on the shared filesystem) and returns a few hundred bytes: the status, the
 summary, each input file's sha256 as the pipeline read it, and the error of a failed run.
 A bad run (missing file, not a sine, a missing channel, a damaged file: h5py's OSError or
-RuntimeError) is a ``failed`` result naming its file, not an exception; anything else (a bug, a dying worker) propagates, so the engine retries it. A
-worker whose code gives another pipeline version than the plan's refuses the task.
+RuntimeError) is a ``failed`` result naming its file, not an exception; anything else (a
+bug, a dying worker) propagates, so the engine retries it. A worker whose code gives
+another pipeline version than the plan's refuses the task.
 """
 
 from __future__ import annotations

@@ -32,7 +32,8 @@ def load_with_sets(args: argparse.Namespace):
             known = sorted({p for j in s.joints for p in j.law.params}
                            | ({"E_e_pa"} if any(j.layer is not None for j in s.joints) else set()))
             raise InputError(f"no joint of the structure has parameter {key!r}; known: "
-                             f"{', '.join(known)}", file=args.structure, field=f"--set {key}") from None
+                             f"{', '.join(known)}", file=args.structure,
+                             field=f"--set {key}") from None
         values = floats(val, f"--set {key}")
         if len(values) != 1:
             raise InputError(f"expected one number, got '{val}'", field=f"--set {key}")
