@@ -87,3 +87,43 @@ def test_binary_bytes_are_escaped_not_echoed_raw(tmp_path):
     assert r.returncode == 0, r.stderr
     assert b"\x1b" not in r.stdout + r.stderr and b"\xff" not in r.stdout + r.stderr
     assert b"run\\x1b[31m\\xff.h5" in r.stdout
+
+
+def _model_file(tmp_path, **change):
+    d = {"format": "labjoint-model/1", "model": "inertia+viscous+linear_stiffness",
+         "structure": "sdof", "substeps": 20,
+         "parameters": {"inertia.m": {"value": 2.0}, "viscous.c": {"value": 10.0},
+                        "linear_stiffness.k": {"value": 5e4}}}
+    d.update(change)
+    p = tmp_path / "m.json"
+    p.write_text(json.dumps(d))
+    return p
+
+
+def test_bad_model_files_are_one_line_naming_the_field(tmp_path, capsys):
+    from labjoint.compare.output_error import FORMAT, load_model
+
+    assert FORMAT == "labjoint-model/1"
+    load_model(_model_file(tmp_path))                       # the good one loads
+    rec = tmp_path / "r.csv"
+    rec.write_text("time_s,displacement_m,force_N\n" + "".join(
+        f"{k / 1000},{1e-6 * np.sin(k / 5)},{np.cos(k / 5)}\n" for k in range(400)))
+    for change, field in (({"substeps": "abc"}, "substeps"), ({"substeps": 1e15}, "substeps"),
+                          ({"substeps": 10**15}, "substeps"), ({"substeps": True}, "substeps"),
+                          ({"parameters": [1, 2, 3]}, "parameters")):
+        m = _model_file(tmp_path, **change)
+        t0 = time.perf_counter()
+        assert main(["predict", str(m), str(rec), "--json"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and str(m) in err and field in err, err
+        assert time.perf_counter() - t0 < 30                # refused, not allocated
+
+
+def test_a_structure_of_micrometre_elements_is_refused_before_assembly(tmp_path, capsys):
+    text = Path(SEED000).read_text()
+    assert "element_length_m = 0.02" in text
+    s = tmp_path / "fine.toml"
+    s.write_text(text.replace("element_length_m = 0.02", "element_length_m = 1.6e-6"))
+    assert main(["structure", "modes", str(s), "--json"]) == 2
+    err = capsys.readouterr().err
+    assert "element_length_m" in err and err.count("\n") == 1
