@@ -127,3 +127,39 @@ def test_a_structure_of_micrometre_elements_is_refused_before_assembly(tmp_path,
     assert main(["structure", "modes", str(s), "--json"]) == 2
     err = capsys.readouterr().err
     assert "element_length_m" in err and err.count("\n") == 1
+
+
+def _boucwen_file(p, u, y=None):
+    import h5py
+
+    with h5py.File(p, "w") as f:
+        g = f.create_group("multisine")
+        g["u"] = u
+        if y is None:
+            g["y"] = 1e-4 * u
+        else:
+            g.create_dataset("y", **y)
+        g["fs"] = 750.0
+    return p
+
+
+def test_an_hdf5_declaring_1e9_samples_is_refused_before_it_is_read(tmp_path, capsys):
+    big = _boucwen_file(tmp_path / "big.h5", np.zeros((1000, 1)),
+                        {"shape": (10**9, 1), "dtype": "f8", "chunks": (65536, 1)})
+    assert big.stat().st_size < 1e6                     # declared, never written
+    t0 = time.perf_counter()
+    assert main(["import", str(big), "--map", "boucwen", "--out", str(tmp_path / "d"),
+                 "--json"]) == 2
+    assert time.perf_counter() - t0 < 20
+    err = capsys.readouterr().err
+    assert str(big) in err and "1e+09" in err and err.count("\n") == 1
+    assert not list((tmp_path / "d").glob("*.h5")) if (tmp_path / "d").exists() else True
+
+
+def test_a_complex_channel_is_refused_not_truncated(tmp_path, capsys):
+    u = np.random.default_rng(0).standard_normal((1000, 1))
+    p = _boucwen_file(tmp_path / "c.h5", u, {"data": (1e-4 * u) * (1 + 1j)})
+    assert main(["import", str(p), "--map", "boucwen", "--out", str(tmp_path / "d"),
+                 "--json"]) == 2
+    err = capsys.readouterr().err
+    assert "complex" in err and str(p) in err and err.count("\n") == 1
