@@ -181,3 +181,25 @@ def test_a_live_writers_flags_are_left_alone(tmp_path):
     assert clear_dead_writer(p) is True
     shutil.copy(p, tmp_path / "copy.h5")
     assert clear_dead_writer(tmp_path / "copy.h5") is False      # nothing left to clear
+
+
+def test_odd_entries_of_the_data_directory_are_listed_not_fatal(tmp_path, capsys):
+    (good,) = _runs(tmp_path, ("good",))
+    (tmp_path / "empty.h5").write_bytes(b"")
+    (tmp_path / "dir.h5").mkdir()
+    (tmp_path / "dangling.h5").symlink_to(tmp_path / "nowhere.h5")
+    (tmp_path / "loop.h5").symlink_to(tmp_path / "loop.h5")
+    (tmp_path / "trunc.h5").write_bytes(good.read_bytes()[:100])
+    assert main(["recover", "--data", str(tmp_path), "--json"]) == 0
+    cap = capsys.readouterr()
+    out = json.loads(cap.out)
+    assert out["added_to_catalog"] == ["good"] and cap.err == ""
+    assert sorted(out["not_indexed"]) == sorted(
+        str(tmp_path / f"{n}.h5") for n in ("empty", "dir", "dangling", "loop", "trunc"))
+    d = tmp_path / "data"
+    d.mkdir()
+    for n in ("dir.h5", "loop.h5"):
+        (d / n).symlink_to(d / n) if n == "loop.h5" else (d / n).mkdir()
+    daemon = make_daemon(tmp_path)
+    daemon.start()
+    daemon.stop()

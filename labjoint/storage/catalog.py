@@ -158,6 +158,9 @@ class Catalog:
         known = {Path(r["path"]).resolve() for r in rows}
         recs: list[RunRecord] = []
         for p in sorted(Path(data_dir).glob("*.h5")):
+            if not p.is_file():              # before resolve(): a symlink loop raises there
+                out["skipped"][str(p)] = "not a file (a directory, a broken link or a link loop)"
+                continue
             if p.resolve() in known:
                 continue
             try:
@@ -279,6 +282,10 @@ def _read_dir(d: Path, skip: set[Path] = frozenset()
               ) -> Iterator[tuple[Path, RunRecord | InputError]]:
     """Each ``*.h5`` file of ``d`` not in ``skip``, with its record or why it has none."""
     for p in sorted(d.glob("*.h5")):
+        if not p.is_file():
+            yield p, InputError("not a file (a directory, a broken link or a link loop)",
+                                file=str(p))
+            continue
         if p.resolve() in skip:
             continue
         try:

@@ -29,6 +29,8 @@ from labjoint.storage.h5open import H5_FILE_ERRORS, open_swmr_reader
 from labjoint.storage.writer import OPEN_FOR_WRITE, utc_now
 
 log = logging.getLogger(__name__)
+#: why a ``*.h5`` entry of a data directory is not read
+NOT_A_FILE = "not a file (a directory, a broken link or a link loop)"
 
 _SIGNATURE = b"\x89HDF\r\n\x1a\n"
 _M = 0xFFFFFFFF
@@ -108,8 +110,11 @@ _WRITE_ACCESS, _SWMR_WRITE = 0x01, 0x04
 
 def _consistency_flags(p: Path) -> int:
     """The superblock's file-consistency flags byte (0 for version 0/1 superblocks)."""
-    with open(p, "rb") as fh:
-        head = fh.read(12)
+    try:
+        with open(p, "rb") as fh:
+            head = fh.read(12)
+    except OSError as exc:
+        raise InputError(f"cannot read the file: {exc.strerror or exc}", file=str(p)) from None
     if len(head) < 12 or head[:8] != _SIGNATURE:
         raise InputError("not an HDF5 file (no superblock at offset 0)", file=str(p))
     return head[11] if head[8] in (2, 3) else 0
@@ -228,10 +233,12 @@ def recover_all(data_dir: str | Path, *, catalog=None, cleared: list[Path] | Non
     """At start-up: recover every "running" run in ``data_dir`` whose writer is gone,
     clear the open-for-write flags dead non-SWMR writers left on finished runs
     (:func:`clear_dead_writer`; appended to ``cleared``), and delete temporary files
-    left by dead writers or imports. Files that cannot be read are skipped, logged and
-    put in ``unreadable`` (file -> why). Returns the files marked "incomplete"."""
+    left by dead writers or imports. Files that cannot be read are skipped and put in
+    ``unreadable`` (file -> why) if given, else logged as warnings. Returns the files
+    marked "incomplete"."""
     d = Path(data_dir)
     done: list[Path] = []
+    level = logging.WARNING if unreadable is None else logging.INFO   # else the caller says it
     if not d.is_dir():
         return done
     for tmp in sorted(d.glob(".*.h5.tmp-*")):
@@ -240,6 +247,11 @@ def recover_all(data_dir: str | Path, *, catalog=None, cleared: list[Path] | Non
                 and int(pid) != os.getpid():
             tmp.unlink(missing_ok=True)
     for p in sorted(d.glob("*.h5")):
+        if not p.is_file():          # before resolve(): a symlink loop raises there
+            log.log(level, "recover: skipping %s: %s", p, NOT_A_FILE)
+            if unreadable is not None:
+                unreadable[str(p)] = NOT_A_FILE
+            continue
         if str(p.resolve()) in OPEN_FOR_WRITE:
             continue
         try:
@@ -250,7 +262,7 @@ def recover_all(data_dir: str | Path, *, catalog=None, cleared: list[Path] | Non
             if recover(p, catalog=catalog):
                 done.append(p)
         except InputError as exc:
-            log.warning("recover: skipping %s", exc)   # InputError names the file
+            log.log(level, "recover: skipping %s", exc)   # InputError names the file
             if unreadable is not None:
                 unreadable[str(p)] = exc.message
     return done
