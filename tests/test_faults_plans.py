@@ -4,6 +4,7 @@ target reported on the job, not "done" silently."""
 
 from __future__ import annotations
 
+import json
 import os
 from datetime import datetime
 
@@ -62,3 +63,18 @@ def test_a_step_off_its_force_target_fails_the_job_naming_the_run(tmp_path):
         assert name in job.error
         with open_run(daemon.data_dir / f"{name}.h5") as rf:
             assert rf.metadata["force_converged"] is False
+
+
+@pytest.mark.slow
+def test_simulate_says_when_a_step_missed_its_force_and_exits_1(tmp_path, capsys):
+    from labjoint.cli.main import main
+
+    plan = tmp_path / "steps.json"
+    plan.write_text(json.dumps({**STEP, "force_amplitude_n": 200.0, "max_vpp": 0.05,
+                                "initial_vpp": 0.05, "frequencies_hz": [400.0]}))
+    assert main(["simulate", "--plan", str(plan), "--sample-rate", "10000",
+                 "--out", str(tmp_path / "d"), "--json", "--quiet"]) == 1
+    cap = capsys.readouterr()
+    out = json.loads(cap.out)
+    assert out["status"] == "complete" and len(out["force_not_converged"]) == 1
+    assert "did not reach its target in 1 run(s)" in cap.err

@@ -92,7 +92,11 @@ def run(args: argparse.Namespace) -> int:
     bar = Progress(n_runs, "simulate", enabled=not (args.json or args.quiet))
     writer = RunWriter(out, catalog=catalog_for(cfg, out))
 
+    unconverged: list[str] = []        # step_sine runs recorded off their force target
+
     def progress(name: str, doc: Any) -> None:
+        if name == "start" and (doc.metadata or {}).get("force_converged") is False:
+            unconverged.append(doc.name)
         if name == "stop":
             bar.total = max(bar.total, bar.done + 1)
             bar.advance(note=f"{getattr(doc, 'status', '')}")
@@ -112,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         emit_json({"status": result.status, "reason": result.reason, "data_dir": str(out),
                    "elapsed_s": elapsed, "runs": rows, "not_analysed": skipped,
-                   "not_catalogued": pending,
+                   "not_catalogued": pending, "force_not_converged": unconverged,
                    "calibrations": {c.name: [list(p) for p in c.calibration]
                                     for c in cfg.daq.channels if c.name in sources}})
     else:
@@ -130,4 +134,7 @@ def run(args: argparse.Namespace) -> int:
             f"warning: the catalog {writer.catalog.location} could not index {len(pending)} of "
             f"{len(result.runs)} run(s) ({next(iter(pending.values()))}); their files are "
             "complete: `labjoint recover` indexes them when the catalog is back"), file=sys.stderr)
-    return 0 if result.status == "complete" and not pending else 1
+    if unconverged:
+        print(terminal_safe(f"warning: the force did not reach its target in {len(unconverged)} "
+                            f"run(s): {', '.join(unconverged)}"), file=sys.stderr)
+    return 0 if result.status == "complete" and not (pending or unconverged) else 1
