@@ -93,7 +93,7 @@ def test_the_daemon_fails_the_job_and_indexes_the_runs_when_the_catalog_is_back(
                                  "rig": {"catalog_url": outage.url}})
     with make_daemon(tmp_path, cfg) as daemon:
         daemon.start()
-        daemon.catalog_retry_s = 0.0
+        daemon.uncatalogued.retry_s = 0.0
         outage.down()
         daemon.queue.submit({"plan": "amplitude_sweep", "amplitudes_vpp": [1.0, 2.0], **SHORT})
         job = daemon.run_one()
@@ -102,10 +102,10 @@ def test_the_daemon_fails_the_job_and_indexes_the_runs_when_the_catalog_is_back(
             with open_run(daemon.data_dir / f"{name}.h5") as rf:
                 assert rf.status == "complete" and rf.n_samples > 0
         assert daemon.run_one() is None           # still down: nothing lost, nothing raised
-        assert len(daemon.uncatalogued) == 2
+        assert len(daemon.uncatalogued.files) == 2
         outage.up()
         assert daemon.run_one() is None
-        assert daemon.uncatalogued == {}
+        assert daemon.uncatalogued.files == {}
     rows = {r.name: r for r in Catalog(outage.url).query()}
     assert sorted(rows) == sorted(job.runs)
     assert {r.status for r in rows.values()} == {"complete"}

@@ -39,8 +39,7 @@ from labjoint.daemon.lock import DaemonLock
 from labjoint.daemon.monitor import (RunTracker, WatchedGenerator, expected_records, job_outcome,
                                     observe)
 from labjoint.daemon.queue import Job, JobQueue, utc_now
-from labjoint.daemon.setup import (Calibrations, default_paths, index_left_out, open_rig_lazily,
-                                   outage_note)
+from labjoint.daemon.setup import Calibrations, LeftOut, default_paths, open_rig_lazily
 from labjoint.daemon.watch import JobWatcher
 from labjoint.errors import HardwareError
 from labjoint.storage import Catalog, RunWriter, catalog_for, recover_all
@@ -95,10 +94,7 @@ class Daemon:
         self._abort_kind: str | None = None
         self._cal = Calibrations(config, self.data_dir)
         self._last_publish = -1e300
-        #: run files the catalog failed to index (outage), retried every catalog_retry_s
-        self.uncatalogued: dict[Path, str] = {}
-        self.catalog_retry_s = 5.0
-        self._catalog_tried = -1e300
+        self.uncatalogued = LeftOut()    # run files a catalog outage left out of the index
         self._thread: threading.Thread | None = None
 
     # ---- life cycle -----------------------------------------------------------------
@@ -260,18 +256,9 @@ class Daemon:
             if self._gen is not None and self._gen.output is not False:
                 self._output_off("emergency stop pending")
             return None
-        self._resync_catalog()
+        self.uncatalogued.retry(self.catalog)
         job = self.queue.claim_next(self.worker_id)
         return None if job is None else self._execute(job)
-
-    def _resync_catalog(self) -> None:
-        """Index the run files a catalog outage left out, once it answers again."""
-        now = time.monotonic()
-        if not self.uncatalogued or self.catalog is None \
-                or now - self._catalog_tried < self.catalog_retry_s:
-            return
-        self._catalog_tried = now
-        index_left_out(self.catalog, self.uncatalogued)
 
     def _execute(self, job: Job) -> Job:
         log.info("job %s: plan %s", job.id, job.plan.get("plan"))
@@ -310,8 +297,7 @@ class Daemon:
             except Exception as exc:
                 log.error("closing the run writer failed: %s", exc)
             if writer.catalog_pending:  # a catalog outage: the files are complete
-                self.uncatalogued.update(writer.catalog_pending)
-                note = outage_note(writer.catalog_pending)
+                note = self.uncatalogued.add(writer.catalog_pending)
                 status, error = ("failed", note) if status == "done" else (status, error)
                 message += "; " + note
             off = self._output_off(f"job {job.id} ended")
