@@ -147,6 +147,8 @@ def test_recover_clears_the_flags_a_killed_reprocess_left_and_says_so(tmp_path, 
     assert flagged, "the kill never landed inside a write"
     with pytest.raises(InputError, match="labjoint recover"):
         write_processed(flagged[0], "loop", {"x": np.zeros(3)})
+    with pytest.raises(InputError, match="labjoint recover"):     # analyze says so too
+        open_run(flagged[0])
     assert main(["recover", "--data", str(tmp_path), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["cleared_flags"] == [str(p) for p in flagged]

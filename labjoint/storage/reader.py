@@ -330,7 +330,9 @@ def _open_handle(p: Path) -> _Handle:
             f = open_swmr_reader(p)
             swmr = True
         except H5_FILE_ERRORS as exc2:
-            raise InputError(f"not a readable HDF5 file: {exc2}", file=str(p)) from None
+            hint = ("; its writer died with it open: `labjoint recover` clears the flags"
+                    if "not already open for SWMR writing" in str(exc2) else "")
+            raise InputError(f"not a readable HDF5 file: {exc2}{hint}", file=str(p)) from None
     try:
         e = f.get("entry")
         if not isinstance(e, h5py.Group) or "labjoint_format" not in e.attrs or "data" not in e:
