@@ -26,18 +26,20 @@ MAIN = "import sys; from labjoint.cli.main import main; sys.exit(main())"
 
 def test_simulate_plan_is_refused_by_the_admission_check_before_anything_runs(tmp_path,
                                                                                capsys):
+    out = tmp_path / "d"
+    over = tmp_path / "over.toml"            # first: on a build without the check it ends
+    over.write_text('plan = "dwell"\nfrequency_hz = 400.0\namplitude_vpp = 50.0\n')
+    assert main(["simulate", "--plan", str(over), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert str(over) in err and "max_vpp" in err and err.count("\n") == 1
+    assert not out.exists()                                   # nothing written
     plan = tmp_path / "long.toml"
     plan.write_text('plan = "dwell"\nfrequency_hz = 400.0\namplitude_vpp = 1.0\n'
                     'n_cycles = 1000000000000\n')            # 1e12 cycles: 79 years
-    out = tmp_path / "d"
     assert main(["simulate", "--plan", str(plan), "--out", str(out), "--quiet"]) == 2
     err = capsys.readouterr().err
     assert str(plan) in err and "max_record_s" in err and err.count("\n") == 1
-    assert not out.exists()                                   # nothing written
-    over = tmp_path / "over.toml"
-    over.write_text('plan = "dwell"\nfrequency_hz = 400.0\namplitude_vpp = 50.0\n')
-    assert main(["simulate", "--plan", str(over), "--out", str(out), "--quiet"]) == 2
-    assert "max_vpp" in capsys.readouterr().err
+    assert not out.exists()
 
 
 def test_structure_set_of_an_unknown_parameter_is_refused_naming_it(capsys):
