@@ -165,3 +165,21 @@ def test_a_complex_channel_is_refused_not_truncated(tmp_path, capsys):
                  "--json"]) == 2
     err = capsys.readouterr().err
     assert "complex" in err and str(p) in err and err.count("\n") == 1
+
+
+def test_a_run_file_declaring_1e9_samples_is_refused_before_it_is_read_whole(tmp_path, capsys):
+    import h5py
+
+    t = np.arange(2000) / FS
+    p = write_run(tmp_path, "huge", np.vstack([np.sin(2 * np.pi * 400 * t)] * 4) * 0.1)
+    with h5py.File(p, "r+") as f:             # declared, never written: a few kB on disk
+        data = f["entry/data"]
+        for k in data:
+            if isinstance(data[k], h5py.Dataset):
+                data[k].resize((10**9,))
+        f["entry/n_samples"][()] = 10**9
+    t0 = time.perf_counter()
+    assert main(["fit", str(p), "--model", "linear_stiffness", "--json"]) == 2
+    assert time.perf_counter() - t0 < 30
+    err = capsys.readouterr().err
+    assert str(p) in err and "1e+09" in err and err.count("\n") == 1

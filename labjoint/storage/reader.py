@@ -63,6 +63,10 @@ class _Handle:
         self.ds = {k: v for k, v in self.data.items() if isinstance(v, h5py.Dataset)}
 
 
+#: Samples per channel :meth:`RunFile.to_run` reads whole (2000 s at 50 kS/s; 800 MB a
+#: channel): a file declaring 1e9 was read until memory ran out.
+MAX_WHOLE_RUN_SAMPLES = 100_000_000
+
 #: Open handles by resolved path (guarded by H5_LOCK).
 _HANDLES: dict[str, _Handle] = {}
 #: The static part of recently read files by (path, inode, device): a run's channels,
@@ -250,6 +254,11 @@ class RunFile:
         """The run in SI units: relative displacement and the joint (or reference) force."""
         md = self.metadata
         disp, fch = channel_roles(md, self.channel_names).require(force, str(self.path))
+        if self.n_samples > MAX_WHOLE_RUN_SAMPLES:     # checked as declared, before reading
+            raise InputError(f"declares {self.n_samples:.3g} samples per channel; a whole run "
+                             f"is read into memory up to {MAX_WHOLE_RUN_SAMPLES:.3g} (the "
+                             "streaming pipelines, labjoint analyze, read any length)",
+                             file=str(self.path), field="n_samples")
         chans = {c: self.physical(c) for c in self.channel_names}
         displacement = chans[disp[0]] - chans[disp[1]] if len(disp) == 2 else chans[disp[0]].copy()
         return Run(name=self.name, time=self.time(), displacement=displacement,
