@@ -38,7 +38,8 @@ def test_sliding_force_is_read_at_the_plateau_end_free_of_viscous_force_and_offs
     u, f = _loop(60e-6, c=300.0, offset=4.0, noise=0.3)
     f_sld, sem, info = sliding_force(u, f, FS, F)
     assert f_sld == pytest.approx(160.0, rel=2e-3)
-    assert 0 < sem < 0.5 and info["slip_fraction"] > 0.5
+    assert abs(f_sld - 160.0) <= sem < 1.0 and info["slip_fraction"] > 0.5   # covers its error
+    assert info["plateau_viscous_ns_per_m"] == pytest.approx(300.0, rel=0.05)
     assert info["offset_n"] == pytest.approx(4.0, abs=0.2)
     assert info["plateau_mean_n"] > 165.0          # the viscous force rides on the plateau
 
@@ -135,7 +136,8 @@ def test_plateau_level_is_free_of_the_sensor_droop():
     u = u[int(0.5 * FS):]
     f_sld, sem, info = sliding_force(u, sensed, FS, F)
     assert abs(info["tip_force_n"] - 160.0) > 1.6             # > 1 % off at the tips
-    assert f_sld == pytest.approx(160.0, rel=2e-3)
+    assert f_sld == pytest.approx(160.0, rel=3e-3)            # the viscous term is always fitted
+    assert abs(f_sld - 160.0) <= sem                          # and the uncertainty says so
     assert info["sensor_lag_per_s"] > 0
 
 

@@ -4,8 +4,9 @@
 dry against an ideal rig (every wait reaches steady state, every measurement finds the
 force the plan asks for) and checks each message as the engine would: generator settings
 within the safety limits (:func:`~labjoint.acquisition.safety.check_settings`: amplitude,
-frequency range), every drive frequency below the DAQ's Nyquist frequency, every record
-at most ``limits.max_record_s`` long, no two records of the plan under one name (the second
+frequency range), a closed-loop force target (``force_amplitude_n``) within
+``max_force_n`` (:func:`~labjoint.acquisition.safety.check_force_target`), every drive
+frequency below the DAQ's Nyquist frequency, every record at most ``limits.max_record_s`` long, no two records of the plan under one name (the second
 would be refused by storage mid-plan), and the plan at most ``MAX_MESSAGES`` messages. A
 plan that fails is refused with an :class:`~labjoint.errors.InputError` naming the step
 and the limit; the engine still checks everything again while it runs (the one safety
@@ -21,7 +22,7 @@ from typing import Any
 from labjoint.acquisition.messages import (Configure, LoadWaveform, Measure, Measurement,
                                            Message, Ramp, Record, SteadyResult, WaitSteady)
 from labjoint.acquisition.plans import load_plan
-from labjoint.acquisition.safety import LimitTrip, check_settings
+from labjoint.acquisition.safety import LimitTrip, check_force_target, check_settings
 from labjoint.config import RigConfig
 from labjoint.errors import InputError
 from labjoint.hardware.interfaces import GeneratorSettings
@@ -54,6 +55,13 @@ def check_plan(plan: Mapping[str, Any], config: RigConfig) -> None:
     limits = config.limits
     nyquist = 0.5 * float(config.daq.sample_rate_hz)
     gen = load_plan(dict(plan))
+    for key, value in params.items():       # closed-loop force targets (step_sine)
+        if key.endswith("force_amplitude_n") and isinstance(value, (int, float)):
+            try:
+                check_force_target(value, limits, key)
+            except LimitTrip as trip:
+                gen.close()
+                raise InputError(f"{trip} (the rig's limit)", field=key) from None
     respond = _ideal(params, limits.max_vpp)
     f, offset, answer, band = None, 0.0, None, None
     names: dict[str, int] = {}

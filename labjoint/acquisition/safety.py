@@ -97,6 +97,23 @@ def check_frequency_step(previous_hz: float, new_hz: float, limits: LimitsConfig
                         bound=bound)
 
 
+def check_force_target(force_n: float, limits: LimitsConfig, name: str = "force_amplitude_n") -> None:
+    """Refuse a force a plan asks the rig to reach (a closed-loop target such as
+    step_sine's ``force_amplitude_n``) above ``max_force_n``: the loop would drive the
+    generator to its limit chasing it.
+
+    >>> from labjoint.config import LimitsConfig
+    >>> check_force_target(1e6, LimitsConfig())
+    Traceback (most recent call last):
+    ...
+    labjoint.acquisition.safety.LimitTrip: force_amplitude_n = 1e+06 N exceeds max_force_n = 1000 N
+    """
+    f = float(force_n)
+    if not (math.isfinite(f) and abs(f) <= limits.max_force_n):
+        raise LimitTrip(f"{name} = {f:g} N exceeds max_force_n = {limits.max_force_n:g} N",
+                        limit="max_force_n", value=f, bound=limits.max_force_n)
+
+
 def check_block(volts: np.ndarray, channels: Sequence[ChannelSpec], limits: LimitsConfig,
                 frequency_hz: float | None = None, relative: Sequence[str] | None = None) -> None:
     """Refuse a block whose peak displacement (any displacement channel, and the relative

@@ -160,7 +160,8 @@ class Sampler:
 def run_clock(daq: DAQ) -> dict[str, Any]:
     """When the next run's sample 0 (the DAQ's sample ``samples_read``) was taken: host
     time at the task's start plus its index over the rate (``start_time``, UTC ISO 8601),
-    with the stamp's uncertainty; the wall clock now where the DAQ gives no start time.
+    with the stamp's uncertainty; the wall clock now where the DAQ gives no start time or
+    its sample clock runs ahead of the wall clock (never a start time in the future).
     ``announced_time`` is when the run was announced (what ``start_time`` used to be)."""
     now = datetime.now(timezone.utc)
     first = int(daq.samples_read)
@@ -169,7 +170,11 @@ def run_clock(daq: DAQ) -> dict[str, Any]:
                            "first_sample_index": first, "daq_started_at": None,
                            "start_time_uncertainty_s": None}
     if t0 is not None and daq.sample_rate_hz > 0:
-        at = t0 + first / float(daq.sample_rate_hz)
+        # a sample not yet read cannot have been taken after now: a stamp ahead of the
+        # wall clock is a DAQ running faster than real time (the unpaced simulator), whose
+        # runs would start in the future, after their own end and out of order with
+        # other plans' runs; such a stamp is the wall clock's now
+        at = min(t0 + first / float(daq.sample_rate_hz), now.timestamp())
         out.update(start_time=datetime.fromtimestamp(at, timezone.utc).isoformat(),
                    daq_started_at=datetime.fromtimestamp(t0, timezone.utc).isoformat(),
                    start_time_uncertainty_s=getattr(daq, "started_at_uncertainty_s", None))

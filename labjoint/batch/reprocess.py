@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator
 
 from labjoint.batch.pipelines import get_pipeline, pipeline_version
-from labjoint.batch.tasks import Task, run_task
+from labjoint.batch.tasks import Task, named, run_task
 from labjoint.errors import InputError
 from labjoint.storage.results import ResultRow, Results, options_hash, options_json
 
@@ -158,7 +158,7 @@ def record_task(results: Results, task: Task, res: dict[str, Any] | BaseExceptio
     """Record a task's outcome for each of its runs; the report rows."""
     if isinstance(res, BaseException):
         res = {"status": "failed", "summary": {}, "input_sha256": {},
-               "error": _describe(res), "version": task.version}
+               "error": named(task, _describe(res)), "version": task.version}
     rows = []
     for name in task.names:
         results.record(ResultRow(

@@ -3,9 +3,10 @@
 A task receives run names and paths (never the records: the worker reads the files
 itself, on the shared filesystem) and returns a few hundred bytes: the status, the
 summary, each input file's sha256 as the pipeline read it, and the error of a failed run.
-A bad run (missing file, not a sine, a missing channel ...) is a ``failed`` result, not an
-exception; anything else (a bug, a dying worker) propagates, so the engine retries it. A
-worker whose code gives another pipeline version than the plan's refuses the task.
+A bad run (missing file, not a sine, a missing channel, a damaged file: h5py's OSError or
+RuntimeError) is a ``failed`` result naming its file, not an exception; anything else (a
+bug, a dying worker) propagates, so the engine retries it. A worker whose code gives
+another pipeline version than the plan's refuses the task.
 """
 
 from __future__ import annotations
@@ -60,12 +61,28 @@ def run_task(task: Task, executor: Any = None, threads: bool = True) -> dict[str
         pipe = get_pipeline(task.pipeline)
         out["summary"] = pipe.run([Path(p) for p in task.paths], opts, executor)
     except LabjointError as exc:
-        out["error"] = str(exc)
+        out["error"] = named(task, str(exc))
         if isinstance(exc, NotApplicable):       # kept with the result: not a failure
             out["not_applicable"] = True
             out["summary"] = {"not_applicable": True}
+        return out
+    except (OSError, RuntimeError) as exc:   # h5py on a damaged file: its input, not a bug
+        out["error"] = named(task, f"{type(exc).__name__}: {_line(exc)}")
         return out
     out["status"] = "complete"
     out["computed_at"] = utc_now()
     return out
 
+
+
+def _line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else ""
+
+
+def named(task: Task, message: str) -> str:
+    """``message`` with the task's run files named, unless it names one already."""
+    if any(p in message for p in task.paths):
+        return message
+    where = ", ".join(f"run {n} ({p})" for n, p in zip(task.names, task.paths))
+    return f"{where}: {message}"

@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from labjoint.cli.output import emit_json
+from labjoint.cli.output import emit_json, terminal_safe
 
 
 def add_recover_arguments(p: argparse.ArgumentParser) -> None:
@@ -26,7 +26,9 @@ def run(args: argparse.Namespace) -> int:
     if not data.is_dir():
         raise InputError("no such data directory", file=str(data), field="--data")
     catalog = catalog_for(cfg, data)
-    done = recover_all(data, catalog=catalog)
+    cleared: list[Path] = []
+    unreadable: dict[str, str] = {}
+    done = recover_all(data, catalog=catalog, cleared=cleared, unreadable=unreadable)
     stale = []
     for rec in catalog.query(status="running"):
         p = Path(rec.path)
@@ -37,22 +39,35 @@ def run(args: argparse.Namespace) -> int:
             catalog.add(p)             # re-read the file's own status
     synced = catalog.sync(data)
     stale += synced["removed"]
-    res = {"recovered": [str(p) for p in done], "removed_from_catalog": stale,
+    for f, why in unreadable.items():
+        synced["skipped"].setdefault(f, why)
+    res = {"recovered": [str(p) for p in done], "cleared_flags": [str(p) for p in cleared],
+           "removed_from_catalog": stale,
            "added_to_catalog": synced["added"], "not_indexed": synced["skipped"],
+           "copies_not_indexed": synced["copies"],
            "still_running": [r.name for r in catalog.query(status="running")]}
     if args.json:
         emit_json(res)
         return 0
     for p in done:
-        print(f"recovered {p}: marked incomplete")
+        print(terminal_safe(f"recovered {p}: marked incomplete"))
+    for p in cleared:
+        print(terminal_safe(f"cleared {p}: open-for-write flags left by a dead writer "
+                            "(e.g. a killed reprocess)"))
     for n in stale:
-        print(f"catalog: removed {n} (its file is gone)")
+        print(terminal_safe(f"catalog: removed {n} (its file is gone)"))
     for n in synced["added"]:
-        print(f"catalog: added {n} (a run file it did not hold)")
+        print(terminal_safe(f"catalog: added {n} (a run file it did not hold)"))
     for f, why in synced["skipped"].items():
-        print(f"catalog: not indexed {f}: {why}")
+        print(terminal_safe(f"catalog: not indexed {f}: {why}"))
+    for name, files in synced["copies"].items():
+        held = catalog.get(name)
+        print(terminal_safe(
+            f"catalog: {len(files)} cop{'y' if len(files) == 1 else 'ies'} of run {name} not "
+            f"indexed (the catalog holds {held.path if held else 'it'}), e.g. {files[0]}"))
     for n in res["still_running"]:
-        print(f"{n}: still being written by a live process")
-    if not (done or stale or synced["added"] or synced["skipped"] or res["still_running"]):
+        print(terminal_safe(f"{n}: still being written by a live process"))
+    if not (done or cleared or stale or synced["added"] or synced["skipped"] or synced["copies"]
+            or res["still_running"]):
         print("nothing to recover")
     return 0

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from labjoint.cli.cmd_runs import add_runs_arguments
-from labjoint.cli.output import Progress, emit_json, table
+from labjoint.cli.output import Progress, emit_json, table, terminal_safe
 from labjoint.errors import InputError
 
 PIPELINE_NAMES = ("analyze", "stickslip", "fit", "diagnose", "ladder")
@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
             report = execute(plan, DaskRunner(client), results, progress)
     failed = [r for r in report["runs"] if r["status"] == "failed"]
     for r in failed:
-        sys.stderr.write(f"labjoint: error: run {r['run']}: {r['error']}\n")
+        sys.stderr.write(terminal_safe(f"labjoint: error: run {r['run']}: {r['error']}") + "\n")
     if args.json:
         emit_json(report)
     else:

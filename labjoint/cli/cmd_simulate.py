@@ -8,11 +8,12 @@ channels first; each run's metadata records the factor it is read with.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 from typing import Any
 
-from labjoint.cli.output import Progress, emit_json
+from labjoint.cli.output import Progress, emit_json, terminal_safe
 from labjoint.errors import InputError
 
 
@@ -53,7 +54,8 @@ def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from labjoint.acquisition.plans import amplitude_sweep, load_plan
+    from labjoint.acquisition.admission import check_plan
+    from labjoint.acquisition.plans import load_plan, read_plan_file
     from labjoint.acquisition.rig import open_rig
     from labjoint.cli.cmd_analyze import analyze_paths, print_loop_table
     from labjoint.cli.signals import terminate_as_interrupt
@@ -75,17 +77,26 @@ def run(args: argparse.Namespace) -> int:
     cfg = load_config(args.config, overrides)
     if args.cycles < 1:
         raise InputError("must be at least 1", field="--cycles")
+    spec = (read_plan_file(Path(args.plan)) if args.plan else
+            {"plan": "amplitude_sweep", "amplitudes_vpp": args.sweep,
+             "frequency_hz": args.frequency, "torque_nm": args.torque, "n_cycles": args.cycles})
+    try:                           # the admission check submit and REST apply
+        check_plan(spec, cfg)
+    except InputError as exc:
+        raise InputError(exc.message, file=args.plan or exc.file, field=exc.field) from None
+    plan = load_plan(spec)
     out = Path(args.out or cfg.rig.data_dir)
     out.mkdir(parents=True, exist_ok=True)
     cfg, sources = calibrated_config(cfg, out)
-    plan = (load_plan(args.plan) if args.plan else
-            amplitude_sweep(args.sweep, frequency_hz=args.frequency, torque_nm=args.torque,
-                            n_cycles=args.cycles))
     n_runs = len(args.sweep) if not args.plan else 1
     bar = Progress(n_runs, "simulate", enabled=not (args.json or args.quiet))
     writer = RunWriter(out, catalog=catalog_for(cfg, out))
 
+    unconverged: list[str] = []        # step_sine runs recorded off their force target
+
     def progress(name: str, doc: Any) -> None:
+        if name == "start" and (doc.metadata or {}).get("force_converged") is False:
+            unconverged.append(doc.name)
         if name == "stop":
             bar.total = max(bar.total, bar.done + 1)
             bar.advance(note=f"{getattr(doc, 'status', '')}")
@@ -94,6 +105,8 @@ def run(args: argparse.Namespace) -> int:
     with terminate_as_interrupt(), open_rig(cfg) as rig:
         result = rig.engine([writer, progress], calibration_sources=sources).run(plan)
     elapsed = time.perf_counter() - t0
+    writer.retry_catalog()            # the catalog may be back after an outage mid-plan
+    pending = {str(p): why for p, why in writer.catalog_pending.items()}
     paths = [str(out / f"{r.name}.h5") for r in result.runs if r.n_samples > 0]
     skipped: list[dict[str, str]] = []   # broadband records: no steady cycles to analyse
     rows = analyze_paths(paths, "loop", progress=False, errors=skipped) if paths else []
@@ -103,16 +116,25 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         emit_json({"status": result.status, "reason": result.reason, "data_dir": str(out),
                    "elapsed_s": elapsed, "runs": rows, "not_analysed": skipped,
+                   "not_catalogued": pending, "force_not_converged": unconverged,
                    "calibrations": {c.name: [list(p) for p in c.calibration]
                                     for c in cfg.daq.channels if c.name in sources}})
     else:
         print_loop_table(rows)
         for e in skipped:
-            print(f"{Path(e['file']).name}: not analysed here ({e['error']})")
+            print(terminal_safe(f"{Path(e['file']).name}: not analysed here ({e['error']})"))
         units = {c.name: c.unit for c in cfg.daq.channels}
         for name, pts in sources.items():
             print(f"{name}: stored calibration, " + ", ".join(
                 f"{p['n_per_v']:.4g} {units[name]}/V at {p['frequency_hz']:g} Hz" for p in pts))
         print(f"\n{len(paths)} run files in {out} ({result.status}{': ' + result.reason if result.reason else ''}); "
               f"{elapsed:.1f} s")
-    return 0 if result.status == "complete" else 1
+    if pending:
+        print(terminal_safe(
+            f"warning: the catalog {writer.catalog.location} could not index {len(pending)} of "
+            f"{len(result.runs)} run(s) ({next(iter(pending.values()))}); their files are "
+            "complete: `labjoint recover` indexes them when the catalog is back"), file=sys.stderr)
+    if unconverged:
+        print(terminal_safe(f"warning: the force did not reach its target in {len(unconverged)} "
+                            f"run(s): {', '.join(unconverged)}"), file=sys.stderr)
+    return 0 if result.status == "complete" and not (pending or unconverged) else 1

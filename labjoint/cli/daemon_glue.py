@@ -39,9 +39,16 @@ def open_queue(queue_db: str | Path | None = None, *, config_path: str | Path | 
 def run_daemon(config_path: str | Path | None = None, data_dir: str | Path | None = None, *,
                queue_db: str | Path | None = None, poll_s: float = 0.2) -> int:
     """Run the daemon in the foreground until SIGTERM/SIGINT; exit code 0 when stopped."""
-    if not logging.getLogger().handlers:
-        logging.basicConfig(level=logging.INFO,
-                            format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    from labjoint.cli.output import TerminalLog
+
+    root = logging.getLogger()
+    if all(isinstance(h, TerminalLog) for h in root.handlers):   # only the CLI's own
+        for h in list(root.handlers):
+            root.removeHandler(h)
+        handler = TerminalLog()
+        handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
+        root.addHandler(handler)
+        root.setLevel(logging.INFO)
     daemon = Daemon(_config(config_path), data_dir, queue_db, poll_s)
     daemon.run_forever()
     return 0

@@ -78,6 +78,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     mod, fn, _name = args._handler
     handler = getattr(importlib.import_module(f"labjoint.cli.{mod}"), fn)
+    from labjoint.cli.output import install_terminal_log
+
+    install_terminal_log()           # warnings as escaped lines (never raw bytes)
     try:
         return int(handler(args) or 0)
     except InputError as exc:
@@ -93,7 +96,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _fail(exc: object, code: int) -> int:
-    sys.stderr.write(f"labjoint: error: {exc}\n")
+    from labjoint.cli.output import terminal_safe
+
+    sys.stderr.write(f"labjoint: error: {terminal_safe(exc)}\n")   # never raw bytes
     return code
 
 

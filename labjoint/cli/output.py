@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import math
 import sys
 from typing import Any, Iterable, Sequence
@@ -27,6 +28,55 @@ def _clean(obj: Any) -> Any:
     return obj
 
 
+_NAMED = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
+
+
+def terminal_safe(text: Any) -> str:
+    r"""``text`` with everything a terminal would act on escaped: control characters
+    (ESC sequences, bell, backspace, newlines: one line stays one line), other
+    unprintable code points, and raw bytes a file name or file carried in
+    (``surrogateescape``) as ``\xNN``. Printable text, accents included, is kept.
+
+    >>> print(terminal_safe("bad '\x1b[2J\x07' in r\u00e9sum\u00e9.csv\nline 2 \udcff"))
+    bad '\x1b[2J\x07' in résumé.csv\nline 2 \xff
+    """
+    out = []
+    for ch in str(text):
+        o = ord(ch)
+        if 0xDC80 <= o <= 0xDCFF:              # a byte that was not UTF-8
+            out.append(f"\\x{o - 0xDC00:02x}")
+        elif ch.isprintable():
+            out.append(ch)
+        elif ch in _NAMED:
+            out.append(_NAMED[ch])
+        elif o < 0x100:
+            out.append(f"\\x{o:02x}")
+        else:
+            out.append(f"\\u{o:04x}" if o < 0x10000 else f"\\U{o:08x}")
+    return "".join(out)
+
+
+class TerminalLog(logging.Handler):
+    """Log records (warnings and up) on the current ``sys.stderr``, one line each, made
+    :func:`terminal_safe` (a file name a warning quotes may carry raw bytes)."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            sys.stderr.write(terminal_safe(self.format(record)) + "\n")
+        except Exception:                      # pragma: no cover - logging never raises
+            self.handleError(record)
+
+
+def install_terminal_log() -> None:
+    """Route the root logger's output through :class:`TerminalLog` (once per process;
+    where the application configured logging itself, nothing changes)."""
+    root = logging.getLogger()
+    if not root.handlers:
+        handler = TerminalLog(logging.WARNING)
+        handler.setFormatter(logging.Formatter("%(message)s"))
+        root.addHandler(handler)
+
+
 def emit_json(obj: Any) -> None:
     """Print exactly one JSON object on stdout."""
     sys.stdout.write(json.dumps(_clean(obj)) + "\n")
@@ -45,7 +95,7 @@ def fmt(value: Any, digits: int = 4) -> str:
 
 def table(headers: Sequence[str], rows: Iterable[Sequence[Any]], digits: int = 4) -> str:
     """A plain aligned text table."""
-    cells = [[fmt(c, digits) for c in r] for r in rows]
+    cells = [[terminal_safe(fmt(c, digits)) for c in r] for r in rows]
     widths = [max([len(h)] + [len(r[i]) for r in cells]) for i, h in enumerate(headers)]
     line = "  ".join(h.rjust(w) for h, w in zip(headers, widths))
     out = [line, "  ".join("-" * w for w in widths)]

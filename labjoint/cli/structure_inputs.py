@@ -18,12 +18,24 @@ def floats(text: str, field: str, sep: str = ",") -> list[float]:
 def load_with_sets(args: argparse.Namespace):
     """The structure file of ``args`` with its ``--set`` parameters applied."""
     from labjoint.structure import load_structure
-    from labjoint.structure.modal import with_parameter
+    from labjoint.structure.modal import parameter_value, with_parameter
 
     s = load_structure(args.structure)
     for item in args.set:
         key, sep, val = item.partition("=")
+        key = key.strip()
         if not sep:
             raise InputError(f"expected PARAM=VALUE, got '{item}'", field="--set")
-        s = with_parameter(s, key.strip(), floats(val, f"--set {key}")[0])
+        try:
+            parameter_value(s, key)        # a key no joint has would be ignored silently
+        except InputError:
+            known = sorted({p for j in s.joints for p in j.law.params}
+                           | ({"E_e_pa"} if any(j.layer is not None for j in s.joints) else set()))
+            raise InputError(f"no joint of the structure has parameter {key!r}; known: "
+                             f"{', '.join(known)}", file=args.structure,
+                             field=f"--set {key}") from None
+        values = floats(val, f"--set {key}")
+        if len(values) != 1:
+            raise InputError(f"expected one number, got '{val}'", field=f"--set {key}")
+        s = with_parameter(s, key, values[0])
     return s

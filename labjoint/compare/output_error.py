@@ -318,15 +318,27 @@ def load_model(path: str | Path) -> tuple[Model, dict[str, float], int]:
     if not isinstance(d, dict) or d.get("format") != FORMAT:
         raise InputError(f"not a labjoint model file (format {FORMAT!r} expected)", file=str(p),
                          field="format")
+    if not isinstance(d.get("parameters"), dict):
+        raise InputError("parameters must be an object {name: {\"value\": ...}}", file=str(p),
+                         field="parameters")
+    sub = d.get("substeps", DEFAULT_SUBSTEPS)
+    if isinstance(sub, bool) or not isinstance(sub, int) or not 1 <= sub <= MAX_FILE_SUBSTEPS:
+        raise InputError(f"substeps must be a whole number from 1 to {MAX_FILE_SUBSTEPS}, "
+                         f"got {sub!r}", file=str(p), field="substeps")
     try:
         model = Model.parse(d["model"])
         vals = {k: float(v["value"]) for k, v in d["parameters"].items()}
         model.values(vals)
-    except (KeyError, TypeError, ValueError) as exc:
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise InputError(f"malformed model file: {exc}", file=str(p)) from None
     except InputError as exc:
         raise InputError(exc.message, file=str(p), field=exc.field) from None
-    return model, vals, int(d.get("substeps", DEFAULT_SUBSTEPS))
+    return model, vals, sub
+
+
+#: Integration substeps per sample a model file may ask for (the default is 20; each
+#: holds two force values per sample in memory, so 1e15 would never be allocated)
+MAX_FILE_SUBSTEPS = 10_000
 
 
 def predict_file(model_path: str | Path, record: Any, *, periodic: bool = False) -> Prediction:

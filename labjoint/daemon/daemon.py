@@ -39,7 +39,7 @@ from labjoint.daemon.lock import DaemonLock
 from labjoint.daemon.monitor import (RunTracker, WatchedGenerator, expected_records, job_outcome,
                                     observe)
 from labjoint.daemon.queue import Job, JobQueue, utc_now
-from labjoint.daemon.setup import Calibrations, default_paths, open_rig_lazily
+from labjoint.daemon.setup import Calibrations, LeftOut, default_paths, open_rig_lazily
 from labjoint.daemon.watch import JobWatcher
 from labjoint.errors import HardwareError
 from labjoint.storage import Catalog, RunWriter, catalog_for, recover_all
@@ -94,6 +94,7 @@ class Daemon:
         self._abort_kind: str | None = None
         self._cal = Calibrations(config, self.data_dir)
         self._last_publish = -1e300
+        self.uncatalogued = LeftOut()    # run files a catalog outage left out of the index
         self._thread: threading.Thread | None = None
 
     # ---- life cycle -----------------------------------------------------------------
@@ -255,6 +256,7 @@ class Daemon:
             if self._gen is not None and self._gen.output is not False:
                 self._output_off("emergency stop pending")
             return None
+        self.uncatalogued.retry(self.catalog)
         job = self.queue.claim_next(self.worker_id)
         return None if job is None else self._execute(job)
 
@@ -278,7 +280,8 @@ class Daemon:
                                  on_abort=self._note_abort, publish=self._publish)
             prefix = f"{datetime.now(timezone.utc):%Y%m%dT%H%M%SZ}-{job.id[:8]}"
             result = engine.run(plan, name_prefix=prefix)
-            status, message, error = job_outcome(result, tracker.n_gaps, self._cancelled(job.id))
+            status, message, error = job_outcome(result, tracker.n_gaps, self._cancelled(job.id),
+                                                 tracker.unconverged)
         except Exception as exc:  # plan code or a callback crashed: the engine cleaned up
             error = f"{type(exc).__name__}: {exc}"
             message = f"failed: {error}"
@@ -293,6 +296,10 @@ class Daemon:
                 writer.close()  # a run that never got its RunStop is marked incomplete
             except Exception as exc:
                 log.error("closing the run writer failed: %s", exc)
+            if writer.catalog_pending:  # a catalog outage: the files are complete
+                note = self.uncatalogued.add(writer.catalog_pending)
+                status, error = ("failed", note) if status == "done" else (status, error)
+                message += "; " + note
             off = self._output_off(f"job {job.id} ended")
             self._engine = self._gate = None
             message += "; generator output OFF" if off else "; generator output state UNKNOWN"

@@ -16,7 +16,7 @@ import logging
 import math
 import threading
 from dataclasses import asdict
-from typing import Any, Callable, Generator, Mapping
+from typing import Any, Callable, Generator, Mapping, Sequence
 
 from labjoint.documents import Block, RunStart, RunStop
 from labjoint.acquisition.messages import PlanResult
@@ -124,6 +124,7 @@ class RunTracker:
         self.n_gaps = 0
         self.records_done = 0
         self.record_target: int | None = None  # samples the running Record asks for
+        self.unconverged: list[str] = []   # runs recorded off their force target (step_sine)
         self._expected = 0
         self._uid: str | None = None
 
@@ -132,6 +133,11 @@ class RunTracker:
             self.run, self._uid, self.samples, self._expected = doc.name, doc.uid, 0, 0
             self.run_status = "running"
             self.runs.append(doc.name)
+            md = doc.metadata or {}
+            if md.get("force_converged") is False:
+                self.unconverged.append(
+                    f"{doc.name} ({_num(md.get('measured_force_n'))} N of "
+                    f"{_num(md.get('target_force_n'))} N)")
         elif name == "block" and isinstance(doc, Block) and doc.uid == self._uid:
             first, n = int(doc.first_sample), int(doc.volts.shape[1])
             if first != self._expected:
@@ -197,15 +203,30 @@ def expected_records(plan: Mapping[str, Any]) -> int | None:
         return None
 
 
-def job_outcome(result: PlanResult, n_gaps: int = 0,
-                cancelled: bool = False) -> tuple[str, str, str | None]:
-    """(job status, message, error) from how the plan ended.
+def _num(v: Any) -> str:
+    try:
+        return f"{float(v):.4g}"
+    except (TypeError, ValueError):
+        return "?"
+
+
+def job_outcome(result: PlanResult, n_gaps: int = 0, cancelled: bool = False,
+                unconverged: Sequence[str] = ()) -> tuple[str, str, str | None]:
+    """(job status, message, error) from how the plan ended. A plan that ran to its end
+    but recorded runs whose force never reached its target (``unconverged``, step_sine's
+    ``force_converged: false``) did not do what it was asked: "failed", naming them.
 
     >>> job_outcome(PlanResult("limit", "force 30 N over max_force_n"))
     ('failed', 'safety limit: force 30 N over max_force_n', 'limit: force 30 N over max_force_n')
+    >>> job_outcome(PlanResult("complete"), unconverged=["s_000 (12 N of 50 N)"])[2]
+    'force did not reach its target in 1 run(s): s_000 (12 N of 50 N)'
     """
     n = len(result.runs)
     gaps = f"; {n_gaps} sample-counter gap(s)" if n_gaps else ""
+    if result.status == "complete" and unconverged:
+        why = (f"force did not reach its target in {len(unconverged)} run(s): "
+               + ", ".join(unconverged))
+        return "failed", f"{n} run(s) recorded, but the {why}{gaps}", why
     if result.status == "complete":
         return "done", f"{n} run(s) recorded{gaps}", None
     if result.status == "limit":

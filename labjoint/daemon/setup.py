@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import logging
 import math
+import time
 from pathlib import Path
 from typing import Any
 
@@ -97,3 +98,34 @@ class Calibrations:
             log.info("calibrations applied: %s", {n: len(v) for n, v in sources.items()})
             self.specs = specs
         self.sources = sources
+
+
+class LeftOut:
+    """Run files a catalog outage left out of the index (``files``: file -> why), indexed
+    again by :meth:`retry` once the catalog answers (at most every ``retry_s``)."""
+
+    def __init__(self, retry_s: float = 5.0) -> None:
+        self.files: dict[Path, str] = {}
+        self.retry_s = retry_s
+        self._tried = -1e300
+
+    def add(self, pending: dict[Path, str]) -> str:
+        """Keep ``pending`` (a writer's failed updates); what the job says about them."""
+        self.files.update(pending)
+        return (f"the catalog could not index {len(pending)} run(s) "
+                f"({next(iter(pending.values()))}); their files are complete and are "
+                "indexed when it is back")
+
+    def retry(self, catalog: Any) -> None:
+        """Index the files left out; stops at the first failure (still unreachable)."""
+        now = time.monotonic()
+        if not self.files or catalog is None or now - self._tried < self.retry_s:
+            return
+        self._tried = now
+        for p in list(self.files):
+            try:
+                catalog.add(p)
+            except Exception:
+                return
+            del self.files[p]
+            log.warning("catalog: indexed %s, left out by an outage", p.name)

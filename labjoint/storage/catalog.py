@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterable, Iterator
 
 from labjoint.errors import ConfigError, InputError
+from labjoint.storage.h5open import run_identity
 from labjoint.storage.layout import to_json
 from labjoint.storage.migrations import migrate
 from labjoint.storage.sqldb import Database, Session, is_postgres_url, redact_url
@@ -141,22 +142,49 @@ class Catalog:
     def sync(self, data_dir: str | Path) -> dict[str, Any]:
         """Bring the index of ``data_dir`` in line with its files: index the run files it
         lacks, drop the runs whose files are gone; other directories are left alone.
-        Returns {"added": names, "removed": names, "skipped": {file: why}}."""
-        rows = self.sql.fetchall("SELECT name, path FROM runs")
-        out: dict[str, Any] = {"added": [], "removed": [], "skipped": {}}
+
+        A file holding the same run (name and uid) as a catalogued file that exists is a
+        copy: it is not indexed, and listed under its run's name in "copies" (checked
+        from the two identifiers alone, so a directory of 1,000 copies syncs in seconds
+        and the same copies are never "added" again on the next sync). Returns
+        {"added": names, "removed": names, "skipped": {file: why}, "copies": {name: files}}."""
+        rows = self.sql.fetchall("SELECT name, path, uid FROM runs")
+        out: dict[str, Any] = {"added": [], "removed": [], "skipped": {}, "copies": {}}
         for row in _rows_in(rows, data_dir):
             if not Path(row["path"]).exists() and self.remove(row["name"]):
                 out["removed"].append(row["name"])
+        held = {r["name"]: (Path(r["path"]), r["uid"]) for r in rows
+                if r["name"] not in out["removed"]}
         known = {Path(r["path"]).resolve() for r in rows}
-        for p, rec in _read_dir(Path(data_dir), skip=known):
+        recs: list[RunRecord] = []
+        for p in sorted(Path(data_dir).glob("*.h5")):
+            if not p.is_file():              # before resolve(): a symlink loop raises there
+                out["skipped"][str(p)] = "not a file (a directory, a broken link or a link loop)"
+                continue
+            if p.resolve() in known:
+                continue
             try:
-                if isinstance(rec, InputError):
-                    raise rec
-                self.put(rec)                    # refused if another file holds the name
+                name, uid = run_identity(p)
+                old = held.get(name)
+                if old is not None and old[1] == uid and old[0].resolve() != p.resolve() \
+                        and old[0].exists():
+                    out["copies"].setdefault(name, []).append(str(p))
+                    continue
+                with open_run(p) as rf:
+                    rec = record_from_run(rf)
             except InputError as exc:
                 out["skipped"][str(p)] = exc.message
                 continue
-            out["added"].append(rec.name)
+            recs.append(rec)
+            held.setdefault(rec.name, (p, rec.uid))      # later copies in this pass
+        with self.sql.transaction() as tx:             # one commit for all of them
+            for rec in recs:
+                try:
+                    self.put(rec, tx)                  # refused if another file holds the name
+                except InputError as exc:
+                    out["skipped"][rec.path] = exc.message
+                    continue
+                out["added"].append(rec.name)
         return out
 
     # -- reading -----------------------------------------------------------------
@@ -254,6 +282,10 @@ def _read_dir(d: Path, skip: set[Path] = frozenset()
               ) -> Iterator[tuple[Path, RunRecord | InputError]]:
     """Each ``*.h5`` file of ``d`` not in ``skip``, with its record or why it has none."""
     for p in sorted(d.glob("*.h5")):
+        if not p.is_file():
+            yield p, InputError("not a file (a directory, a broken link or a link loop)",
+                                file=str(p))
+            continue
         if p.resolve() in skip:
             continue
         try:

@@ -19,6 +19,7 @@ import h5py
 import numpy as np
 
 from labjoint.errors import InputError
+from labjoint.storage.h5open import H5_FILE_ERRORS
 
 #: elements hashed at a time along a dataset's first axis
 SLICE_ELEMENTS = 1 << 20
@@ -82,6 +83,8 @@ def raw_sha256(path: str | Path) -> str:
                     _dataset(h, obj, raw)
     except FileNotFoundError:
         raise InputError("run file disappeared (no such file)", file=str(p)) from None
-    except OSError as exc:
+    except InputError:                # (a ValueError too) already names the file
+        raise
+    except H5_FILE_ERRORS as exc:     # garbage in the header: RuntimeError from h5py
         raise InputError(f"not a readable HDF5 run file: {exc}", file=str(p)) from None
     return h.hexdigest()

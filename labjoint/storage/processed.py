@@ -18,6 +18,7 @@ import numpy as np
 from labjoint import __version__
 from labjoint.errors import InputError
 from labjoint.storage import layout
+from labjoint.storage.h5open import H5_FILE_ERRORS
 from labjoint.storage.reader import open_run
 from labjoint.storage.writer import OPEN_FOR_WRITE, utc_now
 
@@ -71,11 +72,14 @@ def write_processed(path: str | Path, group_name: str, arrays: Mapping[str, Any]
         f = h5py.File(p, "r+")
     except FileNotFoundError:
         raise InputError("no such run file", file=str(p)) from None
-    except OSError as exc:
+    except H5_FILE_ERRORS as exc:
         raise InputError(f"cannot open run file for writing ({exc}); if its writer died, "
-                         "run labjoint.storage.recover() first", file=str(p)) from None
+                         "`labjoint recover` clears its flags", file=str(p)) from None
     with f:
-        root = f.get("entry/processed")
+        try:
+            root = f.get("entry/processed")
+        except H5_FILE_ERRORS as exc:
+            raise InputError(f"damaged run file: {exc}", file=str(p)) from None
         if root is None:
             raise InputError("not a labjoint run file (no /entry/processed)", file=str(p))
         tmp_name, old_name = f".{group_name}.new", f".{group_name}.old"

@@ -30,6 +30,7 @@ from labjoint.hardware.interfaces import ChannelSpec
 from labjoint.storage import layout
 from labjoint.storage.channels import ChannelRecord, make_record, spec_quantity
 from labjoint.storage.csv_parse import parse_csv
+from labjoint.storage.h5open import H5_FILE_ERRORS, open_swmr_reader
 from labjoint.storage.roles import channel_roles
 from labjoint.storage.run import Run
 
@@ -62,6 +63,10 @@ class _Handle:
         self.data = self.entry["data"]
         self.ds = {k: v for k, v in self.data.items() if isinstance(v, h5py.Dataset)}
 
+
+#: Samples per channel :meth:`RunFile.to_run` reads whole (2000 s at 50 kS/s; 800 MB a
+#: channel): a file declaring 1e9 was read until memory ran out.
+MAX_WHOLE_RUN_SAMPLES = 100_000_000
 
 #: Open handles by resolved path (guarded by H5_LOCK).
 _HANDLES: dict[str, _Handle] = {}
@@ -110,7 +115,7 @@ class RunFile:
             self.channels: list[ChannelSpec] = list(chans)
             self._static = copy.deepcopy(static)
             self.refresh()
-        except (KeyError, ValueError, OSError, TypeError) as exc:
+        except H5_FILE_ERRORS as exc:
             self.close()
             raise InputError(f"damaged run file: {exc}", file=str(path)) from None
 
@@ -255,6 +260,11 @@ class RunFile:
         """The run in SI units: relative displacement and the joint (or reference) force."""
         md = self.metadata
         disp, fch = channel_roles(md, self.channel_names).require(force, str(self.path))
+        if self.n_samples > MAX_WHOLE_RUN_SAMPLES:     # checked as declared, before reading
+            raise InputError(f"declares {self.n_samples:.3g} samples per channel; a whole run "
+                             f"is read into memory up to {MAX_WHOLE_RUN_SAMPLES:.3g} (the "
+                             "streaming pipelines, labjoint analyze, read any length)",
+                             file=str(self.path), field="n_samples")
         chans = {c: self.physical(c) for c in self.channel_names}
         displacement = chans[disp[0]] - chans[disp[1]] if len(disp) == 2 else chans[disp[0]].copy()
         return Run(name=self.name, time=self.time(), displacement=displacement,
@@ -338,21 +348,26 @@ def _open_handle(p: Path) -> _Handle:
     swmr = False
     try:
         f = h5py.File(p, "r")
-    except OSError as exc:
+    except H5_FILE_ERRORS as exc:
         if "already open for write" not in str(exc):
             raise InputError(f"not a readable HDF5 file: {exc}", file=str(p)) from None
         try:  # a writer has it (or had it, and died): read it the SWMR way
-            f = h5py.File(p, "r", swmr=True)
+            f = open_swmr_reader(p)
             swmr = True
-        except OSError as exc2:
-            raise InputError(f"not a readable HDF5 file: {exc2}", file=str(p)) from None
-    e = f.get("entry")
-    if not isinstance(e, h5py.Group) or "labjoint_format" not in e.attrs or "data" not in e:
-        f.close()
-        raise InputError("not a labjoint run file (no /entry with @labjoint_format)", file=str(p))
+        except H5_FILE_ERRORS as exc2:
+            hint = ("; its writer died with it open: `labjoint recover` clears the flags"
+                    if "not already open for SWMR writing" in str(exc2) else "")
+            raise InputError(f"not a readable HDF5 file: {exc2}{hint}", file=str(p)) from None
     try:
+        e = f.get("entry")
+        if not isinstance(e, h5py.Group) or "labjoint_format" not in e.attrs or "data" not in e:
+            raise InputError("not a labjoint run file (no /entry with @labjoint_format)",
+                             file=str(p))
         return _Handle(f, swmr)
-    except (KeyError, ValueError, OSError, TypeError) as exc:
+    except InputError:
+        f.close()
+        raise
+    except H5_FILE_ERRORS as exc:
         f.close()
         raise InputError(f"damaged run file: {exc}", file=str(p)) from None
 

@@ -13,7 +13,9 @@ layout it does not understand.
 
 from __future__ import annotations
 
+import fcntl
 import json
+import logging
 import os
 import socket
 from pathlib import Path
@@ -23,7 +25,12 @@ import numpy as np
 
 from labjoint.errors import InputError
 from labjoint.storage import layout
+from labjoint.storage.h5open import H5_FILE_ERRORS, open_swmr_reader
 from labjoint.storage.writer import OPEN_FOR_WRITE, utc_now
+
+log = logging.getLogger(__name__)
+#: why a ``*.h5`` entry of a data directory is not read
+NOT_A_FILE = "not a file (a directory, a broken link or a link loop)"
 
 _SIGNATURE = b"\x89HDF\r\n\x1a\n"
 _M = 0xFFFFFFFF
@@ -97,6 +104,50 @@ def clear_status_flags(path: str | Path) -> bool:
     return True
 
 
+#: superblock consistency flags (HDF5 file format spec, superblock version 2/3)
+_WRITE_ACCESS, _SWMR_WRITE = 0x01, 0x04
+
+
+def _consistency_flags(p: Path) -> int:
+    """The superblock's file-consistency flags byte (0 for version 0/1 superblocks)."""
+    try:
+        with open(p, "rb") as fh:
+            head = fh.read(12)
+    except OSError as exc:
+        raise InputError(f"cannot read the file: {exc.strerror or exc}", file=str(p)) from None
+    if len(head) < 12 or head[:8] != _SIGNATURE:
+        raise InputError("not an HDF5 file (no superblock at offset 0)", file=str(p))
+    return head[11] if head[8] in (2, 3) else 0
+
+
+@layout.locked
+def clear_dead_writer(path: str | Path) -> bool:
+    """Clear the open-for-write flags a dead non-SWMR writer left (a ``labjoint
+    reprocess`` killed while it wrote ``/entry/processed``); True if it cleared them.
+
+    A non-SWMR HDF5 writer holds an exclusive ``flock`` on the file while it lives, and
+    the kernel drops it when the process dies: the flags are cleared only if that lock
+    can be taken now (and it is held while clearing). Flags of a SWMR writer (the
+    acquisition's, which holds no lock) are left to :func:`recover`, which judges the
+    writer by the pid recorded in the file. Files this process writes are left alone.
+    """
+    p = Path(path)
+    if str(p.resolve()) in OPEN_FOR_WRITE:
+        return False
+    flags = _consistency_flags(p)
+    if not flags & _WRITE_ACCESS or flags & _SWMR_WRITE:
+        return False
+    with open(p, "rb") as fh:
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            return False                   # a live process has it open for writing
+        try:
+            return clear_status_flags(p)
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
 def _writer_alive(pid: int, host: str) -> bool:
     if pid <= 0 or pid == os.getpid():
         return False
@@ -114,13 +165,19 @@ def _writer_alive(pid: int, host: str) -> bool:
 @layout.locked
 def _read_state(p: Path) -> tuple[str, int, str]:
     try:
-        with h5py.File(p, "r", swmr=True) as f:
+        try:
+            f = h5py.File(p, "r")          # a damaged file fails at once
+        except OSError as exc:
+            if "already open for write" not in str(exc):
+                raise
+            f = open_swmr_reader(p)        # a writer has (or had) it open
+        with f:
             status = f["entry/status"][()]
             acq = f["entry/acquisition"]
             host = acq["writer_host"][()]
             return (status.decode().strip("\x00 "), int(acq["writer_pid"][()]),
                     host.decode() if isinstance(host, bytes) else str(host))
-    except (OSError, KeyError) as exc:
+    except H5_FILE_ERRORS as exc:
         raise InputError(f"cannot read run file: {exc}", file=str(p)) from None
 
 
@@ -143,6 +200,17 @@ def recover(path: str | Path, *, force: bool = False, catalog=None) -> bool:
     if not force and _writer_alive(pid, host):
         raise InputError(f"writer process {pid} is still running", file=str(p))
     clear_status_flags(p)
+    try:
+        _close_channels(p)
+    except H5_FILE_ERRORS as exc:
+        raise InputError(f"cannot recover run file: {exc}", file=str(p)) from None
+    if catalog is not None:
+        catalog.add(p)
+    return True
+
+
+def _close_channels(p: Path) -> int:
+    """Cut the channels to their common length and mark the run "incomplete"."""
     with h5py.File(p, "r+") as f:
         e = f["entry"]
         data = e["data"]
@@ -157,16 +225,20 @@ def recover(path: str | Path, *, force: bool = False, catalog=None) -> bool:
                            layout.event_rows("stop", "incomplete", n, json.dumps(note)))
         e["n_samples"][()] = n
         e["status"][()] = np.bytes_(b"incomplete")
-    if catalog is not None:
-        catalog.add(p)
-    return True
+    return n
 
 
-def recover_all(data_dir: str | Path, *, catalog=None) -> list[Path]:
+def recover_all(data_dir: str | Path, *, catalog=None, cleared: list[Path] | None = None,
+                unreadable: dict[str, str] | None = None) -> list[Path]:
     """At start-up: recover every "running" run in ``data_dir`` whose writer is gone,
-    and delete temporary files left by dead writers or imports. Returns recovered files."""
+    clear the open-for-write flags dead non-SWMR writers left on finished runs
+    (:func:`clear_dead_writer`; appended to ``cleared``), and delete temporary files
+    left by dead writers or imports. Files that cannot be read are skipped and put in
+    ``unreadable`` (file -> why) if given, else logged as warnings. Returns the files
+    marked "incomplete"."""
     d = Path(data_dir)
     done: list[Path] = []
+    level = logging.WARNING if unreadable is None else logging.INFO   # else the caller says it
     if not d.is_dir():
         return done
     for tmp in sorted(d.glob(".*.h5.tmp-*")):
@@ -175,11 +247,22 @@ def recover_all(data_dir: str | Path, *, catalog=None) -> list[Path]:
                 and int(pid) != os.getpid():
             tmp.unlink(missing_ok=True)
     for p in sorted(d.glob("*.h5")):
+        if not p.is_file():          # before resolve(): a symlink loop raises there
+            log.log(level, "recover: skipping %s: %s", p, NOT_A_FILE)
+            if unreadable is not None:
+                unreadable[str(p)] = NOT_A_FILE
+            continue
         if str(p.resolve()) in OPEN_FOR_WRITE:
             continue
         try:
+            if clear_dead_writer(p):
+                log.warning("cleared the open-for-write flags a dead writer left on %s", p)
+                if cleared is not None:
+                    cleared.append(p)
             if recover(p, catalog=catalog):
                 done.append(p)
-        except InputError:
-            continue
+        except InputError as exc:
+            log.log(level, "recover: skipping %s", exc)   # InputError names the file
+            if unreadable is not None:
+                unreadable[str(p)] = exc.message
     return done

@@ -68,6 +68,9 @@ class RunWriter:
         self.flush_interval_s = flush_interval_s
         self.clock = clock
         self._runs: dict[str, _OpenRun] = {}
+        #: run files whose catalog update failed (a catalog outage), with why: the files
+        #: are complete; :meth:`retry_catalog` (or ``labjoint recover``) indexes them
+        self.catalog_pending: dict[Path, str] = {}
 
     # -- document dispatch -------------------------------------------------------
     @layout.locked
@@ -242,11 +245,33 @@ class RunWriter:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    def _catalog_add(self, path: Path) -> None:
+    def _catalog_add(self, path: Path) -> bool:
+        """Index ``path``; on failure (catalog unreachable) one warning line, and the file
+        is kept in :attr:`catalog_pending` (the file is the truth: the index follows)."""
         if self.catalog is None:
-            return
+            return True
         try:
             self.catalog.add(path)
-        except Exception:  # the file is the truth; Catalog.rebuild() repairs the index
-            log.exception("catalog update failed for %s", path)
+        except Exception as exc:
+            why = one_line(exc)
+            if path not in self.catalog_pending:
+                log.warning("catalog update failed for %s: %s (the run file is kept; "
+                            "`labjoint recover` indexes it)", path.name, why)
+            self.catalog_pending[path] = why
+            return False
+        self.catalog_pending.pop(path, None)
+        return True
+
+    def retry_catalog(self) -> list[Path]:
+        """Index the run files whose catalog update failed and are no longer written;
+        returns those indexed now (the rest stay pending)."""
+        open_now = set(self.open_paths)
+        return [p for p in list(self.catalog_pending)
+                if p not in open_now and self._catalog_add(p)]
+
+
+def one_line(exc: BaseException) -> str:
+    """An exception as one line (a database driver's errors span several)."""
+    text = str(exc).strip()
+    return f"{type(exc).__name__}: {text.splitlines()[0] if text else ''}".rstrip(": ")
 

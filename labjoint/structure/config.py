@@ -82,6 +82,10 @@ def _point(t: Mapping[str, Any], where: str, comps: dict[str, Component],
     return c, float(np.clip(x, comp.x_start_m, comp.x_end_m))
 
 
+#: Beam elements a structure file may ask for (seed 000's assembly needs about 80).
+MAX_ELEMENTS = 2000
+
+
 def structure_from_dict(d: Mapping[str, Any]) -> Structure:
     """Validate and assemble a structure description (module docstring)."""
     head = _table(d, "structure", required=False)
@@ -107,6 +111,10 @@ def structure_from_dict(d: Mapping[str, Any]) -> Structure:
                              _num(v, "length_m", w, positive=True))
     if not comps:
         raise InputError("no components", field="components")
+    n_el = sum(int(np.ceil(c.length_m / el)) for c in comps.values())
+    if n_el > MAX_ELEMENTS:            # the matrices are dense: refuse before allocating
+        raise InputError(f"{el:g} m elements make {n_el} beam elements; at most {MAX_ELEMENTS}",
+                         field="structure.element_length_m")
     points: dict[str, list[float]] = {k: [] for k in comps}
 
     def at(t: Mapping[str, Any], where: str, key: str = "component") -> tuple[str, float]:
