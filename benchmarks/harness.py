@@ -78,11 +78,16 @@ def parser(doc: str | None) -> argparse.ArgumentParser:
 
 @dataclass
 class Timing:
-    """Wall and CPU seconds (this process, all threads) of each repeat; medians first."""
+    """Wall and CPU seconds (this process, all threads) and the result of each repeat."""
 
     wall: list[float]
     cpu: list[float]
-    result: Any = None
+    results: list[Any] = field(default_factory=list)
+
+    @property
+    def result(self) -> Any:
+        """The last repeat's result."""
+        return self.results[-1] if self.results else None
 
     @property
     def median(self) -> float:
@@ -91,6 +96,10 @@ class Timing:
     @property
     def cpu_median(self) -> float:
         return statistics.median(self.cpu)
+
+    def median_of(self, values: list[float]) -> float:
+        """The median of per-repeat figures (a benchmark that times itself inside)."""
+        return statistics.median(values)
 
     @property
     def best(self) -> float:
@@ -143,12 +152,12 @@ class Bench:
         return out
 
     def repeat(self, fn: Callable[[], Any], repeats: int | None = None) -> Timing:
-        """Time ``fn`` ``repeats`` times (default: the bench's); the last result is kept."""
+        """Time ``fn`` ``repeats`` times (default: the bench's), keeping each result."""
         n = self.repeats if repeats is None else max(1, int(repeats))
-        wall, cpu, out = [], [], None
+        wall, cpu, out = [], [], []
         for _ in range(n):
             c0, t0 = time.process_time(), time.perf_counter()
-            out = fn()
+            out.append(fn())
             wall.append(time.perf_counter() - t0)
             cpu.append(time.process_time() - c0)
         return Timing(wall, cpu, out)
