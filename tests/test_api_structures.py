@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import httpx
 import pytest
 
 from frfdata import hidden_law, hidden_set, predictor, write_linear_structure
 from labjoint.api import ApiSettings, create_app
 from test_api_helpers import AUTH, CONTROL, live_server, wait_for
+from patience import http_client
 
 
 @pytest.fixture(scope="module")
@@ -18,8 +18,7 @@ def http(tmp_path_factory):
     write_linear_structure(data / "structures" / "lin.toml")
     hidden_set(predictor(), hidden_law(), steps=5).save(data / "frf" / "sweep.json")
     app = create_app(ApiSettings(data_dir=data, control_tokens=[CONTROL]))
-    with live_server(app) as url, httpx.Client(base_url=url + "/api/v1", headers=AUTH,
-                                               timeout=60) as c:
+    with live_server(app) as url, http_client(url + "/api/v1", headers=AUTH) as c:
         c.data = data
         yield c
 

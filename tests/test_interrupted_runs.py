@@ -11,6 +11,7 @@ import time
 from labjoint.cli.main import main
 from labjoint.storage import open_run
 from labjoint.storage.catalog import Catalog
+import patience
 
 
 def _start(out):
@@ -21,7 +22,7 @@ def _start(out):
 
 
 def _wait_for_samples(out, proc, timeout=120):
-    end = time.monotonic() + timeout
+    end = time.monotonic() + patience.s(timeout)
     while time.monotonic() < end:
         for p in out.glob("*.h5"):
             with open_run(p) as rf:

@@ -25,6 +25,7 @@ from labjoint.storage import Catalog
 from labjoint.storage.results import Results
 from test_api_helpers import write_linear_run
 from test_compare_synth import sweep
+import patience
 
 CASES = {"lin_a": (3e-6, 8e6, 300.0), "lin_b": (6e-6, 1.2e7, 800.0), "lin_c": (4e-6, 1e7, 500.0)}
 
@@ -117,7 +118,7 @@ def scheduler():
                                "--no-dashboard"], stdout=subprocess.DEVNULL,
                               stderr=subprocess.DEVNULL)]
     try:
-        deadline = time.monotonic() + 30
+        deadline = time.monotonic() + patience.s(30)
         while True:
             try:
                 socket.create_connection(("127.0.0.1", port), timeout=1).close()
@@ -135,7 +136,7 @@ def scheduler():
             p.terminate()
         for p in procs:
             try:
-                p.wait(timeout=20)
+                p.wait(timeout=patience.s(20))
             except subprocess.TimeoutExpired:
                 p.kill()
                 p.wait()

@@ -12,6 +12,7 @@ from labjoint.documents import Block, RunStart, RunStop
 from labjoint.storage import open_run
 from labjoint.storage.writer import RunWriter
 from test_storage_fixtures import FS, rig_channels
+from patience import http_client
 
 N = 400_000
 THREADS, WINDOWS = 16, 64
@@ -65,8 +66,7 @@ def test_sixteen_threads_read_exactly_what_serial_reads_do(run_file):
 
 
 def test_rest_data_endpoint_under_concurrency(run_file):
-    import httpx
-
+    
     from labjoint.api import ApiSettings, create_app
     from labjoint.storage import Catalog
     from test_api_helpers import READ, READ_AUTH, live_server
@@ -78,7 +78,7 @@ def test_rest_data_endpoint_under_concurrency(run_file):
     with live_server(app) as url:
         def get(win):
             a, b = win
-            with httpx.Client(base_url=url + "/api/v1", headers=READ_AUTH, timeout=60) as http:
+            with http_client(url + "/api/v1", headers=READ_AUTH) as http:
                 r = http.get("/runs/conc/data", params={
                     "start": a, "stop": b, "unit": "samples", "max_points": 5_000,
                     "channel": ["disp_1", "force_ref"]})
