@@ -11,6 +11,7 @@ from labjoint.daemon import JobQueue
 from labjoint.errors import ConfigError
 from test_api_helpers import AUTH, CONTROL, READ, READ_AUTH, live_server
 from patience import http_client
+import patience
 
 DWELL = {"plan": "dwell", "parameters": {"frequency_hz": 400, "amplitude_vpp": 2, "n_cycles": 5}}
 
@@ -81,7 +82,7 @@ def test_read_tokens_when_config_requires_them(tmp_path):
         assert c.get("/runs", headers=READ_AUTH).status_code == 200
         assert c.get("/runs", headers=AUTH).status_code == 200      # control implies read
         assert c.get("/health").status_code == 200                 # liveness stays open
-        schema = httpx.get(url + "/openapi.json").json()
+        schema = httpx.get(url + "/openapi.json", timeout=patience.HTTP_TIMEOUT_S).json()
         assert schema["paths"]["/api/v1/runs"]["get"]["security"] == [{"bearer": []}]
         assert "security" not in schema["paths"]["/api/v1/health"]["get"]
 
@@ -95,7 +96,7 @@ def test_without_any_control_token_nothing_writes(tmp_path):
 
 
 def test_openapi_marks_writes_secured_and_open_reads_unsecured(http):
-    schema = httpx.get(http.base_url.join("/openapi.json")).json()
+    schema = httpx.get(http.base_url.join("/openapi.json"), timeout=patience.HTTP_TIMEOUT_S).json()
     for path, ops in schema["paths"].items():
         for method, op in ops.items():
             assert ("security" in op) == (method != "get"), (method, path)

@@ -196,7 +196,7 @@ def test_serve_runs_until_sigterm_and_leaves_the_output_off(tmp_path):
         url = f"http://127.0.0.1:{port}/api/v1"
         health = wait_for(lambda: _try_get(url + "/health"), lambda r: r is not None, timeout=30)
         assert health["daemon"] == "embedded"
-        assert httpx.post(url + "/estop/clear").status_code == 401
+        assert httpx.post(url + "/estop/clear", timeout=patience.HTTP_TIMEOUT_S).status_code == 401
     finally:
         proc.send_signal(signal.SIGTERM)
         _, err = proc.communicate(timeout=patience.s(30))
