@@ -177,6 +177,7 @@ def test_torque_change_waits_for_the_operator(tmp_path):
         daemon.stop()
 
 
+@pytest.mark.slow        # end to end, 40-120 s on a busy machine (issue 31)
 def test_serve_runs_until_sigterm_and_leaves_the_output_off(tmp_path):
     """``serve()`` as ``labjoint serve`` runs it: its own process, loopback, a session
     control token printed when none is configured, clean stop on SIGTERM."""

@@ -71,6 +71,7 @@ def _schema(url: str):
     return schema
 
 
+@pytest.mark.slow        # end to end, 40-120 s on a busy machine (issue 31)
 def test_no_operation_answers_with_a_server_error(served):
     url, _ = served
     schema = _schema(url)

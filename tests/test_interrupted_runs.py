@@ -8,6 +8,8 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 from labjoint.cli.main import main
 from labjoint.storage import open_run
 from labjoint.storage.catalog import Catalog
@@ -41,6 +43,7 @@ def _statuses(out):
     return out_
 
 
+@pytest.mark.slow        # end to end, 40-120 s on a busy machine (issue 31)
 def test_sigterm_closes_the_open_run_and_kill_9_is_recovered(tmp_path, capsys):
     a = tmp_path / "term"
     proc = _start(a)

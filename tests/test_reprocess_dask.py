@@ -55,6 +55,7 @@ def _check_physics(rows):
         assert by[name]["summary"]["stiffness_n_per_m"] == pytest.approx(k, rel=0.01)
 
 
+@pytest.mark.slow        # end to end, 40-120 s on a busy machine (issue 31)
 def test_cli_on_a_two_worker_local_cluster(lab, capsys):
     d, _ = lab
     argv = ["reprocess", "--data-dir", str(d), "--pipeline", "analyze", "--workers", "2"]
@@ -75,6 +76,7 @@ def _die_on_lin_b(task):
     return run_task(task)
 
 
+@pytest.mark.slow        # end to end, 40-120 s on a busy machine (issue 31)
 def test_a_worker_dying_mid_task_is_retried_once_then_reported(lab, client):
     d, cat = lab
     res = Results(cat)
@@ -142,6 +144,7 @@ def scheduler():
                 p.wait()
 
 
+@pytest.mark.slow        # end to end, 40-120 s on a busy machine (issue 31)
 def test_cli_on_a_separately_started_scheduler(lab, scheduler, capsys):
     d, _ = lab
     code = main(["reprocess", "--data-dir", str(d), "--pipeline", "analyze", "--scheduler",

@@ -48,6 +48,7 @@ def _read(path, a, b):
         return rf.time(a, b), np.stack([rf.volts(c, a, b) for c in rf.channel_names])
 
 
+@pytest.mark.slow        # end to end, 40-120 s on a busy machine (issue 31)
 def test_sixteen_threads_read_exactly_what_serial_reads_do(run_file):
     path, volts = run_file
     jobs = [w for s in range(THREADS) for w in _windows(N, s)]
@@ -65,6 +66,7 @@ def test_sixteen_threads_read_exactly_what_serial_reads_do(run_file):
         assert v.tobytes() == v0.tobytes() == volts[:, a:b].tobytes(), (a, b)
 
 
+@pytest.mark.slow        # end to end, 40-120 s on a busy machine (issue 31)
 def test_rest_data_endpoint_under_concurrency(run_file):
     
     from labjoint.api import ApiSettings, create_app
