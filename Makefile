@@ -4,7 +4,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test bench browser postgres clean
+.PHONY: demo test test-fast bench bench-smoke browser postgres clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -30,11 +30,22 @@ postgres:
 	  if [ "$$(id -u)" = 0 ]; then apt-get update -qq && apt-get install -y -qq postgresql >/dev/null; \
 	  else sudo apt-get update -qq && sudo apt-get install -y -qq postgresql >/dev/null; fi; }
 
+# The whole suite, slow end-to-end checks and every benchmark's smoke run
+# (tests/test_benchmarks_smoke.py) included: what .ci/run runs.
 test: $(STAMP) browser postgres
 	$(PY) -m pytest -n 2 -q
 
+# The suite without the `slow` marker group (a quick check while working; CI runs all).
+test-fast: $(STAMP) browser postgres
+	$(PY) -m pytest -n 2 -q -m "not slow"
+
+# Every benchmark at full size; figures are ratios, with the load average before/after.
 bench: $(STAMP)
-	$(PY) -m benchmarks.run_all
+	$(PY) -m benchmarks.run_all --json bench-results.json
+
+# Every benchmark at tiny sizes (seconds each): they still run; no figure is judged.
+bench-smoke: $(STAMP) browser
+	$(PY) -m benchmarks.run_all --smoke
 
 clean:
 	rm -rf $(VENV) data .pytest_cache

@@ -16,13 +16,16 @@ The rig needs 4 channels at 50 kS/s (NI 9233), in blocks of 5000 samples (0.1 s)
     not paced) records a 10-minute dwell as fast as the simulator allows; its RSS is
     sampled from /proc. Flat means samples go to disk, not into a growing list.
 
+Figures: (a) medians of the repeats, each a ratio to the rig's need (real time x 4
+channels x 50 kS/s); (b) the RSS slope against keeping the samples (32 MB per million).
+
 Usage: ``.venv/bin/python benchmarks/bench_acquisition.py [--writer-seconds 60]
-[--daemon-seconds 60] [--sim-seconds 20] [--minutes 10] [--no-rss]``.
+[--daemon-seconds 60] [--sim-seconds 20] [--minutes 10] [--no-rss] [--repeats 3] [--smoke]``.
 """
 
 from __future__ import annotations
 
-import argparse
+import itertools
 import math
 import os
 import signal
@@ -35,12 +38,15 @@ from pathlib import Path
 
 import numpy as np
 
-from labjoint.documents import Block, RunStart, RunStop
-from labjoint.acquisition.rig import Rig, open_rig
-from labjoint.config import load_config
-from labjoint.daemon import Daemon, JobQueue
-from labjoint.hardware.interfaces import DAQ
-from labjoint.storage import RunWriter, open_run
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks.harness import Bench, parser  # noqa: E402
+from labjoint.documents import Block, RunStart, RunStop  # noqa: E402
+from labjoint.acquisition.rig import Rig, open_rig  # noqa: E402
+from labjoint.config import load_config  # noqa: E402
+from labjoint.daemon import Daemon, JobQueue  # noqa: E402
+from labjoint.hardware.interfaces import DAQ  # noqa: E402
+from labjoint.storage import RunWriter, open_run  # noqa: E402
 
 NEED_HZ = 50_000.0   # per channel, 4 channels
 BLOCK = 5000
@@ -216,12 +222,16 @@ def bench_rss(data_dir: Path, minutes: float) -> dict:
     path = data_dir / f"{job.runs[0]}.h5"
     n = math.ceil(minutes * 60 * NEED_HZ)
     _check_read_back(path, n)
-    recording = [s for s in samples if s[2] > 0]
+    recording = [s for s in samples if s[2] > 0] or samples     # a short run: any reading
+    if not recording:                                          # too short for one reading
+        recording = [(0.0, float("nan"), 0)]
     rss = np.array([s[1] for s in recording])
     done = np.array([s[2] for s in recording], dtype=float)
     late = done >= done[-1] / 2
-    slope = np.polyfit(done[late] / 1e6, rss[late], 1)[0] if late.sum() > 2 else float("nan")
-    quarters = [float(np.interp(q * done[-1], done, rss)) for q in (0.25, 0.5, 0.75)]
+    spread = late.sum() > 2 and np.ptp(done[late]) > 0           # readings while it recorded
+    slope = np.polyfit(done[late] / 1e6, rss[late], 1)[0] if spread else float("nan")
+    quarters = [float(np.interp(q * done[-1], done, rss)) if spread else float("nan")
+                for q in (0.25, 0.5, 0.75)]
     return {"start_mb": rss[0], "peak_mb": rss.max(), "end_mb": rss[-1], "quarters": quarters,
             "slope_mb_per_msample": slope, "wall_s": _record_wall_s(path), "n_samples": n,
             "data_mb": 4 * n * 8 / 2**20, "file_mb": path.stat().st_size / 2**20,
@@ -229,25 +239,40 @@ def bench_rss(data_dir: Path, minutes: float) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--writer-seconds", type=float, default=60.0)
     ap.add_argument("--daemon-seconds", type=float, default=60.0)
     ap.add_argument("--sim-seconds", type=float, default=20.0)
     ap.add_argument("--minutes", type=float, default=10.0)
     ap.add_argument("--no-rss", action="store_true")
     args = ap.parse_args(argv)
+    if args.smoke:
+        args.writer_seconds, args.daemon_seconds, args.sim_seconds, args.minutes = 0.5, 0.5, 0.2, 0.05
+    bench = Bench.from_args("acquisition", args, repeats=3)
     print("need: 4 channels x 50 kS/s; target >= 20x", flush=True)
+    need = "the rig's need (4 channels x 50 kS/s in real time)"
     with tempfile.TemporaryDirectory(prefix="bench_acq_") as tmp:
         tmp = Path(tmp)
-        r = bench_writer(tmp / "w", args.writer_seconds)
-        print(f"(a1) writer only, {args.writer_seconds:g} s of data: {r:.1f}x the need, "
-              "no gaps (index channel exact)", flush=True)
-        r, _ = bench_daemon(tmp / "s", args.daemon_seconds, synthetic=True)
-        print(f"(a2) daemon + synthetic DAQ (engine, limits, writer), {args.daemon_seconds:g} s: "
-              f"{r:.1f}x the need, no gaps (content exact)", flush=True)
-        r, overall = bench_daemon(tmp / "p", args.sim_seconds, synthetic=False)
-        print(f"(a3) daemon + simulated rig (physics), {args.sim_seconds:g} s: {r:.1f}x the need "
-              f"while recording, {overall:.1f}x real time over the whole job, no gaps", flush=True)
+        k = itertools.count()
+        bench.warm_up(lambda: bench_daemon(tmp / "warm", 0.1, synthetic=False),
+                      "a 0.1 s daemon run on the simulated rig")
+        t = bench.repeat(lambda: bench_writer(tmp / f"w{next(k)}", args.writer_seconds))
+        r = t.median_of(t.results)
+        bench.figure(f"(a1) writer only, {args.writer_seconds:g} s of data, no gaps", r, need,
+                     target=">= 20", per_repeat=t.results)
+        t = bench.repeat(lambda: bench_daemon(tmp / f"s{next(k)}", args.daemon_seconds,
+                                              synthetic=True)[0])
+        r = t.median_of(t.results)
+        bench.figure(f"(a2) daemon + synthetic DAQ, {args.daemon_seconds:g} s, content exact",
+                     r, need, target=">= 20", per_repeat=t.results)
+        t = bench.repeat(lambda: bench_daemon(tmp / f"p{next(k)}", args.sim_seconds,
+                                              synthetic=False))
+        rs = sorted(x[0] for x in t.results)
+        ov = sorted(x[1] for x in t.results)
+        bench.figure(f"(a3) daemon + simulated rig, {args.sim_seconds:g} s, while recording",
+                     t.median_of(rs), need, per_repeat=rs)
+        bench.figure("(a3) daemon + simulated rig, whole job", t.median_of(ov), "real time",
+                     per_repeat=ov)
         if not args.no_rss:
             m = bench_rss(tmp / "m", args.minutes)
             q = ", ".join(f"{x:.0f}" for x in m["quarters"])
@@ -256,9 +281,13 @@ def main(argv: list[str] | None = None) -> int:
                   f"{m['data_mb']:.0f} MB of samples, file {m['file_mb']:.0f} MB, "
                   f"{m['n_rss_samples']} readings): start {m['start_mb']:.0f} MB, "
                   f"at 1/4, 1/2, 3/4: {q} MB, end {m['end_mb']:.0f} MB, peak "
-                  f"{m['peak_mb']:.0f} MB; slope over the second half "
-                  f"{m['slope_mb_per_msample']:+.2f} MB per million samples/channel "
-                  f"(keeping the samples would be {4 * 8:.0f} MB per million)", flush=True)
+                  f"{m['peak_mb']:.0f} MB", flush=True)
+            slope = m["slope_mb_per_msample"]
+            bench.figure("(b) daemon RSS slope over the second half", slope / 32.0 if
+                         slope == slope else 0.0, "keeping the samples (32 MB per million "
+                         "samples/channel); 0 = flat", value=slope, unit="MB per M samples",
+                         peak_mb=m["peak_mb"], start_mb=m["start_mb"], end_mb=m["end_mb"])
+    bench.finish()
     return 0
 
 

@@ -11,11 +11,17 @@
 (b) The same kind of record lasting 10 minutes (960 MB as float64) is analysed from its
     file in blocks by a fresh subprocess, which reports its peak RSS (ru_maxrss).
 
+Reference in the same process: scipy's ``sosfiltfilt`` (the paper's 5th-order 3 kHz
+Butterworth) of the same three channels, in memory, alone: analyze / scipy says what the
+whole pipeline (reading, excitation check, filter, cycles, loop metrics) costs against
+the bare filter it contains. CPU time (all threads) is printed beside the wall time.
+
 Every step runs in its own subprocess and this parent imports only the standard library:
 Linux carries a parent's ru_maxrss into a forked child, so a small parent keeps the
 child's figure its own (VmHWM from /proc is printed as a cross-check).
 
-Usage: ``.venv/bin/python benchmarks/bench_analyze.py [--seconds 60] [--minutes 10]``.
+Usage: ``.venv/bin/python benchmarks/bench_analyze.py [--seconds 60] [--minutes 10]
+[--repeats 7] [--smoke]``.
 """
 
 from __future__ import annotations
@@ -29,6 +35,10 @@ import tempfile
 import time
 import uuid
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks.harness import Bench, parser  # noqa: E402
 
 FS, F0 = 50_000.0, 400.0
 WRITE_BLOCK = 1 << 17                         # samples per written block
@@ -143,18 +153,34 @@ def _timed(fn) -> tuple[float, object]:
     return time.perf_counter() - t0, out
 
 
-def child_speed(path: str, seconds: float) -> dict:
-    """Read-only, read + analyse (two read paths), and analyse-only timings."""
+def child_speed(path: str, seconds: float, repeats: int = REPEATS) -> dict:
+    """Read-only, read + analyse (two read paths), and analyse-only timings; the scipy
+    reference (sosfiltfilt of the three channels in memory), alternating with the
+    pipeline's repeats so that both see the same load."""
     import numpy as np
+    from scipy.signal import butter, sosfiltfilt
 
-    from labjoint.identify.analyze import analyze_arrays, analyze_blocks
-
-    from labjoint.identify.analyze import analyze_file
+    from labjoint.identify.analyze import analyze_arrays, analyze_blocks, analyze_file
+    from labjoint.signal.filter import PAPER_CUTOFF_HZ, PAPER_ORDER
+    from labjoint.storage.reader import open_run
 
     p = Path(path)
     t = np.arange(20_000) / FS                            # load numba caches, scipy
+    t0 = time.perf_counter()
     analyze_arrays(1e-6 * np.sin(2 * np.pi * F0 * t), np.cos(2 * np.pi * F0 * t), FS, F0)
-    files = sorted(_timed(lambda: analyze_file(p))[0] for _ in range(REPEATS))
+    warm_s = time.perf_counter() - t0
+    with open_run(p) as rf:
+        three = np.stack([rf.physical(c, 0, rf.n_samples)
+                          for c in ("disp_1", "disp_2", "shear_nc")])
+    sos = butter(PAPER_ORDER, PAPER_CUTOFF_HZ, fs=FS, output="sos")
+    sosfiltfilt(sos, three[:, :1000], axis=-1)
+    files, cpus, scipy_s = [], [], []
+    for _ in range(repeats):
+        c0 = time.process_time()
+        files.append(_timed(lambda: analyze_file(p))[0])
+        cpus.append(time.process_time() - c0)
+        scipy_s.append(_timed(lambda: sosfiltfilt(sos, three, axis=-1))[0])
+    files.sort()
     t_read, _ = _timed(lambda: sum(u.size for u, _ in stream_blocks(p)))
     t_iter, _ = _timed(lambda: sum(u.size for u, _ in stream_blocks(p, True)))
     cpu0 = time.process_time()
@@ -163,7 +189,8 @@ def child_speed(path: str, seconds: float) -> dict:
     t_all_iter, _ = _timed(lambda: analyze_blocks(stream_blocks(p, True), FS, F0))
     blocks = list(stream_blocks(p))
     t_mem, _ = _timed(lambda: analyze_blocks(iter(blocks), FS, F0))
-    return {"file_s": files, "read_s": t_read, "read_iter_blocks_s": t_iter, "total_s": t_all, "cpu_s": cpu,
+    return {"file_s": files, "file_cpu_s": sorted(cpus), "scipy_s": sorted(scipy_s),
+            "warm_up_s": warm_s, "read_s": t_read, "read_iter_blocks_s": t_iter, "total_s": t_all, "cpu_s": cpu,
             "total_iter_blocks_s": t_all_iter, "analyse_only_s": t_mem,
             "summary": res.summary, "steady_start": res.steady_state.start,
             "n_cycles": res.n_cycles, "seconds": seconds}
@@ -190,7 +217,7 @@ def _child(*args: str) -> dict:
 
 
 def main(argv: list[str]) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--seconds", type=float, default=60.0, help="(a) record length, s")
     ap.add_argument("--minutes", type=float, default=10.0, help="(b) record length, min")
     ap.add_argument("--child", nargs="+", help=argparse.SUPPRESS)
@@ -200,27 +227,41 @@ def main(argv: list[str]) -> int:
         if kind == "write":
             t, (path, how) = _timed(lambda: write_run(Path(rest[0]), rest[1], float(rest[2])))
             out = {"path": str(path), "how": how, "write_s": t}
+        elif kind == "speed":
+            out = child_speed(rest[0], float(rest[1]), int(rest[2]))
         else:
-            out = child_speed(rest[0], float(rest[1])) if kind == "speed" else child_memory(rest[0])
+            out = child_memory(rest[0])
         print(json.dumps(out))
         return 0
+    if args.smoke:
+        args.seconds, args.minutes = 2.0, 0.05
+    bench = Bench.from_args("analyze", args, repeats=REPEATS)
     with tempfile.TemporaryDirectory(prefix="bench_analyze_") as tmp:
         w = _child("--child", "write", tmp, "speed", str(args.seconds))
         size = Path(w["path"]).stat().st_size / 1e6
         print(f"wrote {args.seconds:g} s x 4 channels x {FS:g} S/s ({w['how']}, {size:.0f} MB)")
-        s = _child("--child", "speed", w["path"], str(args.seconds))
-        fs_ = s["file_s"]
-        med = fs_[len(fs_) // 2]
+        s = _child("--child", "speed", w["path"], str(args.seconds), str(bench.repeats))
+        bench.numba = (f"compilation excluded: warm-up call (analyze_arrays on a 20,000-sample "
+                       f"sine) before timing, {s['warm_up_s']:.2f} s (kernels with cache=True)")
+        fs_, cpu_, sp_ = s["file_s"], s["file_cpu_s"], s["scipy_s"]
+        med, cpu_med, sp_med = fs_[len(fs_) // 2], cpu_[len(cpu_) // 2], sp_[len(sp_) // 2]
         print(f"(a) labjoint analyze's pipeline (identify.analyze_file: 3 channels read, "
               f"excitation check, filter, cycles) on {args.seconds:g} s: median "
-              f"{med:.3f} s = {args.seconds / med:.0f}x real time, best "
-              f"{args.seconds / fs_[0]:.0f}x, worst {args.seconds / fs_[-1]:.0f}x over "
-              f"{len(fs_)} runs (target >= 500x)")
+              f"{med:.3f} s, best {args.seconds / fs_[0]:.0f}x, worst "
+              f"{args.seconds / fs_[-1]:.0f}x over {len(fs_)} runs; CPU (all threads) "
+              f"median {cpu_med:.3f} s")
+        bench.figure("(a) analyze_file", args.seconds / med, "real time", value=med, unit="s",
+                     target=">= 500", median_of=len(fs_), best_x=args.seconds / fs_[0],
+                     worst_x=args.seconds / fs_[-1])
+        bench.figure("(a) analyze_file CPU time", args.seconds / cpu_med,
+                     "real time, per CPU second (all threads; less sensitive to load)",
+                     value=cpu_med, unit="s CPU")
+        bench.figure("(a) analyze_file / scipy sosfiltfilt", med / sp_med,
+                     "scipy sosfiltfilt of the same 3 channels in memory (order 5, 3 kHz), "
+                     "alternating with it", value=sp_med, unit="s (scipy)")
         x = args.seconds / s["total_s"]
         print(f"    this script's own reader (all 4 channels) + analyze_blocks: "
               f"{s['total_s']:.2f} s = {x:.0f}x real time")
-        print(f"    CPU time {s['cpu_s']:.2f} s = {args.seconds / s['cpu_s']:.0f}x real time "
-              "(less sensitive to other load on the machine)")
         print(f"    of which reading 4 channels: {s['read_s']:.2f} s; analysis alone "
               f"{s['analyse_only_s']:.2f} s = {args.seconds / s['analyse_only_s']:.0f}x real time")
         print(f"    via RunFile.iter_blocks (also decompresses the time axis): read "
@@ -237,9 +278,14 @@ def main(argv: list[str]) -> int:
               f"memory {args.minutes * 60 * FS * 4 * 8 / 1e6:.0f} MB) in {w['write_s']:.0f} s")
         r = _child("--child", "memory", w["path"])
         print(f"(b) peak RSS streaming {args.minutes:g} min: ru_maxrss {r['ru_maxrss_mb']:.0f} MB "
-              f"(VmHWM {r['vmhwm_mb']:.0f} MB; {r['after_imports_mb']:.0f} MB after imports; "
-              f"target <= 500 MB); {r['total_s']:.1f} s = "
-              f"{args.minutes * 60 / r['total_s']:.0f}x real time, {r['n_cycles']} cycles")
+              f"(VmHWM {r['vmhwm_mb']:.0f} MB; {r['after_imports_mb']:.0f} MB after imports); "
+              f"{r['total_s']:.1f} s = {args.minutes * 60 / r['total_s']:.0f}x real time, "
+              f"{r['n_cycles']} cycles")
+        bench.figure("(b) peak RSS streaming / 500 MB", r["ru_maxrss_mb"] / 500.0,
+                     "the 500 MB memory goal", value=r["ru_maxrss_mb"], unit="MB",
+                     target="<= 1", minutes=args.minutes)
+    bench.finish(seconds=args.seconds, minutes=args.minutes, n_cycles=s["n_cycles"],
+                 energy_loss_j=m["energy_loss_j"])
     return 0
 
 

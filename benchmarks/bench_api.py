@@ -6,10 +6,15 @@ written by the storage layer, each catalogued under its own name and conditions)
 clients on loopback, each on its own keep-alive connection, ask for random runs'
 summaries back to back; each request's latency is measured from sending the request to
 the last body byte. The clients speak HTTP/1.1 over raw asyncio streams, so the figures
-are the server's, not an HTTP library's. Target: p99 <= 50 ms.
+are the server's, not an HTTP library's. Target: p99 <= 10 ms (issue 31; it was 50 ms).
+Reference: the same clients' p99 of GET /api/v1/health measured in the same rounds (no
+catalog read, but a sync route: each request hops to the thread pool, where the run
+summary is async and answered directly), so the ratio places the catalog read against
+the service's plainest route.
 
 Usage: ``.venv/bin/python benchmarks/bench_api.py [--runs 1000] [--clients 20]
-[--requests 300]`` (requests per client, after 20 warm-up requests each).
+[--requests 300] [--repeats 3] [--smoke]`` (requests per client, after 20 warm-up requests
+each; the p99 is the median over the repeats' p99).
 """
 
 from __future__ import annotations
@@ -21,14 +26,18 @@ import os
 import random
 import shutil
 import socket
+import statistics
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-TARGET_P99_S = 0.050
+TARGET_P99_S = 0.010
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+
+from benchmarks.harness import Bench, parser  # noqa: E402
 
 
 def make_catalog(data_dir: Path, n_runs: int) -> list[str]:
@@ -58,7 +67,7 @@ def make_catalog(data_dir: Path, n_runs: int) -> list[str]:
         base = record_from_run(rf)
     cat = Catalog(data_dir / "catalog.sqlite")
     names = []
-    with cat._connect() as con:
+    with cat.sql.transaction() as con:
         for i in range(n_runs):
             name = f"bench_{i:04d}_{1 + i % 20}Vpp"
             path = data_dir / f"{name}.h5"
@@ -104,33 +113,39 @@ async def _get(reader: asyncio.StreamReader, writer: asyncio.StreamWriter, path:
     return body
 
 
-async def client(port: int, names: list[str], n_warm: int, n: int, seed: int,
+async def client(port: int, paths: list[str], n_warm: int, n: int, seed: int,
                  out: list[float]) -> None:
     rng = random.Random(seed)
     reader, writer = await asyncio.open_connection("127.0.0.1", port)
     try:
         for i in range(n_warm + n):
-            name = rng.choice(names)
+            path = rng.choice(paths)
             t0 = time.perf_counter()
-            body = await _get(reader, writer, f"/api/v1/runs/{name}")
+            body = await _get(reader, writer, path)
             dt = time.perf_counter() - t0
             if i >= n_warm:
                 out.append(dt)
-            if i == 0:
-                assert json.loads(body)["name"] == name
+            if i == 0 and path.startswith("/api/v1/runs/"):
+                assert json.loads(body)["name"] == path.rsplit("/", 1)[1]
     finally:
         writer.close()
 
 
-async def load(port: int, names: list[str], clients: int, n: int) -> tuple[list[float], float]:
+async def load(port: int, paths: list[str], clients: int, n: int,
+               n_warm: int = 20) -> tuple[list[float], float]:
     lat: list[float] = []
     t0 = time.perf_counter()
-    await asyncio.gather(*(client(port, names, 20, n, s, lat) for s in range(clients)))
+    await asyncio.gather(*(client(port, paths, n_warm, n, s, lat) for s in range(clients)))
     return lat, time.perf_counter() - t0
 
 
+def quantiles(lat: list[float]) -> dict[int, float]:
+    lat = sorted(lat)
+    return {p: lat[min(len(lat) - 1, int(p / 100 * len(lat)))] for p in (50, 90, 99)}
+
+
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--runs", type=int, default=1000)
     ap.add_argument("--clients", type=int, default=20)
     ap.add_argument("--requests", type=int, default=300, help="per client, after warm-up")
@@ -139,7 +154,10 @@ def main() -> int:
     if args.serve:
         serve(args.serve[0], int(args.serve[1]))
         return 0
-    sys.path.insert(0, str(HERE.parent))
+    if args.smoke:
+        args.runs, args.clients, args.requests = 20, 4, 10
+    bench = Bench.from_args("api", args, repeats=3)
+    bench.numba = "not used by these routes (the server is warmed by 20 requests per client)"
     with tempfile.TemporaryDirectory() as tmp:
         data = Path(tmp)
         t0 = time.perf_counter()
@@ -150,7 +168,7 @@ def main() -> int:
             port = s.getsockname()[1]
         proc = subprocess.Popen([sys.executable, __file__, "--serve", str(data), str(port)])
         try:
-            deadline = time.monotonic() + 30
+            deadline = time.monotonic() + 120
             while True:
                 try:
                     socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
@@ -159,26 +177,40 @@ def main() -> int:
                     if time.monotonic() > deadline or proc.poll() is not None:
                         raise RuntimeError("the API server did not start")
                     time.sleep(0.1)
-            cpu0 = _cpu_seconds(proc.pid)
-            lat, wall = asyncio.run(load(port, names, args.clients, args.requests))
-            cpu = _cpu_seconds(proc.pid) - cpu0
+            runs = [f"/api/v1/runs/{n}" for n in names]
+            p99s, p99_health, all_lat, cpu, n_all, wall = [], [], [], 0.0, 0, 0.0
+            for _ in range(bench.repeats):      # alternate: the same load for both
+                cpu0 = _cpu_seconds(proc.pid)
+                lat, w = asyncio.run(load(port, runs, args.clients, args.requests))
+                cpu += _cpu_seconds(proc.pid) - cpu0
+                n_all += args.clients * (args.requests + 20)
+                wall += w
+                all_lat += lat
+                p99s.append(quantiles(lat)[99])
+                h, _ = asyncio.run(load(port, ["/api/v1/health"], args.clients, args.requests))
+                p99_health.append(quantiles(h)[99])
         finally:
             proc.terminate()
             proc.wait(10)
-    lat.sort()
-    q = {p: lat[min(len(lat) - 1, int(p / 100 * len(lat)))] for p in (50, 90, 99)}
+    q = quantiles(all_lat)
+    p99 = statistics.median(p99s)
     print(f"GET /api/v1/runs/{{name}}, {args.runs} runs catalogued, {args.clients} clients, "
-          f"{len(lat)} requests: {len(lat) / wall:.0f} req/s")
-    print(f"latency ms: p50 {q[50] * 1e3:.1f}  p90 {q[90] * 1e3:.1f}  p99 {q[99] * 1e3:.1f}  "
-          f"max {lat[-1] * 1e3:.1f}")
-    n_all = args.clients * (args.requests + 20)
+          f"{len(all_lat)} requests in {bench.repeats} rounds: {len(all_lat) / wall:.0f} req/s")
+    print(f"latency ms (all rounds): p50 {q[50] * 1e3:.1f}  p90 {q[90] * 1e3:.1f}  p99 "
+          f"{q[99] * 1e3:.1f}  max {max(all_lat) * 1e3:.1f}; p99 per round "
+          + ", ".join(f"{x * 1e3:.1f}" for x in p99s))
     print(f"server CPU per request: {cpu / n_all * 1e3:.2f} ms (one process: at most "
           f"{n_all / cpu:.0f} req/s; {args.clients} clients queue behind it, so an idle "
-          f"machine would give a mean latency near {args.clients * cpu / n_all * 1e3:.0f} ms)")
-    print(f"machine load during the run (1-min loadavg, {os.cpu_count()} CPUs): "
-          f"{os.getloadavg()[0]:.1f}")
-    ratio = q[99] / TARGET_P99_S
-    print(f"p99 / target (50 ms): {ratio:.2f} -> {'OK' if ratio <= 1 else 'OVER TARGET'}")
+          f"machine would give a mean latency near {args.clients * cpu / n_all * 1e3:.1f} ms)")
+    bench.figure("p99 GET run summary / target", p99 / TARGET_P99_S,
+                 f"the {TARGET_P99_S * 1e3:g} ms p99 goal", value=p99 * 1e3, unit="ms",
+                 target="<= 1", p50_ms=q[50] * 1e3, p90_ms=q[90] * 1e3)
+    bench.figure("p99 GET run summary / p99 GET health", p99 / statistics.median(p99_health),
+                 "the p99 of GET /api/v1/health in the same rounds (no catalog read; a sync, "
+                 "thread-pool route)",
+                 value=statistics.median(p99_health) * 1e3, unit="ms (health p99)")
+    bench.finish(runs=args.runs, clients=args.clients, requests_per_client=args.requests,
+                 server_cpu_ms_per_request=cpu / n_all * 1e3)
     return 0
 
 

@@ -4,21 +4,28 @@ Both sets are recorded on the simulated rig (the default seed 002 joint) through
 real plans: 4 dwells at 400 Hz and 4 multisines (100-800 Hz, 10 Hz resolution) at the
 same 4, 8, 12, 16 Vpp, 0.5 s each at 25.6 kS/s. The sine set is judged as steady cycles,
 the multisine set as records along their history (equation error); the ratio of wall
-times is the figure (one run, this machine). Run: ``python -m benchmarks.bench_broadband``.
+times is the figure (median of repeats, alternating the two sets so that both see the same
+load). Run: ``python -m benchmarks.bench_broadband [--repeats 3] [--smoke]`` (smoke: 2
+levels, 0.3 s each, diagnose with two candidates).
 """
 
 from __future__ import annotations
 
+import statistics
+import sys
 import tempfile
 import time
 from pathlib import Path
 
-from labjoint import compare
-from labjoint.acquisition.plans import dwell
-from labjoint.acquisition.plans_waveform import multisine
-from labjoint.acquisition.rig import open_rig
-from labjoint.config import load_config
-from labjoint.storage.writer import RunWriter
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks.harness import Bench, parser  # noqa: E402
+from labjoint import compare  # noqa: E402
+from labjoint.acquisition.plans import dwell  # noqa: E402
+from labjoint.acquisition.plans_waveform import multisine  # noqa: E402
+from labjoint.acquisition.rig import open_rig  # noqa: E402
+from labjoint.config import load_config  # noqa: E402
+from labjoint.storage.writer import RunWriter  # noqa: E402
 
 FS = 25600.0
 LEVELS_VPP = (4.0, 8.0, 12.0, 16.0)
@@ -55,22 +62,36 @@ def timed(fn, *args, **kw) -> tuple[float, dict]:
 
 
 def main() -> int:
+    args = parser(__doc__).parse_args()
+    bench = Bench.from_args("broadband", args, repeats=3)
+    levels, seconds, only = LEVELS_VPP, SECONDS, {}
+    if args.smoke:
+        levels, seconds, only = LEVELS_VPP[1:3], 0.3, {"candidates": ["cubic_stiffness", "coulomb"]}
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
-        sines = record([dwell(400.0, v, n_cycles=int(400 * SECONDS)) for v in LEVELS_VPP], out)
+        sines = record([dwell(400.0, v, n_cycles=int(400 * seconds)) for v in levels], out)
         ms = record([multisine(f_min_hz=100, f_max_hz=800, resolution_hz=10, amplitude_vpp=v,
-                               n_periods=int(10 * SECONDS), seed=i)
-                     for i, v in enumerate(LEVELS_VPP)], out)
-        print(f"{len(sines)} sine and {len(ms)} multisine records, {SECONDS} s each at {FS:g} S/s")
-        rows = {}
-        for name, paths, kind in (("sine", sines, "sine"), ("multisine", ms, "record")):
-            t_fit, fit = timed(compare.fit, paths, MODEL, kind=kind)
-            t_diag, diag = timed(compare.diagnose, paths, MODEL, kind=kind)
-            rows[name] = (t_fit, t_diag)
-            print(f"{name:9s}: fit {t_fit:6.2f} s (NRMSE {100 * fit['nrmse']:.2f} %), diagnose "
-                  f"{t_diag:6.2f} s (best {diag['candidates'][0]['effect'] if diag['candidates'] else '-'})")
-        print(f"multisine / sine: fit {rows['multisine'][0] / rows['sine'][0]:.2f}x, diagnose "
-              f"{rows['multisine'][1] / rows['sine'][1]:.2f}x")
+                               n_periods=max(1, int(10 * seconds)), seed=i)
+                     for i, v in enumerate(levels)], out)
+        print(f"{len(sines)} sine and {len(ms)} multisine records, {seconds} s each at {FS:g} S/s")
+        sets = (("sine", sines, "sine"), ("multisine", ms, "record"))
+        bench.warm_up(lambda: [compare.fit(paths, MODEL, kind=kind) for _, paths, kind in sets],
+                      "a fit of each set")
+        times = {name: {"fit": [], "diagnose": []} for name, _, _ in sets}
+        for _ in range(bench.repeats):
+            for name, paths, kind in sets:
+                t_fit, fit = timed(compare.fit, paths, MODEL, kind=kind)
+                t_diag, diag = timed(compare.diagnose, paths, MODEL, kind=kind, **only)
+                times[name]["fit"].append(t_fit)
+                times[name]["diagnose"].append(t_diag)
+                print(f"{name:9s}: fit {t_fit:6.2f} s (NRMSE {100 * fit['nrmse']:.2f} %), diagnose "
+                      f"{t_diag:6.2f} s (best {diag['candidates'][0]['effect'] if diag['candidates'] else '-'})")
+        for what in ("fit", "diagnose"):
+            m, s = (statistics.median(times[n][what]) for n in ("multisine", "sine"))
+            bench.figure(f"multisine {what} / sine {what}", m / s,
+                         f"the same {what} on 4 sine records at the same levels", value=m,
+                         unit="s (multisine)", target="<= 1")
+    bench.finish(levels_vpp=list(levels), seconds=seconds)
     return 0
 
 

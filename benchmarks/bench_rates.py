@@ -11,7 +11,11 @@ grow without bound at >= 1.25 MS/s), time growing linearly with the number of sa
 (the "ns per sample" column stays flat), and the loop pipeline at >= 500x real time at
 50 kS/s (``bench_analyze`` measures that on a longer record).
 
-Usage: ``.venv/bin/python benchmarks/bench_rates.py [--seconds 10] [--rates 50e3,500e3,2e6]``.
+Figures: the worst peak RSS against 1 GB, and the ns per sample at the highest rate against
+the lowest's (1 = linear), from the median of the repeats' wall times.
+
+Usage: ``.venv/bin/python benchmarks/bench_rates.py [--seconds 10] [--rates 50e3,500e3,2e6]
+[--repeats 3] [--smoke]``.
 """
 
 from __future__ import annotations
@@ -26,6 +30,9 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+
+from benchmarks.harness import Bench, parser  # noqa: E402
 
 
 def child_write(directory: str, seconds: float, fs: float) -> dict:
@@ -37,7 +44,7 @@ def child_write(directory: str, seconds: float, fs: float) -> dict:
     return {"path": str(path), "how": how, "write_s": time.perf_counter() - t0}
 
 
-def child_analyze(path: str) -> dict:
+def child_analyze(path: str, repeats: int = 1) -> dict:
     import numpy as np
 
     from labjoint.identify.analyze import analyze_arrays, analyze_file
@@ -45,9 +52,13 @@ def child_analyze(path: str) -> dict:
     t = np.arange(20_000) / 50_000.0                      # compile / load numba caches
     analyze_arrays(1e-6 * np.sin(2 * np.pi * 400 * t), np.cos(2 * np.pi * 400 * t), 50_000.0, 400.0)
     base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    cpu0, t0 = time.process_time(), time.perf_counter()
-    res = analyze_file(path)
-    wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
+    walls, cpus = [], []
+    for _ in range(repeats):
+        cpu0, t0 = time.process_time(), time.perf_counter()
+        res = analyze_file(path)
+        walls.append(time.perf_counter() - t0)
+        cpus.append(time.process_time() - cpu0)
+    wall, cpu = sorted(walls)[len(walls) // 2], sorted(cpus)[len(cpus) // 2]
     return {"wall_s": wall, "cpu_s": cpu, "after_imports_mb": base,
             "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
             "n_samples": res.metadata["n_samples"], "n_cycles": res.n_cycles,
@@ -64,7 +75,7 @@ def _child(*args: str) -> dict:
 
 
 def main(argv: list[str]) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--seconds", type=float, default=10.0)
     ap.add_argument("--rates", default="50e3,500e3,2e6")
     ap.add_argument("--child", nargs="+", help=argparse.SUPPRESS)
@@ -72,10 +83,15 @@ def main(argv: list[str]) -> int:
     if args.child:
         kind, *rest = args.child
         out = (child_write(rest[0], float(rest[1]), float(rest[2])) if kind == "write"
-               else child_analyze(rest[0]))
+               else child_analyze(rest[0], int(rest[1])))
         print(json.dumps(out))
         return 0
+    if args.smoke:
+        args.seconds, args.rates = 0.5, "50e3,200e3"
+    bench = Bench.from_args("rates", args, repeats=3)
+    bench.numba = "compilation excluded: warm-up call (analyze_arrays, 20,000 samples) in each child"
     rates = [float(r) for r in args.rates.split(",")]
+    per_sample = []
     print(f"{'rate S/s':>10} {'samples':>10} {'file MB':>8} {'peak RSS MB':>11} "
           f"{'wall s':>7} {'x real':>7} {'ns/sample':>9} {'W mJ':>7} {'C Ns/m':>7} {'K MN/m':>7}")
     worst = 0.0
@@ -83,13 +99,19 @@ def main(argv: list[str]) -> int:
         with tempfile.TemporaryDirectory(prefix="bench_rates_") as tmp:
             w = _child("write", tmp, str(args.seconds), str(fs))
             size = Path(w["path"]).stat().st_size / 1e6
-            r = _child("analyze", w["path"])
+            r = _child("analyze", w["path"], str(bench.repeats))
         worst = max(worst, r["peak_mb"])
+        per_sample.append(r["wall_s"] / r["n_samples"])
         print(f"{fs:>10.3g} {r['n_samples']:>10d} {size:>8.0f} {r['peak_mb']:>11.0f} "
               f"{r['wall_s']:>7.2f} {args.seconds / r['wall_s']:>7.0f} "
               f"{1e9 * r['wall_s'] / r['n_samples']:>9.1f} {r['w_mj']:>7.4f} {r['c']:>7.0f} "
               f"{r['k'] / 1e6:>7.2f}", flush=True)
-    print(f"worst peak RSS {worst:.0f} MB (goal <= 1024 MB)")
+    bench.figure("worst peak RSS / 1 GB", worst / 1024, "the 1 GB memory goal", value=worst,
+                 unit="MB", target="<= 1")
+    bench.figure(f"ns per sample at {rates[-1]:g} S/s / at {rates[0]:g} S/s",
+                 per_sample[-1] / per_sample[0], f"the lowest rate's ns per sample (1 = linear; "
+                 f"median of {bench.repeats})", value=1e9 * per_sample[-1], unit="ns/sample")
+    bench.finish(seconds=args.seconds, rates=rates)
     return 0
 
 

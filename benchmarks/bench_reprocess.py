@@ -16,12 +16,16 @@ the no-op second reprocess; a diagnose over 12 run groups, serial vs distributed
 The issue's figures: ``--runs 1000 --seconds 10`` (16 GB of run files, about 6 minutes
 on 2 cores); the default is a reduced N. Goals: >= 1.8x on 2 cores, <= 5 ms per task,
 <= 2 s for the no-op over 1,000 runs.
-Usage: ``python -m benchmarks.bench_reprocess [--runs N] [--seconds S] [--no-diagnose]``.
+Every figure is a ratio measured in this process: serial / cluster wall time, the
+scheduler's per-task overhead against the serial per-run analysis time, the no-op against
+the serial reprocess. (One timing each: these runs are long; the load average beside
+them says how busy the machine was.)
+Usage: ``python -m benchmarks.bench_reprocess [--runs N] [--seconds S] [--no-diagnose]
+[--smoke]``.
 """
 
 from __future__ import annotations
 
-import argparse
 import os
 import shutil
 import subprocess
@@ -33,14 +37,17 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.bench_analyze import FS, SENS, synth_blocks
-from labjoint.batch.cluster import DaskRunner, dask_client
-from labjoint.batch.reprocess import SerialRunner, execute, plan_reprocess
-from labjoint.documents import Block, RunStart, RunStop
-from labjoint.hardware.interfaces import ChannelSpec
-from labjoint.storage import Catalog
-from labjoint.storage.results import Results
-from labjoint.storage.writer import RunWriter
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks.bench_analyze import FS, SENS, synth_blocks  # noqa: E402
+from benchmarks.harness import Bench, parser  # noqa: E402
+from labjoint.batch.cluster import DaskRunner, dask_client  # noqa: E402
+from labjoint.batch.reprocess import SerialRunner, execute, plan_reprocess  # noqa: E402
+from labjoint.documents import Block, RunStart, RunStop  # noqa: E402
+from labjoint.hardware.interfaces import ChannelSpec  # noqa: E402
+from labjoint.storage import Catalog  # noqa: E402
+from labjoint.storage.results import Results  # noqa: E402
+from labjoint.storage.writer import RunWriter  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 OPTS = {"force": "joint"}                   # analyze's options as the CLI gives them
@@ -106,15 +113,15 @@ def _rss() -> int:
     return psutil.Process().memory_info().rss
 
 
-def bench_analyze(d: Path, n: int, seconds: float) -> None:
+def bench_analyze(bench: Bench, d: Path, n: int, seconds: float) -> None:
     cat = Catalog(d / "catalog.sqlite")
     t0 = time.perf_counter()
     write_runs(d, cat, n, seconds)
     print(f"data: {n} runs x {seconds:g} s x 4 ch at {FS / 1e3:g} kS/s, written in "
           f"{time.perf_counter() - t0:.1f} s")
     res = Results(cat)
-    plan_reprocess(res, cat.query()[:1], "analyze", OPTS)        # compile and cache kernels
-    execute(plan_reprocess(res, cat.query()[:1], "analyze", OPTS, force=True), SerialRunner(), res)
+    bench.warm_up(lambda: execute(plan_reprocess(res, cat.query()[:1], "analyze", OPTS, force=True),
+                                  SerialRunner(), res), "one run reprocessed serially")
 
     t0 = time.perf_counter()
     rep = execute(plan_reprocess(res, cat.query(), "analyze", OPTS, force=True), SerialRunner(), res)
@@ -141,6 +148,12 @@ def bench_analyze(d: Path, n: int, seconds: float) -> None:
     print(f"analyze on a 2-worker LocalCluster: {t_dist:.2f} s; speed-up {t_serial / t_dist:.2f}x "
           f"(goal >= 1.8x); cluster start-up and worker warm-up {t_start:.2f} s apart")
     print(f"scheduler overhead: {t_task * 1e3:.2f} ms per trivial task ({m} tasks; goal <= 5 ms)")
+    bench.figure("analyze reprocess, serial / 2-worker cluster", t_serial / t_dist,
+                 "the serial reprocess in this process (speed-up)", value=t_dist, unit="s (cluster)",
+                 target=">= 1.8", serial_s=t_serial, runs=n)
+    bench.figure("scheduler overhead per task / serial analyze per run", t_task / (t_serial / n),
+                 "the serial analysis of one run", value=t_task * 1e3, unit="ms per task",
+                 target="<= 5 ms")
     print("memory per worker after the reprocess: "
           + ", ".join(f"{v / 2**20:.0f} MB" for v in rss.values()))
     t0 = time.perf_counter()
@@ -150,6 +163,9 @@ def bench_analyze(d: Path, n: int, seconds: float) -> None:
     assert rep["skipped"] == n and not plan.tasks
     print(f"no-op second reprocess ({n} runs, catalog query + plan): {t_noop:.3f} s "
           f"(goal <= 2 s for 1,000)")
+    bench.figure("no-op second reprocess / serial reprocess", t_noop / t_serial,
+                 "the serial reprocess that computed them", value=t_noop, unit="s",
+                 target="<= 2 s for 1,000 runs")
     t0 = time.perf_counter()
     proc = subprocess.run([sys.executable, "-m", "labjoint.cli.main", "reprocess", "--data-dir",
                            str(d), "--pipeline", "analyze", "--json"], capture_output=True,
@@ -160,9 +176,9 @@ def bench_analyze(d: Path, n: int, seconds: float) -> None:
           f"{t_cli:.2f} s")
 
 
-def bench_diagnose(d: Path) -> None:
+def bench_diagnose(bench: Bench, d: Path, groups: int = 12) -> None:
     cat = Catalog(d / "catalog.sqlite")
-    write_groups(d, cat)
+    write_groups(d, cat, groups)
     res = Results(cat)
     opts = {"model": "linear_stiffness", "candidates": "viscous,coulomb,cubic_stiffness"}
     t0 = time.perf_counter()
@@ -181,28 +197,37 @@ def bench_diagnose(d: Path) -> None:
             same &= dist["failed"] == 0 and all(
                 a.get("summary", {}).get("candidates") == b.get("summary", {}).get("candidates")
                 for a, b in zip(serial["runs"], dist["runs"]))
-    print(f"diagnose over 12 groups x 3 runs (3 candidates): serial {t_serial:.1f} s; 2-worker "
+    print(f"diagnose over {groups} groups x 3 runs (3 candidates): serial {t_serial:.1f} s; 2-worker "
           f"cluster, one task per group {times[False]:.1f} s ({t_serial / times[False]:.2f}x), "
           f"with the refits spread too {times[True]:.1f} s ({t_serial / times[True]:.2f}x); "
           f"same ranking: {same}")
+    for spread in (False, True):
+        bench.figure(f"diagnose over {groups} groups, serial / 2-worker cluster"
+                     f"{' (refits spread)' if spread else ' (a task per group)'}",
+                     t_serial / times[spread], "the serial diagnose in this process",
+                     value=times[spread], unit="s (cluster)", same_ranking=bool(same))
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--runs", type=int, default=40)
     ap.add_argument("--seconds", type=float, default=2.0)
     ap.add_argument("--no-diagnose", action="store_true")
     args = ap.parse_args()
+    groups = 12
+    if args.smoke:
+        args.runs, args.seconds, groups = 4, 0.5, 2
+    bench = Bench.from_args("reprocess", args, repeats=1)
     base = Path(tempfile.mkdtemp(prefix="bench-reprocess-"))
     try:
-        print(f"machine: {os.cpu_count()} cores (shared: figures indicative)")
         (base / "a").mkdir()
-        bench_analyze(base / "a", args.runs, args.seconds)
+        bench_analyze(bench, base / "a", args.runs, args.seconds)
         if not args.no_diagnose:
             (base / "b").mkdir()
-            bench_diagnose(base / "b")
+            bench_diagnose(bench, base / "b", groups)
     finally:
         shutil.rmtree(base, ignore_errors=True)
+    bench.finish(runs=args.runs, seconds=args.seconds)
 
 
 if __name__ == "__main__":

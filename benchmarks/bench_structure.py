@@ -9,7 +9,10 @@
    a continuation), continuation points per second, multi-harmonic HBM against Newmark
    time integration to steady state (error and time ratio).
 
-Run: ``python benchmarks/bench_structure.py``.
+Figures (ratios in this process): Craig-Bampton HBM against the unreduced HBM (speed-up,
+median of repeats), HBM against Newmark to steady state, the describing-function error.
+Run: ``python benchmarks/bench_structure.py [--repeats 3] [--smoke]`` (smoke: one harmonic
+in Table 2, a shorter continuation, one Newmark frequency).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
+from benchmarks.harness import Bench, parser  # noqa: E402
 from labjoint.structure import load_structure, modes, structure_from_dict, update_stiffness  # noqa: E402
 from labjoint.structure.continuation import continuation  # noqa: E402
 from labjoint.structure.hbm import HarmonicBalance  # noqa: E402
@@ -51,7 +55,7 @@ def tables_1_and_3() -> float:
     return r.value
 
 
-def table_2(e_e: float) -> None:
+def table_2(bench: Bench, e_e: float, harmonics: int = 3) -> None:
     s = with_parameter(load_structure(SEED000), "E_e_pa", e_e)
     s = with_parameter(s, "richard_abbott.kp", 1e6 * s.joints[0].layer.area(0.057) / 0.001)
     s = with_parameter(s, "richard_abbott.F_y", 1e6 * s.joints[0].layer.area(0.057))
@@ -60,31 +64,37 @@ def table_2(e_e: float) -> None:
     rows = []
     for label, sysm in (("no reduction", NonlinearSystem.from_structure(s)),
                         ("5 modes", reduced_system(s, 5)[0]), ("30 modes", reduced_system(s, 30)[0])):
-        hb = HarmonicBalance(sysm, 3, 256)
-        t0 = time.perf_counter()
-        x = hb.solve(w, 16.5)
-        dt = time.perf_counter() - t0
-        rows.append((label, sysm.n, dt, abs(hb.phasors(x)[1, -1])))
+        hb = HarmonicBalance(sysm, harmonics, 256)
+        t = bench.repeat(lambda: hb.solve(w, 16.5))
+        dt = t.median
+        rows.append((label, sysm.n, dt, abs(hb.phasors(t.result)[1, -1])))
     ref = rows[0][3]
-    print("Table 2 shape (HBM, 3 harmonics, 20 Hz, 16.5 N):")
+    print(f"Table 2 shape (HBM, {harmonics} harmonics, 20 Hz, 16.5 N):")
     for label, n, dt, amp in rows:
         err = "" if label == "no reduction" else f"  error {100 * abs(amp / ref - 1):.3f} %"
         print(f"  {label:13s} {n:4d} DOF  {dt:7.3f} s  response {amp:.4e} m  "
               f"speed-up {rows[0][2] / dt:6.1f}x{err}")
+        if label != "no reduction":
+            bench.figure(f"Table 2 HBM, Craig-Bampton {label} / unreduced", rows[0][2] / dt,
+                         f"the unreduced model's HBM ({rows[0][1]} DOF): speed-up", value=dt,
+                         unit="s", error_pct=100 * abs(amp / ref - 1))
 
 
-def jenkins_sdof() -> None:
+def jenkins_sdof(bench: Bench, f_stop: float = 40.0, newmark_hz=(22.0, 26.0)) -> None:
     hb = HarmonicBalance(jenkins(0.3), 1, 1024)
     t0 = time.perf_counter()
-    c = continuation(hb, 8.0, 10.0, 40.0)
+    c = continuation(hb, 8.0, 10.0, f_stop)
     dt = time.perf_counter() - t0
     A = np.abs(c.phasors()[:, 1, 0])
     err = max(abs(describing_function_force(a, 2 * np.pi * f, 0.3) / 8.0 - 1) for a, f in zip(A, c.frequencies_hz))
     print(f"Jenkins SDOF, 1 harmonic: max describing-function error {100 * err:.2e} % over "
           f"{A.size} points, {A.size / dt:.0f} continuation points/s")
+    bench.figure("Jenkins SDOF HBM, describing-function error", err,
+                 "the exact describing function (max relative error over the continuation)",
+                 value=A.size / dt, unit="continuation points/s")
     sysm = jenkins(8.0)
     hb = HarmonicBalance(sysm, 7, 512)
-    for f in (22.0, 26.0):
+    for f in newmark_hz:
         t0 = time.perf_counter()
         P = hb.phasors(hb.solve(2 * np.pi * f, 4.0))[:, 0]
         th = time.perf_counter() - t0
@@ -95,8 +105,26 @@ def jenkins_sdof() -> None:
         e3 = abs(ss.phasors[3, 0] - P[3]) / abs(P[3])
         print(f"  {f:.0f} Hz, 7 harmonics vs Newmark ({ss.periods} periods): harmonic 1 {100 * e1:.3f} %, "
               f"harmonic 3 {100 * e3:.2f} %; HBM {tt / th:.0f}x faster")
+        bench.figure(f"Newmark to steady state / HBM at {f:g} Hz", tt / th,
+                     "7-harmonic HBM of the same point (how many times slower)", value=tt,
+                     unit="s (Newmark)", error_h1_pct=100 * e1)
+
+
+def main() -> None:
+    args = parser(__doc__).parse_args()
+    bench = Bench.from_args("structure", args, repeats=3)
+    bench.numba = "compilation excluded: each solve is timed after a first call (repeats)"
+    e_e = tables_1_and_3()
+    bench.warm_up(lambda: HarmonicBalance(jenkins(8.0), 1, 64).solve(2 * np.pi * 22.0, 4.0),
+                  "a 1-harmonic HBM solve")
+    if args.smoke:
+        table_2(bench, e_e, harmonics=1)
+        jenkins_sdof(bench, f_stop=14.0, newmark_hz=(26.0,))
+    else:
+        table_2(bench, e_e)
+        jenkins_sdof(bench)
+    bench.finish()
 
 
 if __name__ == "__main__":
-    table_2(tables_1_and_3())
-    jenkins_sdof()
+    main()

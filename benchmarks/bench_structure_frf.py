@@ -21,7 +21,11 @@ linear natural frequency), at 3 force levels, ``H`` harmonics, stepped up in swe
   the goal within 1 %; HBM with fewer harmonics truncates what the slipping joint puts
   into harmonics 5 and 7, printed as well).
 
-Run: ``python benchmarks/bench_structure_frf.py``.
+Figures (ratios in this process): the set against its 10 s goal, the unreduced HBM and
+time integration per point against the set's time per point; the set is timed as the
+median of repeats (``--repeats``, default 3).
+Run: ``python benchmarks/bench_structure_frf.py [--harmonics 7] [--repeats 3] [--smoke]``
+(smoke: 4 points per mode, 3 harmonics, the first check point, Newmark to 1e-3).
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from benchmarks.harness import Bench, parser  # noqa: E402
 from labjoint.signal.frfset import FrfSet  # noqa: E402
 from labjoint.structure import load_structure  # noqa: E402
 from labjoint.structure.frf import system_of  # noqa: E402
@@ -49,7 +54,7 @@ LAW = {"richard_abbott.ke": 1e10, "richard_abbott.kp": 1e8, "richard_abbott.F_y"
 LEVELS = (2.0, 10.0, 30.0)
 POINTS = 34
 CHECK = ((0, 0.97, 10.0), (0, 1.0, 30.0), (1, 0.99, 30.0))   # (mode, f / f_n, level)
-H = 7
+H = H_SET = 7
 H_CHECK = 7
 
 
@@ -60,32 +65,45 @@ def structure():
     return s
 
 
-def frf_set(freqs: np.ndarray, H: int = H) -> FrfSet:
-    f = np.concatenate([freqs] * len(LEVELS))
-    lv = np.repeat(LEVELS, freqs.size)
+def frf_set(freqs: np.ndarray, H: int = H, levels=LEVELS) -> FrfSet:
+    f = np.concatenate([freqs] * len(levels))
+    lv = np.repeat(levels, freqs.size)
     one = np.ones((f.size, 1, H), complex)
     return FrfSet(f, lv, ["up"] * f.size, lv.astype(complex), ("free_end",), one, 0 * one.real)
 
 
-def main(H: int = H) -> None:
+def main() -> None:
+    ap = parser(__doc__)
+    ap.add_argument("--harmonics", type=int, default=H_SET,
+                    help=f"harmonics of the FRF set (default {H_SET})")
+    args = ap.parse_args()
+    bench = Bench.from_args("structure_frf", args, repeats=3)
+    H, points, checks, newmark_tol, steps, h_check, n_check = (
+        args.harmonics, POINTS, CHECK, 1e-6, 512, H_CHECK, 256)
+    if args.smoke:
+        H, points, checks, newmark_tol, steps, h_check, n_check = 3, 4, CHECK[:1], 1e-2, 64, 3, 64
     s = structure()
     t0 = time.perf_counter()
     pr = FrfPredictor(s, modes=10, harmonics=H, samples=max(64, 8 * H))
     nat = pr.natural_frequencies(2)
     t_setup = time.perf_counter() - t0
-    freqs = np.concatenate([np.linspace(0.9 * fn, 1.05 * fn, POINTS) for fn in nat])
+    freqs = np.concatenate([np.linspace(0.9 * fn, 1.05 * fn, points) for fn in nat])
     fs = frf_set(freqs, H)
-    t0 = time.perf_counter()
-    resp = pr.predict(fs, warm=False)
-    t_cb = time.perf_counter() - t0
+    bench.warm_up(lambda: pr.predict(frf_set(freqs[:2], H, LEVELS[:1]), warm=False),
+                  "2 points of the set")
+    t = bench.repeat(lambda: pr.predict(fs, warm=False))
+    resp, t_cb = t.result, t.median
     per_cb = t_cb / len(fs)
+    bench.figure("CB + HBM FRF set / 10 s goal", (t_cb + t_setup) / 10.0,
+                 "the 10 s goal (set + reduction)", value=t_cb, unit="s (set, median)",
+                 target="<= 1", points=len(fs), harmonics=H, reduction_s=t_setup, timing=t)
     print(f"seed 000 assembly, joint {LAW}; modes {nat[0]:.2f} / {nat[1]:.2f} Hz (joints stuck)")
     print(f"CB (10 modes, {pr.system.n} DOF) + HBM ({H} harmonics): {len(fs)} points "
-          f"({POINTS} x 2 modes x {len(LEVELS)} levels) in {t_cb:.2f} s ({1e3 * per_cb:.1f} ms/point; "
+          f"({points} x 2 modes x {len(LEVELS)} levels) in {t_cb:.2f} s ({1e3 * per_cb:.1f} ms/point; "
           f"reduction {t_setup:.2f} s once); set under 10 s: {'yes' if t_cb + t_setup < 10 else 'NO'}")
     for (lv, _), idx in fs.groups():
         for m in range(2):
-            band = idx[m * POINTS:(m + 1) * POINTS]
+            band = idx[m * points:(m + 1) * points]
             a = np.abs(resp[band, 0, 0]) / lv
             k = int(np.argmax(a))
             print(f"  {lv:4.0f} N mode {m + 1}: peak {a[k]:.3g} m/s^2/N at {fs.frequencies_hz[band][k]:.2f} Hz, "
@@ -93,11 +111,11 @@ def main(H: int = H) -> None:
     full = system_of(s, None)
     cb = pr.system
     row = list(cb.output_names).index("free_end")
-    for m, ratio, lv in CHECK:
+    for m, ratio, lv in checks:
         f = ratio * nat[m]
         w = 2 * np.pi * f
         p_hb, t_hb = {}, {}
-        for key, h, n in (("set", H, max(64, 8 * H)), ("check", H_CHECK, 256)):
+        for key, h, n in (("set", H, max(64, 8 * H)), ("check", h_check, n_check)):
             hb = HarmonicBalance(cb, h, n)
             t0 = time.perf_counter()
             x = None
@@ -112,23 +130,28 @@ def main(H: int = H) -> None:
         p_full = hf.phasors(xf)[1, row]
         d = lambda a, b: 100 * abs(a / b - 1)  # noqa: E731
         print(f"  mode {m + 1}, {f:.2f} Hz, {lv:g} N: CB+HBM {1e3 * t_hb['set']:.1f} ms/point "
-              f"({H} harmonics; {H_CHECK} with 256 samples: {1e3 * t_hb['check']:.0f} ms, differs "
+              f"({H} harmonics; {h_check} with {n_check} samples: {1e3 * t_hb['check']:.0f} ms, differs "
               f"{d(p_hb['set'], p_hb['check']):.2f} %); unreduced HBM ({full.n} DOF) {t_full:.2f} s "
               f"({t_full / t_hb['set']:.0f}x), differs {d(p_full, p_hb['set']):.3f} %")
+        bench.figure(f"unreduced HBM / CB + HBM, mode {m + 1} at {lv:g} N", t_full / t_hb["set"],
+                     "the CB + HBM time per point (how many times slower)", value=t_full,
+                     unit="s (unreduced)", differs_pct=d(p_full, p_hb["set"]))
         if m > 0:       # mode 2 settles over hundreds of periods: hours of Newmark steps
             continue
         t0 = time.perf_counter()
-        ss = steady_state(cb, lv, f, H_CHECK, steps_per_period=512, tol=1e-6, max_periods=4000)
+        ss = steady_state(cb, lv, f, h_check, steps_per_period=steps, tol=newmark_tol,
+                          max_periods=4000)
         t_ti = time.perf_counter() - t0
         p_ti = ss.phasors[1, row]
-        print(f"    time integration ({ss.periods} periods, 512 steps each) {t_ti:.1f} s "
+        print(f"    time integration ({ss.periods} periods, {steps} steps each) {t_ti:.1f} s "
               f"({t_ti / per_cb:.0f}x the set's time per point), differs {d(p_ti, p_hb['check']):.3f} % "
-              f"from {H_CHECK} harmonics (256 samples), {d(p_ti, p_hb['set']):.2f} % from the set's {H}")
+              f"from {h_check} harmonics ({n_check} samples), {d(p_ti, p_hb['set']):.2f} % from the set's {H}")
+        bench.figure(f"Newmark to steady state / CB + HBM per point, mode {m + 1} at {lv:g} N",
+                     t_ti / per_cb, "the set's time per point (how many times slower)",
+                     value=t_ti, unit="s (Newmark)", target=">= 100",
+                     differs_pct=d(p_ti, p_hb["check"]))
+    bench.finish(harmonics=H, points_per_mode=points)
 
 
 if __name__ == "__main__":
-    import argparse
-
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--harmonics", type=int, default=H, help=f"harmonics of the FRF set (default {H})")
-    main(ap.parse_args().harmonics)
+    main()

@@ -2,25 +2,29 @@
 time read in DAQ blocks, per joint law; ratio to real time. Light damping needs seconds of
 simulated time per step-sine step, so this ratio is what a step-sine set costs.
 
-Run: .venv/bin/python benchmarks/bench_structure_rig.py [--seconds 60]
-Prints a human line per law and one JSON line.
+Run: .venv/bin/python benchmarks/bench_structure_rig.py [--seconds 60] [--repeats 3] [--smoke]
+Prints a human line per law (median of the repeats) and one JSON line.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import time
+import sys
+from pathlib import Path
 
-from labjoint.config import CONFIG_DIR, load_config
-from labjoint.hardware.sim import open_sim
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks.harness import Bench, parser  # noqa: E402
+from labjoint.config import CONFIG_DIR, load_config  # noqa: E402
+from labjoint.hardware.sim import open_sim  # noqa: E402
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
+    ap = parser(__doc__)
     ap.add_argument("--seconds", type=float, default=60.0)
     args = ap.parse_args()
-    out = {}
+    if args.smoke:
+        args.seconds = 0.5
+    bench = Bench.from_args("structure_rig", args, repeats=3)
     for law in ("iwan", "jenkins", "richard_abbott", "linear"):
         cfg = load_config(CONFIG_DIR / "rig-structure-sim.toml", {"sim": {"joint": {"law": law}}})
         gen, daq, rig = open_sim(cfg)
@@ -28,23 +32,23 @@ def main() -> None:
         gen.set_output(True)
         daq.start()
         block = cfg.daq.block_samples
-        daq.read(block)  # compile (or load the numba cache)
+        bench.warm_up(lambda: daq.read(block), "one DAQ block per law")
         fs = daq.sample_rate_hz
-        n_blocks = int(round(args.seconds * fs / block))
-        best = float("inf")
-        for _ in range(3):  # best of three: the machine may be shared
-            t = time.perf_counter()
+        n_blocks = max(1, int(round(args.seconds * fs / block)))
+
+        def run() -> None:
             for _ in range(n_blocks):
                 daq.read(block)
-            best = min(best, time.perf_counter() - t)
+
+        t = bench.repeat(run)
         simulated = n_blocks * block / fs
-        out[law] = simulated / best
-        print(f"{law}: {simulated:.0f} s of {len(daq.channels)} channels at {fs:.0f} S/s "
-              f"({rig.substeps} steps/sample, {rig.model.omega.size} modes) in {best:.3f} s: "
-              f"{simulated / best:.0f}x real time")
+        print(f"{law}: {simulated:.1f} s of {len(daq.channels)} channels at {fs:.0f} S/s "
+              f"({rig.substeps} steps/sample, {rig.model.omega.size} modes) in {t.median:.3f} s")
+        bench.figure(f"structural rig, {law} joint", simulated / t.median, "real time",
+                     value=t.median, unit="s", timing=t)
         daq.close()
         gen.close()
-    print(json.dumps({"benchmark": "structure_rig", "ratio_to_real_time": out, "simulated_s": args.seconds}))
+    bench.finish(simulated_s=args.seconds)
 
 
 if __name__ == "__main__":

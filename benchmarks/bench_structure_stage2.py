@@ -10,12 +10,16 @@ parameter's recovered value, standard error and |error| / se (within the uncerta
 <= 2 in ~95 % of repetitions), the fit's Eq. 9 RMS on the fit and the validation steps,
 and the wall time. ``--seeds N`` repeats with N noise draws and counts the recoveries.
 
-Run: ``python benchmarks/bench_structure_stage2.py [--seeds N]``.
+Figures: the fraction of estimates within 2 se (reference: the estimates made), and the fit's
+median wall time against one evaluation of the FRF set's prediction (how many evaluations'
+worth a fit costs; its ``n_evals`` says how many it made).
+Run: ``python benchmarks/bench_structure_stage2.py [--seeds N] [--smoke]`` (smoke: 3 + 2
+steps, 2 harmonic samples fewer, one seed).
 """
 
 from __future__ import annotations
 
-import argparse
+import statistics
 import sys
 import time
 from pathlib import Path
@@ -25,6 +29,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from benchmarks.harness import Bench, parser  # noqa: E402
 from labjoint.structure import load_structure  # noqa: E402
 from labjoint.structure.predict import FrfPredictor, synthetic_frfset  # noqa: E402
 from labjoint.structure.stage2 import update_nonlinear  # noqa: E402
@@ -34,19 +39,33 @@ TRUTH = {"richard_abbott.ke": 1e10, "richard_abbott.kp": 1e8, "richard_abbott.F_
 START = {"richard_abbott.kp": 3e8, "richard_abbott.F_y": 1.5e3, "richard_abbott.n": 3.0}
 
 
-def main(seeds: int) -> None:
+def main() -> None:
+    ap = parser(__doc__)
+    ap.add_argument("--seeds", type=int, default=1)
+    args = ap.parse_args()
+    bench = Bench.from_args("structure_stage2", args, repeats=1)
+    seeds, n1, n2 = (1, 3, 2) if args.smoke else (args.seeds, 7, 4)
     pr = FrfPredictor(load_structure(ROOT / "configs" / "structure-seed000.toml"), modes=10,
                       harmonics=1, samples=32)
     truth = pr.law.with_params(**TRUTH)
     f1, f2 = pr.natural_frequencies(2)
-    freqs = np.r_[np.linspace(0.85 * f1, 1.05 * f1, 7), np.linspace(0.97 * f2, 1.03 * f2, 4)]
-    inside, total = 0, 0
+    freqs = np.r_[np.linspace(0.85 * f1, 1.05 * f1, n1), np.linspace(0.97 * f2, 1.03 * f2, n2)]
+    inside, total, walls, evals = 0, 0, [], []
+    t_set = None
     for seed in range(seeds):
         fs = synthetic_frfset(pr, truth, freqs, [5.0, 30.0], ("free_end",), harmonics=1,
                               noise=0.01, seed=seed)
+        if t_set is None:       # the reference: one prediction of the set (after a first)
+            bench.warm_up(lambda: synthetic_frfset(pr, truth, freqs, [5.0, 30.0], ("free_end",),
+                                                   harmonics=1, noise=0.0, seed=0),
+                          "one FRF set prediction")
+            t_set = bench.repeat(lambda: synthetic_frfset(
+                pr, truth, freqs, [5.0, 30.0], ("free_end",), harmonics=1, noise=0.0, seed=0), 3)
         t0 = time.perf_counter()
         res = update_nonlinear(pr, fs, law=truth.with_params(**START))
         dt = time.perf_counter() - t0
+        walls.append(dt)
+        evals.append(res.fit.n_evals)
         print(f"seed {seed}: {res.fit_steps} fit steps (mode 1), {res.validation_steps} validation "
               f"steps (mode 2); {res.fit.n_evals} evaluations, {dt:.1f} s; Eq. 9 RMS fit "
               f"{100 * res.error_fit:.2f} %, validation {100 * res.error_validation:.2f} % "
@@ -60,9 +79,15 @@ def main(seeds: int) -> None:
                   f"|error| = {z:.2f} se")
         print(f"  as seed 000's layer: {', '.join(f'{k} {v:.4g}' for k, v in res.layer.items())}")
     print(f"recovered within 2 se: {inside} of {total} parameter estimates")
+    bench.figure("estimates within 2 standard errors", inside / total,
+                 f"the {total} estimates made (fraction; ~0.95 expected)", value=inside,
+                 unit="estimates")
+    bench.figure("stage-2 fit / one FRF-set prediction", statistics.median(walls) / t_set.median,
+                 "one prediction of the same FRF set (median of 3)",
+                 value=statistics.median(walls), unit="s per fit (median over seeds)",
+                 evaluations=evals)
+    bench.finish(seeds=seeds)
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--seeds", type=int, default=1)
-    main(ap.parse_args().seeds)
+    main()

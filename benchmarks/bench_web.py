@@ -12,12 +12,12 @@ the worst are printed, with their ratios to the targets (issue 17 item 12: first
 under 300 ms, run page under 500 ms; a ratio below 1 meets it), and the bytes the page
 transferred with gzip against without it.
 
-Usage: ``.venv/bin/python benchmarks/bench_web.py [--repeat 7]``.
+Usage: ``.venv/bin/python benchmarks/bench_web.py [--repeats 7] [--smoke]`` (smoke: 10
+catalogued runs, 1 load per page).
 """
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import sys
 import tempfile
@@ -26,6 +26,9 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "tests"))
+sys.path.insert(0, str(HERE.parent))
+
+from benchmarks.harness import Bench, parser  # noqa: E402
 
 TARGET_FIRST_S = 0.300
 TARGET_RUN_S = 0.500
@@ -65,9 +68,11 @@ def _load(browser, url: str, ready: list[str], gzip: bool = True) -> tuple[float
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--repeat", type=int, default=7)
+    ap = parser(__doc__)
+    ap.add_argument("--repeat", type=int, dest="repeats", help="the same as --repeats")
     args = ap.parse_args()
+    bench = Bench.from_args("web", args, repeats=7)
+    bench.numba = "not used by these pages (each page is loaded once, untimed, first)"
     from playwright.sync_api import sync_playwright
 
     from labjoint.api import ApiSettings, create_app
@@ -78,7 +83,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         data, csv = Path(tmp) / "data", Path(tmp) / "csv"
         csv.mkdir()
-        make_lab(data, csv, bulk=200)
+        make_lab(data, csv, bulk=10 if args.smoke else 200)
         run = write_sim_run(data, Catalog(data / "catalog.sqlite"), "bench_run", seconds=0.25,
                             settle_s=0.2).stem
         app = create_app(ApiSettings(data_dir=data))
@@ -95,7 +100,7 @@ def main() -> None:
             }
             for label, (u, ready, target) in pages.items():
                 _load(browser, u, ready)                     # warm the server's caches
-                times, outer, sizes = zip(*[_load(browser, u, ready) for _ in range(args.repeat)])
+                times, outer, sizes = zip(*[_load(browser, u, ready) for _ in range(bench.repeats)])
                 _, _, plain = _load(browser, u, ready, gzip=False)
                 med, worst = statistics.median(times), max(times)
                 print(f"{label}: median {1e3 * med:.0f} ms, worst {1e3 * worst:.0f} ms "
@@ -104,7 +109,13 @@ def main() -> None:
                       f"round trips added) median {1e3 * statistics.median(outer):.0f} ms; "
                       f"transferred {sizes[0] / 1e3:.0f} kB "
                       f"gzipped vs {plain / 1e3:.0f} kB plain (ratio {sizes[0] / plain:.2f})")
+                bench.figure(f"{label} / target", med / target, f"the {1e3 * target:.0f} ms target",
+                             value=1e3 * med, unit="ms (median)", target="<= 1",
+                             worst_ms=1e3 * worst, automation_ms=1e3 * statistics.median(outer))
+                bench.figure(f"{label}, bytes gzipped / plain", sizes[0] / plain,
+                             "the same page without gzip", value=sizes[0] / 1e3, unit="kB")
             browser.close()
+    bench.finish()
 
 
 if __name__ == "__main__":

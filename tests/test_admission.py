@@ -8,6 +8,7 @@ from labjoint.acquisition.admission import check_plan
 from labjoint.config import load_config
 from labjoint.daemon import JobQueue
 from labjoint.errors import InputError
+from patience import http_client
 
 CONFIG = load_config()        # the simulated seed 002 rig: 20 Vpp, 1 Hz-5 kHz, 600 s records
 
@@ -51,15 +52,14 @@ def test_the_queue_refuses_before_storing(tmp_path):
 
 
 def test_rest_refuses_an_out_of_limits_plan_with_422_and_the_service_wires_the_check(tmp_path):
-    import httpx
-
+    
     from labjoint.api import ApiSettings, create_app
     from labjoint.api.server import build
     from test_api_helpers import AUTH, CONTROL, live_server, sim_config_file
 
     queue = JobQueue(tmp_path / "queue.sqlite", admit=lambda p: check_plan(p, CONFIG))
     app = create_app(ApiSettings(data_dir=tmp_path, control_tokens=[CONTROL]), queue=queue)
-    with live_server(app) as url, httpx.Client(base_url=url + "/api/v1", headers=AUTH) as http:
+    with live_server(app) as url, http_client(url + "/api/v1", headers=AUTH) as http:
         r = http.post("/plans", json={"plan": "dwell", "parameters": {"frequency_hz": 1e9,
                                                                        "amplitude_vpp": 500}})
         assert r.status_code == 422, r.text

@@ -6,13 +6,14 @@ from __future__ import annotations
 
 import math
 
-import httpx
 import pytest
 
 from labjoint.api import ApiSettings, create_app
 from labjoint.api.jobs import JobRecord, JobRunner, JobStore
 from labjoint.storage import Catalog
 from test_api_helpers import AUTH, CONTROL, live_server, wait_for, write_linear_run
+import patience
+from patience import http_client
 
 FS, F = 20000.0, 100.0
 CASES = {"lin_a": (3e-6, 8e6, 300.0), "lin_b": (6e-6, 1.2e7, 800.0)}   # U, k, c
@@ -25,7 +26,7 @@ def served(tmp_path_factory):
     for name, (u, k, c) in CASES.items():
         write_linear_run(d, cat, name, fs=FS, f=F, amp_m=u, k=k, c=c, n=8000)
     app = create_app(ApiSettings(data_dir=d, control_tokens=[CONTROL]))
-    with live_server(app) as url, httpx.Client(base_url=url + "/api/v1", headers=AUTH) as http:
+    with live_server(app) as url, http_client(url + "/api/v1", headers=AUTH) as http:
         yield http, d
 
 
@@ -201,7 +202,7 @@ def test_jobs_outlive_the_runner_and_unfinished_ones_fail_at_restart(tmp_path):
     store = JobStore(tmp_path / "jobs.sqlite")
     runner = JobRunner(store, workers=1)
     job = runner.submit("analysis", {"x": 3}, lambda req, progress: {"square": req["x"] ** 2})
-    assert runner.wait(job.id, timeout=10).result == {"square": 9}
+    assert runner.wait(job.id, timeout=patience.s(10)).result == {"square": 9}
     runner.shutdown()
     store.put(JobRecord(id="left", kind="analysis", status="running", request={},
                         submitted_at="2024-01-01T00:00:00+00:00"))

@@ -10,6 +10,8 @@ from labjoint.api import ApiSettings, create_app, load_settings
 from labjoint.daemon import JobQueue
 from labjoint.errors import ConfigError
 from test_api_helpers import AUTH, CONTROL, READ, READ_AUTH, live_server
+from patience import http_client
+import patience
 
 DWELL = {"plan": "dwell", "parameters": {"frequency_hz": 400, "amplitude_vpp": 2, "n_cycles": 5}}
 
@@ -24,7 +26,7 @@ def _serve(tmp_path, **kw):
 def http(tmp_path_factory):
     server, _ = _serve(tmp_path_factory.mktemp("auth"), control_tokens=[CONTROL],
                        read_tokens=[READ])
-    with server as url, httpx.Client(base_url=url + "/api/v1") as client:
+    with server as url, http_client(url + "/api/v1") as client:
         yield client
 
 
@@ -77,27 +79,27 @@ def test_reads_are_open_by_default_and_tokens_are_checked_if_sent(http):
 def test_read_tokens_when_config_requires_them(tmp_path):
     server, _ = _serve(tmp_path, control_tokens=[CONTROL], read_tokens=[READ],
                        read_requires_token=True)
-    with server as url, httpx.Client(base_url=url + "/api/v1") as c:
+    with server as url, http_client(url + "/api/v1") as c:
         _err(c.get("/runs"), 401)
         _err(c.get("/plans"), 401)
         assert c.get("/runs", headers=READ_AUTH).status_code == 200
         assert c.get("/runs", headers=AUTH).status_code == 200      # control implies read
         assert c.get("/health").status_code == 200                 # liveness stays open
-        schema = httpx.get(url + "/openapi.json").json()
+        schema = httpx.get(url + "/openapi.json", timeout=patience.HTTP_TIMEOUT_S).json()
         assert schema["paths"]["/api/v1/runs"]["get"]["security"] == [{"bearer": []}]
         assert "security" not in schema["paths"]["/api/v1/health"]["get"]
 
 
 def test_without_any_control_token_nothing_writes(tmp_path):
     server, queue = _serve(tmp_path)
-    with server as url, httpx.Client(base_url=url + "/api/v1") as c:
+    with server as url, http_client(url + "/api/v1") as c:
         e = _err(c.post("/plans", json=DWELL), 403)
         assert "LABJOINT_API_TOKEN" in e["message"]
         assert queue.list() == []
 
 
 def test_openapi_marks_writes_secured_and_open_reads_unsecured(http):
-    schema = httpx.get(http.base_url.join("/openapi.json")).json()
+    schema = httpx.get(http.base_url.join("/openapi.json"), timeout=patience.HTTP_TIMEOUT_S).json()
     for path, ops in schema["paths"].items():
         for method, op in ops.items():
             assert ("security" in op) == (method != "get"), (method, path)
@@ -136,7 +138,7 @@ def test_request_size_limit(tmp_path):
     server, _ = _serve(tmp_path, control_tokens=[CONTROL], max_request_bytes=2048)
     big = {"plan": "dwell", "parameters": {"frequency_hz": 400, "amplitude_vpp": 2},
            "submitted_by": "x" * 5000}
-    with server as url, httpx.Client(base_url=url + "/api/v1", headers=AUTH) as c:
+    with server as url, http_client(url + "/api/v1", headers=AUTH) as c:
         assert _err(c.post("/plans", json=big), 413)["code"] == "request_too_large"
 
         def chunks():                            # no Content-Length: counted as it streams

@@ -17,6 +17,7 @@ from labjoint.documents import Block, RunStart, RunStop
 from labjoint.hardware.interfaces import ChannelSpec
 from labjoint.storage import Catalog
 from labjoint.storage.writer import RunWriter
+import patience
 
 CONTROL = "control-token-0123"
 READ = "read-token-4567"
@@ -76,7 +77,7 @@ def live_server(app: Any) -> Iterator[str]:
     server = uvicorn.Server(config)
     thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
     thread.start()
-    deadline = time.monotonic() + 10
+    deadline = time.monotonic() + patience.s(10)
     while not server.started:
         if time.monotonic() > deadline or not thread.is_alive():
             raise RuntimeError("uvicorn did not start")
@@ -85,13 +86,14 @@ def live_server(app: Any) -> Iterator[str]:
         yield f"http://127.0.0.1:{port}"
     finally:
         server.should_exit = True
-        thread.join(10)
+        thread.join(patience.s(10))
         sock.close()
 
 
 def wait_for(get: Any, done: Any, timeout: float = 60.0, poll: float = 0.05) -> Any:
-    """Poll ``get()`` until ``done(value)``; the value (AssertionError on timeout)."""
-    end = time.monotonic() + timeout
+    """Poll ``get()`` until ``done(value)``; the value (AssertionError after ``timeout``
+    seconds, scaled for a busy machine: :mod:`patience`)."""
+    end = time.monotonic() + patience.s(timeout)
     while True:
         v = get()
         if done(v):

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import json
 
-import httpx
 import numpy as np
 import pytest
 
@@ -18,6 +17,7 @@ from labjoint.identify.loop import loop_area
 from labjoint.storage import Catalog, write_processed
 from test_api_helpers import (AUTH, CONTROL, live_server, wait_for, write_linear_run,
                               write_sim_run)
+from patience import http_client
 
 SIM = {"sim_08": 8.0, "sim_04": 4.0, "sim_14": 14.0}     # Vpp at 400 Hz, 5 N m
 
@@ -30,8 +30,7 @@ def served(tmp_path_factory):
              for n, v in SIM.items()}
     write_linear_run(d, cat, "short", n=300)          # 1.5 cycles at 100 Hz
     app = create_app(ApiSettings(data_dir=d, control_tokens=[CONTROL]))
-    with live_server(app) as url, httpx.Client(base_url=url + "/api/v1", headers=AUTH,
-                                               timeout=60) as http:
+    with live_server(app) as url, http_client(url + "/api/v1", headers=AUTH) as http:
         yield http, d, cat, paths
 
 

@@ -6,13 +6,14 @@ from __future__ import annotations
 import threading
 import time
 
-import httpx
 import pytest
 
 from labjoint.api import ApiSettings, create_app
 from labjoint.api.jobs import JobRunner, JobStore
 from labjoint.storage.catalog import Catalog
 from test_api_helpers import AUTH, CONTROL, live_server, wait_for, write_linear_run
+import patience
+from patience import http_client
 
 
 @pytest.fixture(scope="module")
@@ -22,7 +23,7 @@ def http(tmp_path_factory):
     for i, amp in enumerate((2e-6, 4e-6, 6e-6, 8e-6)):
         write_linear_run(data, cat, f"lin_{i}", amp_m=amp)
     app = create_app(ApiSettings(data_dir=data, control_tokens=[CONTROL]))
-    with live_server(app) as url, httpx.Client(base_url=url + "/api/v1", headers=AUTH) as c:
+    with live_server(app) as url, http_client(url + "/api/v1", headers=AUTH) as c:
         yield c
 
 
@@ -74,7 +75,7 @@ def test_a_short_job_does_not_wait_behind_a_long_one(tmp_path):
         long = runner.submit("model_diagnose", {}, lambda req, progress: release.wait(30) and {},
                              long=True)
         quick = runner.submit("model_fit", {}, lambda req, progress: {"ok": 1})
-        assert runner.wait(quick.id, timeout=10).status == "complete"
+        assert runner.wait(quick.id, timeout=patience.s(10)).status == "complete"
         assert runner.get(long.id).status == "running"
     finally:
         release.set()
@@ -96,7 +97,7 @@ def test_a_running_job_stops_at_its_next_progress_call(tmp_path):
         job = runner.submit("model_ladder", {}, work)
         assert started.wait(10)
         assert runner.cancel(job.id).cancel_requested
-        assert runner.wait(job.id, timeout=10).status == "cancelled"
+        assert runner.wait(job.id, timeout=patience.s(10)).status == "cancelled"
     finally:
         runner.shutdown()
 

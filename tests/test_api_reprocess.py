@@ -4,13 +4,13 @@ F = k u + c du/dt (seed 002 Eq. 1 returns C = c and loop slope K = k)."""
 
 from __future__ import annotations
 
-import httpx
 import pytest
 
 from labjoint.api import ApiSettings, create_app
 from labjoint.storage import Catalog
 from labjoint.storage.results import Results
 from test_api_helpers import AUTH, CONTROL, live_server, wait_for, write_linear_run
+from patience import http_client
 
 CASES = {"lin_a": (3e-6, 8e6, 300.0, 5.0), "lin_b": (6e-6, 1.2e7, 800.0, 5.0),
          "lin_c": (4e-6, 1e7, 500.0, 10.0), "lin_d": (7e-6, 1e7, 500.0, 10.0)}
@@ -23,7 +23,7 @@ def served(tmp_path):
         write_linear_run(tmp_path, cat, name, amp_m=u, k=k, c=c, n=6000, torque_nm=t)
     app = create_app(ApiSettings(data_dir=tmp_path, control_tokens=[CONTROL],
                                  reprocess_scheduler="none"))
-    with live_server(app) as url, httpx.Client(base_url=url + "/api/v1", headers=AUTH) as http:
+    with live_server(app) as url, http_client(url + "/api/v1", headers=AUTH) as http:
         yield http, cat
 
 

@@ -3,17 +3,17 @@ are 422, and an analysis of runs that do not exist is 404 before its options are
 
 from __future__ import annotations
 
-import httpx
 import pytest
 
 from labjoint.api import ApiSettings, create_app
 from test_api_helpers import AUTH, CONTROL, live_server
+from patience import http_client
 
 
 @pytest.fixture(scope="module")
 def http(tmp_path_factory):
     app = create_app(ApiSettings(data_dir=tmp_path_factory.mktemp("req"), control_tokens=[CONTROL]))
-    with live_server(app) as url, httpx.Client(base_url=url + "/api/v1", headers=AUTH) as client:
+    with live_server(app) as url, http_client(url + "/api/v1", headers=AUTH) as client:
         yield client
 
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import os
 
-import httpx
 import numpy as np
 import pytest
 
@@ -13,6 +12,7 @@ from labjoint.api import ApiSettings, create_app
 from labjoint.storage import Catalog
 from test_api_helpers import (AUTH, CONTROL, DISP_M_PER_V, NC_N_PER_V, READ, linear_joint,
                               live_server, write_linear_run)
+from patience import http_client
 
 FS, F, AMP, K, C, N = 20000.0, 100.0, 5e-6, 1e7, 500.0, 8000
 VPPS = (1.0, 4.0, 8.0, 12.0, 16.0)
@@ -32,7 +32,7 @@ def served(tmp_path_factory, request):
     app = create_app(ApiSettings(data_dir=d, control_tokens=[CONTROL], read_tokens=[READ],
                                  catalog_url=url))
     assert (d / "catalog.sqlite").exists() == (not url)
-    with live_server(app) as url, httpx.Client(base_url=url + "/api/v1") as http:
+    with live_server(app) as url, http_client(url + "/api/v1") as http:
         yield http, d, cat
 
 

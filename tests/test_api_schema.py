@@ -22,6 +22,7 @@ from labjoint.api import ApiSettings, create_app
 from labjoint.daemon import JobQueue
 from labjoint.storage import Catalog
 from test_api_helpers import AUTH, CONTROL, READ, live_server, write_linear_run
+import patience
 
 
 def _settings(data_dir: Path) -> ApiSettings:
@@ -46,7 +47,7 @@ def base_url(tmp_path_factory):
         write_linear_run(d, cat, name, n=4000)
     app = create_app(_settings(d), queue=JobQueue(d / "queue.sqlite"))
     with live_server(app) as url:
-        assert httpx.get(url + "/openapi.json").json() == _published_schema()
+        assert httpx.get(url + "/openapi.json", timeout=patience.HTTP_TIMEOUT_S).json() == _published_schema()
         yield url
 
 

@@ -4,7 +4,6 @@ displacement the dashboard plots; options that do not go with it are refused at 
 
 from __future__ import annotations
 
-import httpx
 import numpy as np
 import pytest
 
@@ -13,6 +12,7 @@ from labjoint.models.simulate import simulate
 from labjoint.storage.catalog import Catalog
 from labjoint.storage.csv_import import import_csv
 from test_api_helpers import AUTH, CONTROL, live_server, wait_for
+from patience import http_client
 
 FS = 750.0
 N = 1024
@@ -43,7 +43,7 @@ def http(tmp_path_factory):
     for i in (1, 2):
         import_csv(write_record(tmp, f"ms{i}", i), data, name=f"ms{i}", catalog=cat)
     app = create_app(ApiSettings(data_dir=data, control_tokens=[CONTROL]))
-    with live_server(app) as url, httpx.Client(base_url=url + "/api/v1", headers=AUTH) as c:
+    with live_server(app) as url, http_client(url + "/api/v1", headers=AUTH) as c:
         yield c
 
 

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-import httpx
 import pytest
 
 from frfdata import hidden_law, hidden_set, predictor, write_linear_structure
 from labjoint.api import ApiSettings, create_app
 from test_api_helpers import AUTH, CONTROL, live_server, wait_for
+import patience
+from patience import http_client
 
 
 @pytest.fixture(scope="module")
@@ -18,8 +19,7 @@ def http(tmp_path_factory):
     write_linear_structure(data / "structures" / "lin.toml")
     hidden_set(predictor(), hidden_law(), steps=5).save(data / "frf" / "sweep.json")
     app = create_app(ApiSettings(data_dir=data, control_tokens=[CONTROL]))
-    with live_server(app) as url, httpx.Client(base_url=url + "/api/v1", headers=AUTH,
-                                               timeout=60) as c:
+    with live_server(app) as url, http_client(url + "/api/v1", headers=AUTH) as c:
         c.data = data
         yield c
 
@@ -73,7 +73,8 @@ def test_model_ladder_job_on_an_frf_set(http):
 def test_the_python_client(http):
     from labjoint.client import ApiError, Client
 
-    with Client(str(http.base_url).rstrip("/").removesuffix("/api/v1"), token=CONTROL) as c:
+    with Client(str(http.base_url).rstrip("/").removesuffix("/api/v1"), token=CONTROL,
+                timeout=patience.HTTP_TIMEOUT_S) as c:
         assert c.structures()["structures"] == ["lin"]
         assert len(c.structure_modes("lin", 2)["frequencies_hz"]) == 2
         up = c.structure_update("lin", [38.0], parameter="linear_stiffness.k")

@@ -13,6 +13,7 @@ from labjoint.client import ApiError, Client
 from labjoint.daemon import JobQueue
 from labjoint.storage import Catalog
 from test_api_helpers import CONTROL, READ, linear_joint, live_server, write_linear_run
+import patience
 
 FS, F, U, K, C = 20000.0, 100.0, 4e-6, 9e6, 400.0
 NAMES = [f"run_{i}" for i in range(5)]
@@ -34,7 +35,7 @@ def served(tmp_path_factory):
 def lab(served, monkeypatch):
     monkeypatch.setenv("LABJOINT_API_URL", served[0])
     monkeypatch.setenv("LABJOINT_API_TOKEN", CONTROL)
-    with Client() as c:
+    with Client(timeout=patience.HTTP_TIMEOUT_S) as c:
         yield c
 
 
@@ -125,11 +126,11 @@ def test_emergency_stop_and_clear(lab):
 
 def test_tokens_decide_what_a_client_may_do(served):
     url, _ = served
-    with Client(url, token=READ) as reader:
+    with Client(url, token=READ, timeout=patience.HTTP_TIMEOUT_S) as reader:
         assert reader.runs(limit=1, all_pages=False)
         with pytest.raises(ApiError) as e:
             reader.emergency_stop()
         assert e.value.status == 403
-    with Client(url, token="") as anonymous, pytest.raises(ApiError) as e:
+    with Client(url, token="", timeout=patience.HTTP_TIMEOUT_S) as anonymous, pytest.raises(ApiError) as e:
         anonymous.submit_plan("dwell", frequency_hz=400, amplitude_vpp=1)
     assert e.value.status == 401 and "token" in str(e.value)

@@ -10,6 +10,7 @@ from typing import Any, Callable
 from labjoint.config import CONFIG_DIR, RigConfig, load_config
 from labjoint.daemon import Daemon
 from labjoint.storage import open_run
+import patience
 
 FS = 10000.0        # NI 9233 rate 50 kS/s / 5: fast to simulate, >> 400 Hz
 BLOCK = 1000        # 0.1 s blocks, as the rig's 5000 at 50 kS/s
@@ -67,8 +68,9 @@ def samples_for(n_cycles: int, frequency_hz: float, fs: float = FS) -> int:
 
 
 def wait_for(predicate: Callable[[], Any], timeout: float = 30.0, what: str = "condition") -> Any:
-    """Poll ``predicate`` until it returns something truthy; that value."""
-    end = time.monotonic() + timeout
+    """Poll ``predicate`` until it returns something truthy; that value (``timeout`` is
+    scaled for a busy machine: :mod:`patience`)."""
+    end = time.monotonic() + patience.s(timeout)
     while time.monotonic() < end:
         value = predicate()
         if value:

@@ -17,6 +17,7 @@ from labjoint.config import load_config
 from labjoint.daemon import Daemon, JobQueue
 from labjoint.storage import open_run
 from test_daemon_fixtures import FS, live_samples, sim_config_file, wait_for
+import patience
 
 LONG_DWELL = {"plan": "dwell", "frequency_hz": 400.0, "amplitude_vpp": 2.0,
               "n_cycles": 400 * 120, "steady_max_cycles": 40, "steady_window": 5,
@@ -53,7 +54,7 @@ def test_sigkill_mid_run_leaves_a_readable_file_recovered_at_next_start(tmp_path
     try:
         path, seen = _seen_before_kill(data, proc, min_samples=int(FS))  # >= 2 flushes
         proc.send_signal(signal.SIGKILL)
-        assert proc.wait(timeout=20) == -signal.SIGKILL
+        assert proc.wait(timeout=patience.s(20)) == -signal.SIGKILL
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -77,7 +78,7 @@ def test_sigterm_or_sigint_stops_the_run_switches_off_and_exits_cleanly(tmp_path
     try:
         path, seen = _seen_before_kill(data, proc, min_samples=1)
         proc.send_signal(sig)
-        assert proc.wait(timeout=30) == 0
+        assert proc.wait(timeout=patience.s(30)) == 0
     finally:
         if proc.poll() is None:
             proc.kill()

@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import socket
 
-import httpx
 
 from labjoint.api.server import build, load_rig_config
 from labjoint.cli.main import main
@@ -15,6 +14,7 @@ from labjoint.daemon import Daemon
 from labjoint.daemon.liveness import liveness
 from labjoint.daemon.queue import JobQueue
 from test_api_helpers import AUTH, CONTROL, SHORT, sim_config_file, wait_for
+from patience import http_client
 
 
 def _status(capsys, cfg, data):
@@ -37,7 +37,7 @@ def test_status_follows_the_daemon_and_rig_hides_paths_from_anonymous_callers(tm
         svc.start_in_thread(sock)
         wait_for(lambda: svc.server.started, bool, timeout=10)
         url = f"http://127.0.0.1:{sock.getsockname()[1]}/api/v1"
-        with httpx.Client(base_url=url) as http:
+        with http_client(url) as http:
             job = http.post("/plans", headers=AUTH, json={"plan": "dwell", "parameters": {
                 "frequency_hz": 400, "amplitude_vpp": 2, **SHORT}}).json()
             wait_for(lambda: http.get(f"/plans/{job['id']}", headers=AUTH).json()["status"],

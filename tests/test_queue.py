@@ -14,6 +14,7 @@ import pytest
 
 from labjoint.daemon.queue import JOB_STATUSES, JobNotFound, JobQueue, JobStateError
 from labjoint.errors import InputError
+import patience
 
 DWELL = {"plan": "dwell", "frequency_hz": 400.0, "amplitude_vpp": 2.0, "n_cycles": 10}
 
@@ -95,7 +96,7 @@ def test_concurrent_claims_from_processes_take_each_job_exactly_once(q):
         assert p.stdout.readline().strip() == "ready"
     got = []
     for p in procs:
-        out, _ = p.communicate("go\n", timeout=60)
+        out, _ = p.communicate("go\n", timeout=patience.s(60))
         assert p.returncode == 0
         got += json.loads(out)
     assert sorted(got) == sorted(ids)

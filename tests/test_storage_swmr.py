@@ -19,6 +19,7 @@ from labjoint.storage import Catalog, open_run, recover, recover_all
 from labjoint.storage.recover import clear_status_flags, lookup3
 from labjoint.storage.writer import RunWriter
 from test_storage_fixtures import FS, rig_channels, walk_nexus
+import patience
 
 READER = textwrap.dedent("""
     import json, sys
@@ -71,7 +72,7 @@ def test_second_process_reads_flushed_samples_while_run_is_written(tmp_path):
         w("stop", RunStop("live", "complete"))
         assert _ask(reader) == ["complete", 3000, expected]
         reader.stdin.close()
-        reader.wait(timeout=20)
+        reader.wait(timeout=patience.s(20))
     assert reader.returncode == 0
 
 
@@ -86,7 +87,7 @@ def _kill_writer(data_dir, min_samples: int) -> int:
             flushed = int(line)
     finally:
         os.kill(proc.pid, signal.SIGKILL)
-        proc.wait(timeout=20)
+        proc.wait(timeout=patience.s(20))
         proc.stdout.close()
     assert proc.returncode == -signal.SIGKILL
     return flushed

@@ -13,6 +13,7 @@ import pytest
 from test_api_helpers import CONTROL, wait_for
 from test_web_support import (SWEEP_VPP, chromium, open_page, run_plan, screenshot, site,
                               wait_attr)
+import patience
 
 pytestmark = pytest.mark.browser
 #: Candidate effects the model test lets the page try (a micro-slip joint's usual suspects).
@@ -67,7 +68,7 @@ def test_runs_list_filters_and_run_page(web):
     for ch in ("force_ref", "disp_1", "disp_2", "shear_nc"):
         assert int(wait_attr(page, f"svg[data-plot=raw-{ch}]", "data-points", int)) > 100
     page.click("#identify-both")
-    page.wait_for_selector("#table2", timeout=30000)
+    page.wait_for_selector("#table2", timeout=patience.ms(30000))
     row = next(r for r in _analysis(s, name, "both")["runs"] if r["run"] == name)
     # displayed at the edge in um, mJ, Ns/m: the loop plot spans about +-U
     xmin = float(page.get_attribute("svg[data-plot=loop]", "data-xmin"))
@@ -117,7 +118,7 @@ def test_live_view_follows_a_recording_and_stops_it(web):
     other.page.context.close()
     page.click("#estop")
     page.wait_for_selector("#estop-banner:not([hidden])")
-    page.wait_for_selector("#plan-status.aborted", timeout=30000)
+    page.wait_for_selector("#plan-status.aborted", timeout=patience.ms(30000))
     rig = s.http.get("/rig").json()
     assert rig["daemon"]["generator"]["output"] is False and rig["estop"]
     screenshot(page, "live-estopped")

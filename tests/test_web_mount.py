@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import re
 
-import httpx
 import pytest
 from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
@@ -15,6 +14,7 @@ from labjoint.api import ApiSettings, create_app
 from labjoint.vocabulary import EFFECTS
 from labjoint.web.mount import mount_web, static_dir
 from test_api_helpers import live_server
+from patience import http_client
 
 STATIC = static_dir()
 IMPORT = re.compile(r"""^\s*import\s[^'"]*['"]([^'"]+)['"]""", re.M)
@@ -25,7 +25,7 @@ SVG_NS = "http://www.w3.org/2000/svg"
 @pytest.fixture()
 def client(tmp_path):
     app = create_app(ApiSettings(data_dir=tmp_path / "data"))   # mounts the dashboard itself
-    with live_server(app) as url, httpx.Client(base_url=url) as c:
+    with live_server(app) as url, http_client(url) as c:
         yield c
 
 

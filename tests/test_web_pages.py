@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import re
 
-import httpx
 import pytest
 
 from labjoint.api import ApiSettings, create_app
 from test_api_helpers import CONTROL, live_server, wait_for
 from test_web_support import chromium, open_page, screenshot, wait_attr
 from web_catalog import BULK, CYCLES_50, LONG_FS, LONG_S, make_lab
+from patience import http_client
 
 pytestmark = pytest.mark.browser
 
@@ -26,7 +26,7 @@ def lab(tmp_path_factory):
     (tmp / "csv").mkdir()
     names = make_lab(tmp / "data", tmp / "csv")
     app = create_app(ApiSettings(data_dir=tmp / "data", control_tokens=[CONTROL]))
-    with live_server(app) as url, httpx.Client(base_url=url + "/api/v1") as http, \
+    with live_server(app) as url, http_client(url + "/api/v1") as http, \
             chromium() as browser:
         yield url, http, browser, names
 

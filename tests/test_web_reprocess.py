@@ -8,6 +8,7 @@ import pytest
 
 from test_api_helpers import wait_for
 from test_web_support import chromium, open_page, site
+import patience
 
 pytestmark = pytest.mark.browser
 
@@ -26,7 +27,7 @@ def test_reprocess_view_runs_a_pipeline_and_skips_current_results(tmp_path):
         page.select_option("#reprocess-pipeline", "analyze")
         page.fill("#reprocess-torque", "5")
         page.click("#reprocess-go")
-        page.wait_for_selector("#reprocess-summary", timeout=180_000)
+        page.wait_for_selector("#reprocess-summary", timeout=patience.ms(180_000))
         shown = _statuses(page)
         job = s.http.get("/reprocess").json()["items"][0]
         assert job["status"] == "complete" and job["progress"] == 1.0

@@ -20,6 +20,8 @@ from labjoint.identify.friction import identify_friction
 from labjoint.identify.identified import save_identified
 from labjoint.storage import read_run
 from test_api_helpers import CONTROL, SHORT, sim_config_file, wait_for
+import patience
+from patience import http_client
 
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic",
@@ -75,7 +77,7 @@ def site(tmp: Path) -> Iterator[Site]:
     try:
         wait_for(lambda: svc.server.started, bool, timeout=10)
         url = f"http://127.0.0.1:{sock.getsockname()[1]}"
-        with httpx.Client(base_url=url + "/api/v1", headers=AUTH, timeout=30) as http:
+        with http_client(url + "/api/v1", headers=AUTH) as http:
             sweep = run_plan(http, "amplitude_sweep", amplitudes_vpp=SWEEP_VPP, frequency_hz=400,
                              torque_nm=5, **SHORT)
             assert sweep["status"] == "done", sweep
@@ -126,6 +128,7 @@ def open_page(browser: Any, base_url: str, token: str | None = None, width: int 
     records errors and blocks any request to another host; ``token`` is entered in the
     page's token box."""
     ctx = browser.new_context(viewport={"width": width, "height": height})
+    ctx.set_default_timeout(patience.ms(30_000))       # Playwright's 30 s, scaled when busy
     page = ctx.new_page()
     w = Watched(page)
     host = urlsplit(base_url).netloc

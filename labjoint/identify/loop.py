@@ -155,6 +155,8 @@ def _loop_kernel(xu, xf, bounds, m, cos_t, sin_t, scalars, uh, fh):  # pragma: n
             w3[j] = 0.5 * s * s * (s - 1.0)
         for j in range(m):
             i = at[j]
+            if i < 1:        # never (bounds >= 1): an exit that keeps this loop scalar, whose
+                break        # 8 loads a point beat vector gathers (726 vs 832 ns a cycle, EPYC)
             ub[j] = w0[j] * xu[i - 1] + w1[j] * xu[i] + w2[j] * xu[i + 1] + w3[j] * xu[i + 2]
             fb[j] = w0[j] * xf[i - 1] + w1[j] * xf[i] + w2[j] * xf[i + 1] + w3[j] * xf[i + 2]
         u0, f0 = ub[0], fb[0]
