@@ -17,6 +17,7 @@ from typing import Iterator
 
 import pytest
 
+import patience
 from test_api_helpers import CONTROL, SHORT, wait_for
 from test_web_support import FINISHED, chromium, open_page, run_plan, screenshot, site
 
@@ -71,7 +72,7 @@ def test_a_multisine_run_shows_the_refusal_and_its_clipping_not_loops(day, width
     assert "multisine from 60 Hz to 1000 Hz, 48 lines: not a steady sine" in conditions
     assert "Excitation frequency" not in conditions
     page.click("#identification ~ .toolbar button.secondary")         # hysteresis loop only
-    page.wait_for_selector("#identify-refused", timeout=30000)
+    page.wait_for_selector("#identify-refused", timeout=patience.ms(30000))
     assert "multisine" in page.inner_text("#identify-refused")
     assert page.locator("#table2").count() == 0                      # no W, C, K quoted
     jobs = s.http.get("/analyses", params={"status": "complete"}).json()["items"]
@@ -100,7 +101,7 @@ def test_no_page_is_wider_than_the_screen_and_the_runs_table_scrolls_inside(day,
     page = w.page
     for view, ready in _views(s):
         page.goto(f"{s.url}/#/{view}")
-        page.wait_for_selector(ready, timeout=60000)
+        page.wait_for_selector(ready, timeout=patience.ms(60000))
         page.wait_for_timeout(300)
         doc, inner = _wide(page)
         assert doc <= inner, f"#{view} is {doc} px wide at {inner} px"
@@ -220,15 +221,15 @@ def test_live_lists_every_job_and_the_stop_banner_leaves_every_page(day, width):
     assert _wide(page)[0] <= width
     screenshot(page, f"live-jobs-{width}")
     assert s.http.post("/estop/clear").status_code == 200        # cleared elsewhere
-    other.page.wait_for_selector("#estop-msg:not(.sent)", state="attached", timeout=10000)
+    other.page.wait_for_selector("#estop-msg:not(.sent)", state="attached", timeout=patience.ms(10000))
     assert "STOPPED" not in other.page.inner_text("#estop-msg")
-    page.wait_for_selector("#estop-banner", state="hidden", timeout=10000)
-    page.wait_for_selector("#estop-msg:not(.sent)", state="attached", timeout=10000)
+    page.wait_for_selector("#estop-banner", state="hidden", timeout=patience.ms(10000))
+    page.wait_for_selector("#estop-msg:not(.sent)", state="attached", timeout=patience.ms(10000))
     page.click(f"tr[data-job='{late}'] button[data-action=cancel]")
     wait_for(lambda: _status(s, late), lambda st: st == "cancelled", timeout=10)
     page.click(f"tr[data-job='{held}'] button[data-action=resume]")
     assert wait_for(lambda: _status(s, held), lambda st: st in FINISHED, timeout=60) == "done"
-    page.wait_for_selector(f"tr[data-job='{held}'][data-status=done]", timeout=10000)
+    page.wait_for_selector(f"tr[data-job='{held}'][data-status=done]", timeout=patience.ms(10000))
     assert page.locator(f"tr[data-job='{running}'] a", has_text=aborted_run).count() == 1
     assert not w.problems(), w.problems()
     assert not other.problems(), other.problems()
@@ -317,7 +318,7 @@ def test_a_friction_coefficient_from_a_clipped_run_is_flagged_where_it_is_used(d
         page = w.page
         page.goto(f"{s.url}/#/run/{name}")
         page.click("#identify-both")
-        page.wait_for_selector("#friction-flag", timeout=60000)
+        page.wait_for_selector("#friction-flag", timeout=patience.ms(60000))
         flag = page.inner_text("#friction-flag")
         assert s.multisine in flag and "clipped" in flag and "force_ref" in flag
         body = s.http.get("/trends", params={"run": s.sweep}).json()
@@ -344,7 +345,7 @@ def test_a_friction_test_that_slides_is_not_given_a_zero_macro_slip_fraction(day
     page.goto(f"{s.url}/#/run/{name}")
     page.wait_for_selector("svg[data-plot=loop]")
     page.click("#identify-both")
-    page.wait_for_selector("#macro-slip-flag", timeout=60000)
+    page.wait_for_selector("#macro-slip-flag", timeout=patience.ms(60000))
     text = page.inner_text("#macro-slip-flag")
     assert "slides on its plateaus" in text and "not a result" in text
     assert "macro-slip fraction 0.0 %" not in page.inner_text("#identification")
