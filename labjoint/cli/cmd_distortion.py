@@ -9,12 +9,14 @@ import argparse
 
 from labjoint.cli.output import emit_json, table
 
+
 def add_distortion_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("runs", nargs="+", metavar="RUN", help="run files (HDF5)")
     p.add_argument("--drive", default=None, help="drive channel (default: the one force, else the one voltage)")
     p.add_argument("--orders", type=int, default=5, help="harmonics 2..H reported (default 5)")
     p.add_argument("--blocks", type=int, default=8, help="blocks of whole cycles for the spread (default 8)")
     p.add_argument("--bands", type=int, default=6, help="multisine: bands of the excited range (default 6)")
+
 
 def run(args: argparse.Namespace) -> int:
     from labjoint.identify.spectral import distortion_runs

@@ -9,6 +9,7 @@ import argparse
 
 from labjoint.cli.output import emit_json, table
 
+
 def _frf_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--drive", default=None, help="drive channel (default: the one force, else the one voltage)")
     p.add_argument("--responses", default=None, help="response channels, comma-separated (default: all)")
@@ -21,6 +22,7 @@ def _frf_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--overlap", type=float, default=None, help="Welch overlap, 0..1")
     p.add_argument("--window", default="hann", help="Welch window (scipy name)")
 
+
 def add_frf_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("runs", nargs="+", metavar="RUN", help="run files (HDF5) of broadband records")
     p.add_argument("--out", required=True, metavar="FRF.json", help="where to write the FRF set")
@@ -28,11 +30,13 @@ def add_frf_arguments(p: argparse.ArgumentParser) -> None:
                    help="lines kept (default: where the drive carries power)")
     _frf_options(p)
 
+
 def add_modes_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("inputs", nargs="+", metavar="RUN|FRF.json", help="run files or FRF sets")
     p.add_argument("--band", default=None, metavar="LO:HI", help="frequency band in Hz")
     p.add_argument("--order", type=int, default=None, help="highest LSCF model order (default: from the lines)")
     _frf_options(p)
+
 
 def run_frf(args: argparse.Namespace) -> int:
     from labjoint.identify.spectral import frf_out
@@ -47,6 +51,7 @@ def run_frf(args: argparse.Namespace) -> int:
                 [(lv["run"], f"{lv['level']:.4g} {lv['level_units']}", lv["units"], lv["lines"],
                   lv["averages"], lv["median_coherence"]) for lv in res["levels"]]))
     return 0
+
 
 def run_modes(args: argparse.Namespace) -> int:
     from labjoint.identify.spectral import modes_levels

@@ -36,14 +36,16 @@ class SpectralOptions:
     bands: int = 6
 
 
-def frf_levels(paths: list[str], args: Any) -> list[Any]:
-    """One FrfSet level per record."""
+def frf_levels(paths: list[str], args: Any, progress: Any = None) -> list[Any]:
+    """One FrfSet level per record; ``progress(fraction, message)`` before each."""
     from labjoint.identify.records import level_of, load, streamed
     from labjoint.signal.frf_levels import frfset_from_arrays
 
     resp = [x.strip() for x in args.responses.split(",") if x.strip()] if args.responses else None
     out = []
-    for path in paths:
+    for i, path in enumerate(paths):
+        if progress is not None:
+            progress(i / len(paths), f"FRF of {Path(path).stem}")
         with streamed(path) as st:
             if st is not None:
                 out.append(streamed_level(st, resp, args))
@@ -230,20 +232,25 @@ def distortion_run(path: str, args: Any) -> dict[str, Any]:
             "channels": chans}
 
 
-def frf_out(paths: list[str], out: str | Path, args: Any) -> dict[str, Any]:
+def frf_out(paths: list[str], out: str | Path, args: Any, progress: Any = None) -> dict[str, Any]:
     """FRFs of ``paths`` (one level each) written to ``out`` as one FrfSet JSON (written
     whole or not at all): `labjoint frf --json`'s answer."""
     from labjoint.signal.frfset import concat
 
-    levels = frf_levels(paths, args)
+    levels = frf_levels(paths, args, progress)
     merged = concat(levels)
     merged.metadata.update(levels=[{k: v for k, v in s.metadata.items()} for s in levels])
     merged.save(out)
     return {"path": str(out), "format": "labjoint.frfset/1", "levels": [summary(s) for s in levels]}
 
 
-def distortion_runs(paths: list[str], args: Any) -> dict[str, Any]:
+def distortion_runs(paths: list[str], args: Any, progress: Any = None) -> dict[str, Any]:
     """`labjoint distortion --json`'s answer."""
     if args.orders < 2 or args.blocks < 2:
         raise InputError("--orders and --blocks must be >= 2", field="--orders")
-    return {"runs": [distortion_run(p, args) for p in paths]}
+    out = []
+    for i, p in enumerate(paths):
+        if progress is not None:
+            progress(i / len(paths), f"distortion of {Path(p).stem}")
+        out.append(distortion_run(p, args))
+    return {"runs": out}
