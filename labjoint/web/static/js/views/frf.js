@@ -42,29 +42,29 @@ function levels(d) {
   return [...out.values()];
 }
 
-function thin(idx) {
-  const step = Math.max(1, Math.ceil(idx.length / MAX_POINTS));
-  return idx.filter((_, k) => k % step === 0);
-}
-
-// H = response / drive phasor at each line, for sensor s.
+// H = response / drive phasor at each line, for sensor s; a long set is thinned to
+// MAX_POINTS lines, keeping the line of largest |H| in each stretch (no peak is lost).
 function frfOf(d, s, idx) {
-  const f = [];
-  const mag = [];
-  const ph = [];
-  const coh = [];
-  for (const i of thin(idx)) {
+  const all = idx.map((i) => {
     const [rr, ri] = d.response[i][s][0];
     const [fr, fi] = d.force[i];
     const den = fr * fr + fi * fi;
-    const re = (rr * fr + ri * fi) / den;
-    const im = (ri * fr - rr * fi) / den;
-    f.push(d.frequencies_hz[i]);
-    mag.push(Math.hypot(re, im));
-    ph.push((Math.atan2(im, re) * 180) / Math.PI);
-    coh.push(d.coherence ? d.coherence[i][s] : null);
+    return [i, (rr * fr + ri * fi) / den, (ri * fr - rr * fi) / den];
+  });
+  const step = Math.max(1, Math.ceil(all.length / MAX_POINTS));
+  const out = { f: [], mag: [], ph: [], coh: [] };
+  for (let k = 0; k < all.length; k += step) {
+    let best = all[k];
+    for (let j = k + 1; j < Math.min(k + step, all.length); j += 1) {
+      if (Math.hypot(all[j][1], all[j][2]) > Math.hypot(best[1], best[2])) best = all[j];
+    }
+    const [i, re, im] = best;
+    out.f.push(d.frequencies_hz[i]);
+    out.mag.push(Math.hypot(re, im));
+    out.ph.push((Math.atan2(im, re) * 180) / Math.PI);
+    out.coh.push(d.coherence ? d.coherence[i][s] : null);
   }
-  return { f, mag, ph, coh };
+  return out;
 }
 
 function frfPlots(d, sensor) {
