@@ -83,7 +83,7 @@ function frfPlots(d, sensor) {
     figs.push(plotXY({ ...opts, id: 'frf-coh', title: `${d.sensors[s]}: coherence`,
       ylabel: 'coherence', ydomain: [0, 1], series: ser('coh') }));
   }
-  return h('div', { class: 'frf-plots', id: 'frf-plots', 'data-units': d.units },
+  return h('div', { class: 'frf-plots grid2', id: 'frf-plots', 'data-units': d.units },
     ...figs.map((f) => h('figure', {}, f)));
 }
 
