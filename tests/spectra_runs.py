@@ -95,3 +95,19 @@ def sine_ratios() -> dict[int, float]:
     """sin^2 = (1 - cos 2)/2, sin^3 = (3 sin - sin 3)/4."""
     h1 = SINE_A + 0.75 * CUBE * SINE_A ** 3
     return {2: Q * SINE_A ** 2 / 2 / h1, 3: CUBE * SINE_A ** 3 / 4 / h1}
+
+
+def odd_multisine_cubic(path: Path, periods: int = 8, n: int = 2048) -> Path:
+    """A random-odd multisine voltage (a third of the odd lines left out as detection
+    lines) through a low-pass and a cubic term: odd distortion above the noise, no even."""
+    rng = np.random.default_rng(4)
+    k = np.arange(1, 300, 2)
+    k = k[rng.random(k.size) > 0.3]
+    U = np.zeros(n // 2 + 1, complex)
+    U[k] = np.exp(2j * np.pi * rng.random(k.size))
+    u1 = np.fft.irfft(U, n)
+    u = np.tile(u1 / u1.std(), periods + 1)
+    b, a = sps.butter(2, 0.2)
+    x = sps.lfilter(b, a, u)
+    y = x + 0.05 * x ** 3 + 1e-3 * rng.normal(size=x.size)
+    return _run_file(path, {"amp": ("voltage", "V", u), "acc": ("acceleration", "m/s^2", y)}, FS)

@@ -15,7 +15,8 @@ from labjoint.cli.main import main
 from labjoint.client import ApiError, Client
 from labjoint.signal.frfset import FrfSet
 from labjoint.storage import Catalog
-from spectra_runs import closed_modes, random_force, random_voltage, sine_ratios, sine_voltage
+from spectra_runs import (closed_modes, odd_multisine_cubic, random_force, random_voltage, sine_ratios,
+                          sine_voltage)
 from test_api_helpers import AUTH, CONTROL, READ, live_server
 
 JOB = 120.0                                  # generous: the machine is shared
@@ -28,6 +29,7 @@ def served(tmp_path_factory):
     random_force(d / "force_hi.h5", 1.0, seed=2)
     random_voltage(d / "volt.h5", 0.3, seed=3)
     sine_voltage(d / "sine.h5")
+    odd_multisine_cubic(d / "ms.h5")
     Catalog(d / "catalog.sqlite").rebuild(d)
     app = create_app(ApiSettings(data_dir=d, control_tokens=[CONTROL], read_tokens=[READ]))
     with live_server(app) as url:
@@ -100,6 +102,9 @@ def test_client_voltage_drive_and_distortion(served):
         want = sine_ratios()
         for h in acc["harmonics"][:2]:
             assert h["ratio"] == pytest.approx(want[h["order"]], abs=3 * h["stderr"] + 1e-4)
+        m = c.distortion(["ms"])["runs"][0]              # a cubic term: odd lines, no even
+        assert m["excitation"] == "multisine" and m["summary"].startswith("nonlinear, odd,"), m["summary"]
+        assert m["channels"]["acc"]["units"] == "m/s^2"
 
 
 def test_bad_input_is_4xx_naming_the_run_or_channel(served):

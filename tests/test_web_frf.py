@@ -9,7 +9,7 @@ import pytest
 
 from labjoint.api import ApiSettings, create_app
 from labjoint.storage import Catalog
-from spectra_runs import closed_modes, random_voltage, sine_ratios, sine_voltage
+from spectra_runs import closed_modes, odd_multisine_cubic, random_voltage, sine_ratios, sine_voltage
 from test_api_helpers import CONTROL, live_server
 from test_web_support import chromium, open_page, screenshot, wait_attr
 
@@ -26,6 +26,7 @@ def test_frf_view_plots_modes_and_distortion(tmp_path, width):
     data.mkdir()
     random_voltage(data / "volt.h5", 0.3, seed=3)
     sine_voltage(data / "sine.h5")
+    odd_multisine_cubic(data / "ms.h5")
     Catalog(data / "catalog.sqlite").rebuild(data)
     app = create_app(ApiSettings(data_dir=data, control_tokens=[CONTROL]))
     with live_server(app) as url, chromium() as browser:
@@ -52,6 +53,7 @@ def test_frf_view_plots_modes_and_distortion(tmp_path, width):
         assert all("V" in rows.nth(i).locator("td").first.text_content() for i in range(rows.count()))
 
         _tick(page, "distortion-runs", "sine")
+        _tick(page, "distortion-runs", "ms")
         page.click("#distortion-go")
         page.wait_for_selector("table.distortion tr[data-channel='acc']", timeout=120_000)
         cells = page.locator("table.distortion tr[data-channel='acc'] td")
@@ -60,6 +62,7 @@ def test_frf_view_plots_modes_and_distortion(tmp_path, width):
         assert h2 == pytest.approx(sine_ratios()[2], rel=0.02)
         amp = page.locator("table.distortion tr[data-channel='amp'] td").nth(2).text_content()
         assert amp.endswith(" V")
+        assert page.text_content("#distortion-summary-ms").startswith("nonlinear, odd,")
 
         wide = page.evaluate("() => document.documentElement.scrollWidth")
         assert wide <= width, f"page {wide} px wide in a {width} px viewport"
