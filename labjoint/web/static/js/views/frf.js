@@ -194,6 +194,8 @@ export async function show(el) {
     const n = name.value.trim() || (chosen[0] ? `${chosen[0]}_frf` : '');
     if (!chosen.length) throw new Error('Tick at least one broadband run.');
     await runJob('/spectra/frf', '/spectra/jobs', { runs: chosen, name: n, overwrite: true }, progress);
+    if (![...stored.options].some((o) => o.value === n)) stored.append(h('option', { value: n }, n));
+    stored.value = n;
     await open(n);
     await modes();
   }) }, 'FRFs and modes');
