@@ -8,7 +8,7 @@ import json
 import numpy as np
 from scipy import signal as sps
 
-from labjoint.cli import records
+from labjoint.identify import records
 from labjoint.cli.main import main
 from labjoint.signal import broadband, broadband_stream
 from tests.test_distortion_cli import _run_file

@@ -28,6 +28,7 @@ from labjoint.api.limits import BodySizeLimit
 from labjoint.api.resolve import RunResolver
 from labjoint.api.routes import (analyses, backbones, models, plans, reprocess, runs, structures,
                                  system, trends)
+from labjoint.api.routes import spectra
 from labjoint.api.settings import ApiSettings
 from labjoint.storage import open_catalog
 
@@ -85,7 +86,8 @@ def create_app(settings: ApiSettings, daemon: Any = None, queue: Any = None,
     app.add_middleware(HostCheck, names=settings.host_names())
     table = [(r.path_regex, set(r.methods)) for r in app.routes
              if getattr(r, "methods", None) and hasattr(r, "path_regex")]
-    for module in (system, plans, runs, analyses, models, structures, trends, reprocess, backbones):
+    for module in (system, plans, runs, analyses, models, structures, trends, reprocess, backbones,
+                   spectra):
         app.include_router(module.router, prefix=API_PREFIX)
         table += [(compile_path(API_PREFIX + r.path)[0], set(r.methods))
                   for r in module.router.routes if getattr(r, "methods", None)]

@@ -6,13 +6,8 @@ half-power beside), per level."""
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
-from typing import Any
-
-import numpy as np
 
 from labjoint.cli.output import emit_json, table
-from labjoint.errors import InputError
 
 
 def _frf_options(p: argparse.ArgumentParser) -> None:
@@ -43,178 +38,25 @@ def add_modes_arguments(p: argparse.ArgumentParser) -> None:
     _frf_options(p)
 
 
-def frf_levels(paths: list[str], args: argparse.Namespace) -> list[Any]:
-    """One FrfSet level per record."""
-    from labjoint.cli.records import level_of, load, streamed
-    from labjoint.signal.frf_levels import frfset_from_arrays
-
-    resp = [x.strip() for x in args.responses.split(",") if x.strip()] if args.responses else None
-    out = []
-    for path in paths:
-        with streamed(path) as st:
-            if st is not None:
-                out.append(_streamed_level(st, resp, args))
-                continue
-        rec = load(path)
-        d = rec.drive(args.drive)
-        names = rec.responses(resp)
-        try:
-            s = frfset_from_arrays(rec.channels[d][2], rec.channels[d][0],
-                                   {n: (rec.channels[n][0], rec.channels[n][2]) for n in names},
-                                   rec.fs, level=level_of(rec), run=rec.name, estimator=args.estimator,
-                                   source=path, nperseg=args.nperseg, overlap=args.overlap,
-                                   window=args.window, method=args.method,
-                                   band=_frf_band(getattr(args, "frf_band", "drive")))
-        except InputError as exc:
-            raise InputError(f"{path}: {exc}") from None
-        s.metadata.update(drive=d, run=rec.name, path=path)
-        out.append(s)
-    return out
-
-
-def _streamed_level(st: Any, resp: list[str] | None, args: argparse.Namespace) -> Any:
-    """One level of a record too long to load, read in blocks (Welch sums streamed)."""
-    from labjoint.cli.records import level_of
-    from labjoint.signal.broadband_stream import estimate_streamed
-    from labjoint.signal.frf_levels import check_channels, frfset_from_result
-
-    d = st.drive(args.drive)
-    names = st.responses(resp)
-    quantities = {n: st.channels[n][0] for n in names}
-    check_channels(st.channels[d][0], quantities, st.path)
-    try:
-        r = estimate_streamed(lambda a, b: (st.read([d], a, b)[0], st.read(names, a, b)),
-                              lambda a, b: st.read([d], a, b)[0], st.n, st.fs, len(names),
-                              estimator=args.estimator, nperseg=args.nperseg, overlap=args.overlap,
-                              window=args.window, method=args.method)
-        s = frfset_from_result(r, st.channels[d][0], quantities,
-                               level=level_of(st), run=st.name, estimator=args.estimator,
-                               source=st.path, band=_frf_band(getattr(args, "frf_band", "drive")))
-    except InputError as exc:
-        raise InputError(f"{st.path}: {exc}") from None
-    s.metadata.update(drive=d, run=st.name, path=st.path)
-    return s
-
-
-def _summary(s: Any) -> dict[str, Any]:
-    md = s.metadata
-    return {"run": md.get("run"), "level": float(s.level_n[0]), "level_units": s.level_units,
-            "drive": md.get("drive"), "drive_quantity": s.drive_quantity, "quantity": s.quantity,
-            "units": s.units, "estimator": s.estimator, "alternatives": sorted(s.alternatives),
-            "sensors": list(s.sensors), "lines": len(s),
-            "frequency_hz": [float(s.frequencies_hz[0]), float(s.frequencies_hz[-1])],
-            "band_hz": md.get("band_hz"), "averages": md.get("averages"), "method": md.get("method"),
-            "median_coherence": None if s.coherence is None else float(np.median(s.coherence))}
-
-
 def run_frf(args: argparse.Namespace) -> int:
-    from labjoint.signal.frfset import concat
+    from labjoint.identify.spectral import frf_out
 
     args.frf_band = args.band
-    levels = frf_levels(args.runs, args)
-    merged = concat(levels)
-    merged.metadata.update(levels=[{k: v for k, v in s.metadata.items()} for s in levels])
-    merged.save(args.out)
-    res = {"path": str(args.out), "format": "labjoint.frfset/1", "levels": [_summary(s) for s in levels]}
+    res = frf_out(args.runs, args.out, args)
     if getattr(args, "json", False):
         emit_json(res)
         return 0
-    print(f"{len(levels)} level(s) -> {args.out}")
+    print(f"{len(res['levels'])} level(s) -> {args.out}")
     print(table(["run", "level", "units", "lines", "averages", "median coh"],
                 [(lv["run"], f"{lv['level']:.4g} {lv['level_units']}", lv["units"], lv["lines"],
                   lv["averages"], lv["median_coherence"]) for lv in res["levels"]]))
     return 0
 
 
-def _frf_band(text: str) -> tuple[float, float] | str | None:
-    if text in ("drive", "all"):
-        return "drive" if text == "drive" else None
-    return _band(text, "--band")
-
-
-def _band(text: str | None, name: str = "--band") -> tuple[float, float] | None:
-    if not text:
-        return None
-    try:
-        lo, hi = (float(x) for x in text.split(":"))
-    except ValueError:
-        raise InputError(f"must be LO:HI in Hz, got {text!r}", field=name) from None
-    if not 0 <= lo < hi:
-        raise InputError(f"must be 0 <= LO < HI, got {text!r}", field=name)
-    return lo, hi
-
-
-def _sets(inputs: list[str], args: argparse.Namespace) -> list[Any]:
-    from labjoint.signal.frfset import FrfSet
-
-    sets = []
-    for p in inputs:
-        if Path(p).suffix.lower() == ".json":
-            s = FrfSet.load(p)
-            if s.estimator != "stepped_sine" and s.runs:   # broadband: one level per record
-                parts = [(str(s.direction[0]), np.flatnonzero(np.asarray(s.runs) == r))
-                         for r in dict.fromkeys(s.runs)]
-            else:
-                parts = [(d, idx) for (_, d), idx in s.groups()]
-            for d, idx in parts:
-                sub = s.subset(idx)
-                sub.metadata.update(path=p, direction=d)
-                runs = {r for r in sub.runs}
-                match = [m for m in s.metadata.get("levels", []) if m.get("run") in runs]
-                if match:
-                    sub.metadata.update(match[0])
-                sub.metadata["path"] = p
-                sets.append(sub)
-        else:
-            imported = _imported_frf(p)
-            sets.extend([imported] if imported is not None else frf_levels([p], args))
-    return sets
-
-
-def _imported_frf(path: str) -> Any:
-    """An FRF a lab exported (imported into a run file's processed/frf) as one level, or
-    None when the run file holds none. Its level is unknown: reported as null."""
-    from labjoint.errors import InputError as _IE
-    from labjoint.signal.frfset import DRIVES, QUANTITIES, FrfSet
-    from labjoint.storage.importers import read_frf
-
-    if Path(path).suffix.lower() not in (".h5", ".hdf5"):
-        return None
-    try:
-        r = read_frf(path)
-    except (_IE, KeyError, OSError):
-        return None
-    if r.response_quantity not in QUANTITIES or r.drive_quantity not in DRIVES:
-        raise InputError(f"{path}: an FRF of {r.response_quantity} over {r.drive_quantity} has no modes "
-                         "labjoint can fit", field="frf")
-    keep = r.frequency_hz > 0
-    f, h = r.frequency_hz[keep], r.h[:, keep]
-    n = f.size
-    est = r.estimator.split()[0] if r.estimator.split() and r.estimator.split()[0] in ("H1", "H2", "Hv") \
-        else "stepped_sine"
-    s = FrfSet(f, np.ones(n), np.full(n, "up"), np.ones(n, complex), tuple(r.responses), h.T[:, :, None],
-               np.zeros((n, len(r.responses), 1)), r.response_quantity, None, (), {}, r.drive_quantity, est)
-    s.metadata.update(path=path, run=Path(path).stem, imported=True, estimator_text=r.estimator)
-    return s
-
-
 def run_modes(args: argparse.Namespace) -> int:
-    from labjoint.identify.modes import find_modes
+    from labjoint.identify.spectral import modes_levels
 
-    band = _band(args.band)
-    levels = []
-    for s in _sets(args.inputs, args):
-        h = s.response[:, :, 0].T / s.force[None, :]
-        b = band or (tuple(s.metadata["band_hz"]) if s.metadata.get("band_hz") else None)
-        try:
-            modes = find_modes(s.frequencies_hz, h, s.quantity, s.sensors, b, args.order)
-        except InputError as exc:
-            raise InputError(f"{s.metadata.get('path', '')}: {exc}") from None
-        levels.append({"run": s.metadata.get("run"),
-                       "level": None if s.metadata.get("imported") else float(s.level_n[0]),
-                       "level_units": s.level_units, "direction": str(s.direction[0]),
-                       "units": s.units, "band_hz": list(b) if b else None, "modes": modes})
-    levels.sort(key=lambda lv: (lv["level"] is None, lv["level"] or 0.0, lv["direction"]))
+    levels = modes_levels(args.inputs, args)
     if getattr(args, "json", False):
         emit_json({"levels": levels})
         return 0

@@ -142,3 +142,19 @@ def streamed(path: str) -> Iterator[Streamed | None]:
 
         yield Streamed(str(p), rf.name, float(rf.sample_rate_hz), int(rf.n_samples),
                        {n: (q[0], q[2]) for n, q in qs.items()}, dict(rf.metadata), read)
+
+
+def header(path: str) -> Record:
+    """A run file's channels (quantities and SI units) without their samples: to check a
+    request's drive and responses before any work (errors name the file and channel)."""
+    from labjoint.storage.channels import spec_quantity
+    from labjoint.storage.reader import is_csv, open_run
+
+    p = Path(path)
+    if not p.exists():
+        raise InputError("no such file", file=str(p))
+    if is_csv(p):
+        return load(path)
+    with open_run(p) as rf:
+        chans = {s.name: (q[0], q[2], np.zeros(0)) for s in rf.channels for q in [spec_quantity(s)]}
+        return Record(str(p), rf.name, float(rf.sample_rate_hz), chans, dict(rf.metadata))
