@@ -34,7 +34,7 @@ def test_backbones_of_runs_through_the_client(served):
     url, d = served
     files = sorted(glob.glob(str(d / "*.h5")))
     names = [Path(f).stem for f in files]
-    with Client(url, READ) as c:
+    with Client(url, CONTROL) as c:        # a computation on demand: the control token, as analyses
         got = c.backbones(names)
         assert got["sensor"] == "free_end"
         expect = measured_backbones(files)

@@ -14,7 +14,7 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Depends, Request
 from pydantic import BaseModel, ConfigDict, Field
 
-from labjoint.api.auth import require_read
+from labjoint.api.auth import require_control
 from labjoint.api.errors import errors_doc
 from labjoint.api.schemas import RUN_NAME
 from labjoint.errors import InputError
@@ -49,7 +49,7 @@ class BackboneOut(BaseModel):
 
 
 @router.post("", response_model=BackboneOut, responses=errors_doc(), summary="Backbones of runs",
-             dependencies=[Depends(require_read)])
+             dependencies=[Depends(require_control)])
 def backbones(request: Request, body: BackboneRequest) -> dict[str, Any]:
     """Frequency and damping ratio against the fundamental's displacement amplitude at the
     response sensor, with uncertainties, by method (phase resonance, force-corrected
