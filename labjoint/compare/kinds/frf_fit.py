@@ -28,16 +28,18 @@ from labjoint.errors import InputError
 from labjoint.models import FitResult, Model
 from labjoint.models.scores import nrmse_from_sums, pooled_nrmse
 from labjoint.structure.hbm import ConvergenceError
+from labjoint.structure.joint import refusal
 from labjoint.structure.stage2 import fit_law
+from labjoint.vocabulary import EFFECTS
 
 ADDED_STIFFNESS = 0.2
 STIFFNESSES = ("K_T", "k", "ke", "k0")
 NO_SOLUTION = 3.0
 SCALE_RANGE = 1e3
 SHAPES = {"iwan.chi": -0.5, "iwan.beta": 0.1, "richard_abbott.n": 2.0, "asymmetric_slip.asym": 0.0}
-#: effects that can stand in a joint law inside a structure's harmonic balance
-FRF_EFFECTS = ("viscous", "iwan", "coulomb", "richard_abbott", "cubic_stiffness", "offset",
-               "asymmetric_slip", "linear_stiffness")
+#: effects that can stand in a joint law inside a structure's harmonic balance: every
+#: vocabulary effect the joint does not refuse (:func:`labjoint.structure.joint.refusal`)
+FRF_EFFECTS = tuple(n for n in EFFECTS if refusal(n) is None)
 
 
 def slip_amplitude(ms: Sequence[FrfMeasurement], model: Model, params: Mapping[str, float]) -> float:
@@ -120,10 +122,10 @@ def fit_frf(model: Model | str, fit_ms: Sequence[FrfMeasurement],
             max_nfev: int | None = None) -> FitResult:
     """Fit ``model`` (every joint's law) on the fit measurements (module docstring)."""
     model = Model.parse(model)
-    bad = [n for n in model.names if n not in FRF_EFFECTS]
+    bad = [n for n in model.names if refusal(n)]
     if bad:
-        raise InputError(f"{', '.join(bad)} cannot act as a joint law in the structure's harmonic "
-                         f"balance; use {', '.join(FRF_EFFECTS)}", field="model")
+        raise InputError(f"effect '{bad[0]}' cannot act in a structure's joint: {refusal(bad[0])}",
+                         field="model")
     if not fit_ms:
         raise InputError("no FRF measurements to fit", field="runs")
     start = start_values(model, fit_ms, init)

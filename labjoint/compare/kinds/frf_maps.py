@@ -23,6 +23,7 @@ from labjoint.compare.kinds.frf_fit import FRF_EFFECTS, fit_frf
 from labjoint.compare.kinds.frf import FrfMeasurement
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model
+from labjoint.structure.joint import refusal
 from labjoint.vocabulary import EFFECTS
 
 FAIL_RATIO = 2.0
@@ -151,7 +152,7 @@ class FrfKind:
         skipped, out = {}, []
         for n in names:
             if n not in FRF_EFFECTS:
-                skipped[n] = "not a joint law in the structure's harmonic balance"
+                skipped[n] = f"cannot act in a structure's joint: {refusal(n)}"
             elif EFFECTS[n].kind == "modifier" and not hyst:
                 skipped[n] = "scales slip strengths, but the model has no hysteretic part"
             else:
