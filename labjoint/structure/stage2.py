@@ -119,9 +119,10 @@ def _coords(law: JointLaw, names: Sequence[str], start: dict[str, float] | None,
     p = law.model.make_params(values={**law.params, **(start or {})})
     typical = typical or {}
     x0, lo, hi, logs, sc = [], [], [], [], []
-    ke = p["richard_abbott.ke"].value if "richard_abbott.ke" in p and "richard_abbott.ke" not in names else None
+    known = set(law.model.param_names)
+    ke = p["richard_abbott.ke"].value if "richard_abbott.ke" in known and "richard_abbott.ke" not in names else None
     for nm in names:
-        if nm not in p:
+        if nm not in known:
             raise InputError(f"not a parameter of the joint law '{law.model.expr}' "
                              f"({', '.join(law.params)})", field=nm)
         q = p[nm]

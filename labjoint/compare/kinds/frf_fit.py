@@ -10,8 +10,11 @@ joint's stuck stiffness k_j and the slip amplitude u_j the baseline predicts at 
 highest level (:func:`physical_start`): stiffnesses at ``ADDED_STIFFNESS`` of k_j (beside
 what the model already has), slip strengths at stiffness x u_j (so the effect slips
 within the measured range), a viscous term at 1 % critical of the joint on mode 1,
-shape parameters at mid values, linear terms (cubic, offset) at zero. A trial point
-Scale parameters stay within ``SCALE_RANGE`` of their start. A trial point
+shape parameters at mid values, linear-in-parameter terms (cubic, quadratic, offset, mass)
+at the value that adds that share at u_j, each sign tried (:func:`sign_starts`: the
+search starts from the better one; a term started at zero had no slope to follow). Scale
+parameters stay within ``SCALE_RANGE`` of their start, signed ones are searched in units
+of their start's magnitude. A trial point
 where harmonic balance does not converge (e.g. a joint in full macro-slip) answers
 ``NO_SOLUTION`` x the last residual, so the search steps back instead of failing.
 """
@@ -36,7 +39,8 @@ ADDED_STIFFNESS = 0.2
 STIFFNESSES = ("K_T", "k", "ke", "k0")
 NO_SOLUTION = 3.0
 SCALE_RANGE = 1e3
-SHAPES = {"iwan.chi": -0.5, "iwan.beta": 0.1, "richard_abbott.n": 2.0, "asymmetric_slip.asym": 0.0}
+SHAPES = {"iwan.chi": -0.5, "iwan.beta": 0.1, "richard_abbott.n": 2.0, "asymmetric_slip.asym": 0.3,
+          "bouc_wen.n": 1.0, "valanis.kappa": 0.5}
 #: effects that can stand in a joint law inside a structure's harmonic balance: every
 #: vocabulary effect the joint does not refuse (:func:`labjoint.structure.joint.refusal`)
 FRF_EFFECTS = tuple(n for n in EFFECTS if refusal(n) is None)
@@ -56,47 +60,94 @@ def slip_amplitude(ms: Sequence[FrfMeasurement], model: Model, params: Mapping[s
 
 def physical_start(model: Model, known: Mapping[str, float], k_joint: float, u_slip: float,
                    f1_hz: float) -> dict[str, float]:
-    """Start values of ``model``'s parameters not in ``known`` (module docstring)."""
+    """Start values of ``model``'s parameters not in ``known`` (module docstring), chosen by
+    the parameter's unit so that every added term carries ``ADDED_STIFFNESS`` of the
+    joint's stuck stiffness k_j at the slip amplitude u_j the baseline predicts: a
+    stiffness ka = 0.2 k_j, a force ka u_j, a cubic ka / u_j^2, a quadratic ka / u_j, a
+    gap u_j / 2, a mass ka / w_1^2; shapes at mid values. Signed terms start positive;
+    :func:`sign_starts` gives their mirror images.
+
+    >>> s = physical_start(Model.parse("cubic_stiffness+offset"), {}, 1e8, 1e-5, 30.0)
+    >>> round(s["cubic_stiffness.k3"] / 2e17, 6), round(s["offset.F0"], 6)
+    (1.0, 200.0)
+    """
     out = dict(known)
     u = max(u_slip, 1e-12)
     ka = ADDED_STIFFNESS * k_joint
+    w1 = 2 * np.pi * f1_hz
+    units = {k: q.unit for k, q in model.make_params().items()}
     for name in model.param_names:
         if name in out:
             continue
         eff, p = name.split(".")
+        unit = units[name]
         if name in SHAPES:
             out[name] = SHAPES[name]
-        elif p in STIFFNESSES and eff != "linear_stiffness":
-            out[name] = ka
         elif eff == "linear_stiffness":
             out[name] = k_joint
         elif p == "kp":
             out[name] = 0.05 * ka
-        elif p in ("F_S", "f_s", "F_y"):
+        elif unit == "N/m":
+            out[name] = ka
+        elif unit == "N":
             out[name] = ka * u
+        elif unit in BY_UNIT:
+            out[name] = BY_UNIT[unit](ka, u, w1)
         elif eff == "viscous":
-            out[name] = 2 * 0.01 * k_joint / (2 * np.pi * f1_hz)
+            out[name] = 2 * 0.01 * k_joint / w1
         else:
             out[name] = 0.0
     return out
 
 
+#: start of a parameter by its unit (ka: added stiffness, u: slip amplitude, w1: mode 1)
+BY_UNIT = {"N/m^3": lambda ka, u, w1: ka / u ** 2, "N/m^2": lambda ka, u, w1: ka / u,
+           "m": lambda ka, u, w1: 0.5 * u, "kg": lambda ka, u, w1: ka / w1 ** 2,
+           "1/m": lambda ka, u, w1: 1.0 / u, "N^(1-n)/m": lambda ka, u, w1: 0.5 / u}
+#: units of terms whose sign the data must choose (the objective has a minimum for each)
+SIGNED_UNITS = ("N/m^3", "N/m^2", "N", "kg")
+MAX_STARTS = 4
+
+
+def sign_starts(model: Model, start: Mapping[str, float], added: Sequence[str]) -> list[dict[str, float]]:
+    """The start and its mirror images in the signs of the added signed terms (at most
+    ``MAX_STARTS``): hardening and softening, a preload up or down.
+
+    >>> [s["cubic_stiffness.k3"] for s in sign_starts(Model.parse("cubic_stiffness"), {"cubic_stiffness.k3": 2.0}, ["cubic_stiffness.k3"])]
+    [2.0, -2.0]
+    """
+    q = model.make_params()
+    signed = [n for n in added if q[n].lower < 0 and start.get(n, 0.0) != 0.0
+              and (q[n].unit in SIGNED_UNITS or n == "asymmetric_slip.asym")
+              and not n.startswith("linear_stiffness.")]
+    out = [dict(start)]
+    for n in signed:
+        out += [{**s, n: -s[n]} for s in out]
+    return out[:MAX_STARTS]
+
+
 def start_values(model: Model, ms: Sequence[FrfMeasurement],
                  init: FitResult | Mapping[str, float] | None) -> dict[str, float]:
+    """The start of every parameter (module docstring)."""
+    return _starts(model, ms, init)[0]
+
+
+def _starts(model: Model, ms: Sequence[FrfMeasurement],
+            init: FitResult | Mapping[str, float] | None) -> tuple[dict[str, float], list[str]]:
     pr = ms[0].predictor
     own = {k: v for k, v in pr.law.params.items() if k in model.param_names}
     prev = init.params_.valuesdict() if isinstance(init, FitResult) else dict(init or {})
     known = {**own, **{k: float(v) for k, v in prev.items() if k in model.param_names}}
     missing = [n for n in model.param_names if n not in known]
     if not missing:
-        return known
+        return known, []
     k_joint = pr.law.initial_stiffness()
     base = Model.parse("+".join(n for n in model.names if all(
         p in known for p in Model.parse(n).param_names)) or "linear_stiffness")
     base_vals = physical_start(base, known, k_joint, 0.0, 1.0)
     u = slip_amplitude(ms, base, base_vals)
     out = physical_start(model, known, k_joint, u, float(pr.natural_frequencies(1)[0]))
-    return split_stiffness(out, missing)
+    return split_stiffness(out, missing), missing
 
 
 def split_stiffness(start: dict[str, float], added: Sequence[str]) -> dict[str, float]:
@@ -128,12 +179,22 @@ def fit_frf(model: Model | str, fit_ms: Sequence[FrfMeasurement],
                          field="model")
     if not fit_ms:
         raise InputError("no FRF measurements to fit", field="runs")
-    start = start_values(model, fit_ms, init)
+    start, added = _starts(model, fit_ms, init)
     pr = fit_ms[0].predictor
-    law0 = pr.law_of(model, start)
     names = model.param_names
-
     last: list[np.ndarray] = []
+    starts = sign_starts(model, start, added)
+    if len(starts) > 1:                       # multi-start: the sign the data prefer
+        costs = []
+        for st in starts:
+            try:
+                r = np.concatenate([whitened_residual(m, pr.law_of(model, st)) for m in fit_ms])
+                costs.append(float(r @ r))
+            except (ConvergenceError, ValueError, np.linalg.LinAlgError):
+                costs.append(np.inf)
+        start = starts[int(np.argmin(costs))]
+    law0 = pr.law_of(model, start)
+    typical = {n: abs(v) for n, v in start.items() if v}
 
     def residual(law) -> np.ndarray:
         try:
@@ -146,7 +207,7 @@ def fit_frf(model: Model | str, fit_ms: Sequence[FrfMeasurement],
         return r
 
     lf = fit_law(law0, names, residual, None, max_nfev=max_nfev or 12 * len(names),
-                 scale_range=SCALE_RANGE)
+                 scale_range=SCALE_RANGE, typical=typical)
     params = model.make_params(values=lf.values)
     for k in names:
         params[k].stderr = lf.stderr[k]
@@ -157,8 +218,8 @@ def fit_frf(model: Model | str, fit_ms: Sequence[FrfMeasurement],
                      pooled_nrmse([sse[n] for n in fn], [ssf[n] for n in fn]),
                      {n: nrmse_from_sums(sse[n], ssf[n]) for n in fn},
                      pooled_nrmse([sse[n] for n in vn], [ssf[n] for n in vn]) if vn else None,
-                     {n: nrmse_from_sums(sse[n], ssf[n]) for n in vn}, lf.n_evals, True,
-                     lf.message, int(sum(m.data.force.size for m in fit_ms)), 2 * lf.cost,
+                     {n: nrmse_from_sums(sse[n], ssf[n]) for n in vn}, lf.n_evals, lf.converged,
+                     "; ".join([lf.message, *lf.flags]), int(sum(m.data.force.size for m in fit_ms)), 2 * lf.cost,
                      (), tuple(fn), tuple(vn))
 
 
