@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from labjoint.compare.kinds.frf_fit import FRF_EFFECTS, fit_frf
+from labjoint.compare.kinds.frf_verdict import inconclusive
 from labjoint.compare.kinds.frf import FrfMeasurement
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model
@@ -158,6 +159,10 @@ class FrfKind:
             else:
                 out.append(n)
         return out, skipped
+
+    def inconclusive(self, cands: Sequence[Any], base_validation: float,
+                     fit_ms: Sequence[FrfMeasurement], val_ms: Sequence[FrfMeasurement]) -> str | None:
+        return inconclusive(cands, base_validation, fit_ms, val_ms)
 
     def fit(self, model: Model | str, fit_ms: Sequence[FrfMeasurement],
             val_ms: Sequence[FrfMeasurement] = (), init: Any = None) -> FitResult:
