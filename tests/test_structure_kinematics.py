@@ -84,3 +84,46 @@ def test_an_effect_that_cannot_act_in_a_joint_is_refused_by_name(tmp_path, effec
 def test_every_other_effect_acts(seed000):
     assert [n for n in ("offset", "asymmetric_slip", "backlash", "cubic_stiffness", "iwan",
                         "richard_abbott", "bouc_wen", "valanis", "inertia") if refusal(n)] == []
+
+
+@pytest.mark.parametrize("model,params", [
+    ("iwan", {"iwan.F_S": 50.0, "iwan.K_T": 1e7, "iwan.chi": -0.4, "iwan.beta": 0.2}),
+    ("linear_stiffness+iwan+viscous+cubic_stiffness",
+     {"linear_stiffness.k": 3e6, "iwan.F_S": 50.0, "iwan.K_T": 1e7, "iwan.chi": -0.4, "iwan.beta": 0.2,
+      "viscous.c": 30.0, "cubic_stiffness.k3": 1e15}),
+    ("linear_stiffness+offset+cubic_stiffness",
+     {"linear_stiffness.k": 3e6, "offset.F0": 5.0, "cubic_stiffness.k3": 1e15}),
+])
+def test_batched_periodic_law_equals_the_model_along_each_primed_history(model, params):
+    """The batched evaluation (memoryless terms in one call, hysteretic ones directly)
+    is the model's force along the documented history: 0, then 3 periods from the top."""
+    from labjoint.models import ModelInputs
+    from labjoint.structure.law import PRIME_PERIODS
+    law = JointLaw(model, params)
+    n, fs = 48, 48 * 30.0
+    t = np.arange(n) / fs
+    w = 2 * np.pi * 30.0
+    amps = np.array([1e-6, 8e-6, 3e-5])[:, None]
+    u = amps * (np.cos(w * t + 0.3) + 0.2 * np.cos(3 * w * t))
+    v = amps * (-w * np.sin(w * t + 0.3) - 0.6 * w * np.sin(3 * w * t))
+    a = amps * (-w * w * np.cos(w * t + 0.3) - 1.8 * w * w * np.cos(3 * w * t))
+    got = law.periodic(u, v, a, fs)
+    for k in range(3):
+        i0 = int(np.argmax(u[k]))
+        idx = (np.arange(n) + i0) % n
+        h = [np.r_[0.0, np.tile(x[k][idx], PRIME_PERIODS)] for x in (u, v, a)]
+        ref = law.model.eval(law.params, ModelInputs(*h, fs, 1 + (PRIME_PERIODS - 1) * n))
+        assert np.allclose(got[k][idx], ref, rtol=1e-12, atol=1e-12 * np.max(np.abs(ref)))
+
+
+def test_two_joint_stiffnesses_place_both_bending_modes(seed000):
+    """Issue 32 item 5: rotational (the layer's E_e) and translational stiffness together
+    put seed 000's measured 28.5 and 177 Hz on modes 1 and 2 (one stiffness could not)."""
+    from labjoint.structure.modal import update_stiffness
+    one = update_stiffness(seed000, [28.5, 177.0])
+    assert abs(one.updated_hz[1] / 177.0 - 1) > 0.02
+    two = update_stiffness(seed000, [28.5, 177.0], "E_e_pa,transverse_stiffness_n_per_m")
+    assert np.allclose(two.updated_hz, [28.5, 177.0], rtol=1e-4)
+    d = two.to_dict()["parameters"]
+    assert d["transverse_stiffness_n_per_m"]["unit"] == "N/m"
+    assert 1e7 < d["E_e_pa"]["value"] < 1e8 and d["transverse_stiffness_n_per_m"]["value"] > 0

@@ -141,21 +141,22 @@ class HarmonicBalance:
         """Newton (with backtracking) at fixed w; ConvergenceError says where and why."""
         x = self.linear_solution(w, F) if x0 is None else np.array(x0, float)
         scale = max(np.linalg.norm(self.external(F)), 1e-300)
-        R, J = self.residual(x, w, F, jacobian=True)
+        R, _ = self.residual(x, w, F)
         r = np.linalg.norm(R) / scale
         for it in range(NEWTON_MAX):
             if r < tol:
                 return x
+            _, J = self.residual(x, w, F, jacobian=True)    # only where Newton goes on from
             dx = lu_solve(lu_factor(J), -R)
             lam = 1.0
             while True:
                 xn = x + lam * dx
-                Rn, Jn = self.residual(xn, w, F, jacobian=True)
+                Rn, _ = self.residual(xn, w, F)
                 rn = np.linalg.norm(Rn) / scale
                 if rn < r or lam < 1e-3:
                     break
                 lam /= 2
-            x, R, J, r = xn, Rn, Jn, rn
+            x, R, r = xn, Rn, rn
         if r < 1e3 * tol:
             return x
         raise ConvergenceError(f"harmonic balance did not converge at {w / (2 * np.pi):.6g} Hz: "

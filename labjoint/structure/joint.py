@@ -39,6 +39,8 @@ from labjoint.errors import InputError
 from labjoint.structure.law import JointLaw
 
 NU_LAYER = 0.3
+#: the joint's translational (transverse) stiffness as an updatable parameter, N/m
+TRANSVERSE = "transverse_stiffness_n_per_m"
 #: effects whose law is odd (F[-u] = -F[u] along mirrored histories): no normal part
 ODD_EFFECTS = frozenset({"linear_stiffness", "viscous", "coulomb", "iwan", "bouc_wen", "valanis",
                          "richard_abbott", "cubic_stiffness", "inertia", "backlash"})
@@ -171,7 +173,8 @@ class Joint:
 
     def with_parameter(self, name: str, value: float) -> Joint:
         """This joint with a stiffness parameter changed: ``E_e_pa`` (the layer's modulus:
-        ke and the transverse tie scale with it) or a law parameter ``effect.param``."""
+        ke and the transverse tie scale with it), ``transverse_stiffness_n_per_m`` (the tie
+        alone) or a law parameter ``effect.param``."""
         if name == "E_e_pa":
             if self.layer is None or self.layer.E_p_pa is None:
                 raise InputError("E_e_pa needs a [joints.layer] with the stress law",
@@ -181,8 +184,12 @@ class Joint:
             law = self.law.with_params(**{"richard_abbott.ke": value * A / h})
             kt = self.transverse_stiffness * value / self.layer.E_e_pa
             return replace(self, law=law, layer=layer, transverse_stiffness=kt)
+        if name == TRANSVERSE:
+            if not value > 0:
+                raise InputError(f"must be > 0, got {value!r}", field=TRANSVERSE)
+            return replace(self, transverse_stiffness=float(value))
         if name not in self.law.params:
-            raise InputError(f"not a parameter of joint '{self.name}' (E_e_pa or one of "
+            raise InputError(f"not a parameter of joint '{self.name}' (E_e_pa, {TRANSVERSE} or one of "
                              f"{', '.join(self.law.params)})", field="update.parameter")
         return replace(self, law=self.law.with_params(**{name: value}))
 
@@ -191,4 +198,6 @@ class Joint:
             return float(self.layer.E_e_pa)
         if name in self.law.params:
             return self.law.params[name]
+        if name == TRANSVERSE:
+            return float(self.transverse_stiffness)
         raise InputError(f"joint '{self.name}' has no parameter '{name}'", field="update.parameter")
