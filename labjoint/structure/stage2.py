@@ -29,6 +29,7 @@ from scipy.optimize import least_squares
 
 from labjoint.errors import InputError
 from labjoint.signal.frfset import FrfSet
+from labjoint.structure.hbm import ConvergenceError
 from labjoint.structure.law import JointLaw
 from labjoint.structure.predict import FrfPredictor
 
@@ -40,6 +41,8 @@ SCALE_RANGE = 1e3
 #: shape parameters' useful ranges
 SHAPE_BOUNDS = {"richard_abbott.n": (0.5, 20.0), "iwan.chi": (-0.99, 0.99), "iwan.beta": (0.0, 50.0),
                 "asymmetric_slip.asym": (-0.95, 0.95)}
+#: a trial point where harmonic balance fails answers this multiple of the last residual
+NO_SOLUTION = 3.0
 #: a coordinate within this fraction of its range from a bound is at the bound
 BOUND_TOL = 1e-4
 #: a Jacobian whose condition number exceeds this has a singular covariance
@@ -167,10 +170,13 @@ def _covariance(J: np.ndarray, r: np.ndarray, sigma: np.ndarray | None, n: int) 
 def fit_law(law: JointLaw, names: Sequence[str], residual: Callable[[JointLaw], np.ndarray],
             sigma: np.ndarray | None = None, start: dict[str, float] | None = None,
             max_nfev: int | None = None, scale_range: float | None = None,
-            typical: dict[str, float] | None = None, strict: bool = False) -> LawFit:
+            typical: dict[str, float] | None = None, strict: bool = False,
+            jacobian: Callable[[JointLaw], np.ndarray] | None = None) -> LawFit:
     """Least squares of ``residual(law)`` over the law parameters ``names`` (module
     docstring); ``scale_range``: positive parameters kept within this factor of their start
-    (default: :func:`physical_bounds`); ``typical``: the scale of signed parameters."""
+    (default: :func:`physical_bounds`); ``typical``: the scale of signed parameters;
+    ``jacobian(law)``: d residual / d p (columns in the order of ``names``), else
+    finite differences (also where it fails to converge)."""
     names = tuple(names)
     x0, lo, hi, logs, sc = _coords(law, names, start, scale_range, typical, strict)
     history: list[dict[str, Any]] = []
@@ -181,12 +187,33 @@ def fit_law(law: JointLaw, names: Sequence[str], residual: Callable[[JointLaw], 
     def law_at(x: np.ndarray) -> JointLaw:
         return law.with_params(**{**(start or {}), **dict(zip(names, values(x).tolist()))})
 
+    last: list[np.ndarray] = []
+
     def fun(x: np.ndarray) -> np.ndarray:
-        r = residual(law_at(x))
+        try:
+            r = residual(law_at(x))
+        except ConvergenceError:
+            if not last:
+                raise
+            r = NO_SOLUTION * last[0]          # a trial the solver cannot follow: rejected
+        last[:] = [r]
         history.append({"parameters": dict(zip(names, values(x).tolist())), "cost": float(r @ r) / 2})
         return r
 
-    sol = least_squares(fun, x0, bounds=(lo, hi), method="trf", diff_step=DIFF_STEP,
+    jac: Any = "2-point"
+    if jacobian is not None:
+        def jac(x: np.ndarray) -> np.ndarray:
+            dpdx = np.where(logs, values(x), sc)
+            try:
+                return jacobian(law_at(x)) * dpdx[None, :]
+            except (ConvergenceError, np.linalg.LinAlgError):     # finite differences instead
+                r0 = fun(x)
+                cols = []
+                for i in range(x.size):
+                    h = DIFF_STEP * max(1.0, abs(x[i])) * (1 if x[i] + DIFF_STEP < hi[i] else -1)
+                    cols.append((fun(x + h * np.eye(x.size)[i]) - r0) / h)
+                return np.column_stack(cols)
+    sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", diff_step=DIFF_STEP,
                         x_scale=1.0, max_nfev=max_nfev or 15 * len(names))
     v = values(sol.x)
     flags = []
@@ -256,23 +283,32 @@ def _layer_values(predictor: FrfPredictor, fit: LawFit) -> dict[str, float]:
 
 
 def update_nonlinear(predictor: FrfPredictor, frfset: FrfSet, parameters: Sequence[str] | None = None,
-                     law: JointLaw | None = None, max_nfev: int | None = None) -> Stage2Result:
+                     law: JointLaw | None = None, max_nfev: int | None = None,
+                     fit_modes: Sequence[int] = (1,)) -> Stage2Result:
     """Fit the law's ``parameters`` (default E_p, S_Y, n: kp, F_y, n) on the steps around
-    mode 1, validate around mode 2 (module docstring)."""
+    mode 1, validate around mode 2 (module docstring); ``fit_modes`` (1-based) fits on
+    the steps around those modes instead and validates on the others."""
     t0 = time.perf_counter()
     law = law or predictor.law
     names = tuple(parameters) if parameters else tuple(
         RA_DEFAULT if "richard_abbott" in law.model.names else
         [p for p in law.params if p != "richard_abbott.ke"])
-    nat = predictor.natural_frequencies(2)
+    nat = predictor.natural_frequencies(max(2, *fit_modes))
     mode = split_by_mode(frfset.frequencies_hz, nat)
-    fit_set = frfset.subset(mode == 0)
+    fitted = np.isin(mode, np.asarray(fit_modes, int) - 1)
+    fit_set = frfset.subset(fitted)
     if len(fit_set) == 0 or fit_set.frequencies_hz.size < len(names):
         raise InputError(f"need at least {len(names)} steps around mode 1 ({nat[0]:.4g} Hz) "
                          "to fit", field="frequencies_hz")
-    val = mode != 0
+    val = ~fitted
+    def jacobian(lw: JointLaw) -> np.ndarray:
+        _, d = predictor.predict_jacobian(fit_set, lw, names, 1)
+        a_t = fit_set.accelerance(1)
+        cols = [d[:, :, 0, j] / fit_set.force[:, None] / np.abs(a_t) for j in range(len(names))]
+        return np.column_stack([np.concatenate([c.real.ravel(), c.imag.ravel()]) for c in cols])
+
     fit = fit_law(law, names, lambda lw: eq9_residual(predictor.predict(fit_set, lw, 1), fit_set),
-                  eq9_sigma(fit_set), max_nfev=max_nfev, strict=True)
+                  eq9_sigma(fit_set), max_nfev=max_nfev, strict=True, jacobian=jacobian)
     rms = lambda r: float(np.sqrt(np.mean(r ** 2)))  # noqa: E731
     e_fit = rms(eq9_residual(predictor.predict(fit_set, fit.law, 1), fit_set))
     e_val = None

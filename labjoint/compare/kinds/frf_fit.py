@@ -107,6 +107,11 @@ BY_UNIT = {"N/m^3": lambda ka, u, w1: ka / u ** 2, "N/m^2": lambda ka, u, w1: ka
 #: units of terms whose sign the data must choose (the objective has a minimum for each)
 SIGNED_UNITS = ("N/m^3", "N/m^2", "N", "kg")
 MAX_STARTS = 4
+#: the search's Jacobian from the harmonic balance's own (implicit function theorem,
+#: :meth:`FrfPredictor.predict_jacobian`); False: finite differences (benchmarks compare)
+ANALYTIC_JACOBIAN = True
+#: slip amplitudes (x the baseline's) tried in turn when no start can be solved
+SLIP_SCALES = (1.0, 4.0, 16.0)
 
 
 def sign_starts(model: Model, start: Mapping[str, float], added: Sequence[str]) -> list[dict[str, float]]:
@@ -127,13 +132,13 @@ def sign_starts(model: Model, start: Mapping[str, float], added: Sequence[str]) 
 
 
 def start_values(model: Model, ms: Sequence[FrfMeasurement],
-                 init: FitResult | Mapping[str, float] | None) -> dict[str, float]:
+                 init: FitResult | Mapping[str, float] | None, slip_scale: float = 1.0) -> dict[str, float]:
     """The start of every parameter (module docstring)."""
-    return _starts(model, ms, init)[0]
+    return _starts(model, ms, init, slip_scale)[0]
 
 
-def _starts(model: Model, ms: Sequence[FrfMeasurement],
-            init: FitResult | Mapping[str, float] | None) -> tuple[dict[str, float], list[str]]:
+def _starts(model: Model, ms: Sequence[FrfMeasurement], init: FitResult | Mapping[str, float] | None,
+            slip_scale: float = 1.0) -> tuple[dict[str, float], list[str]]:
     pr = ms[0].predictor
     own = {k: v for k, v in pr.law.params.items() if k in model.param_names}
     prev = init.params_.valuesdict() if isinstance(init, FitResult) else dict(init or {})
@@ -145,9 +150,32 @@ def _starts(model: Model, ms: Sequence[FrfMeasurement],
     base = Model.parse("+".join(n for n in model.names if all(
         p in known for p in Model.parse(n).param_names)) or "linear_stiffness")
     base_vals = physical_start(base, known, k_joint, 0.0, 1.0)
-    u = slip_amplitude(ms, base, base_vals)
+    u = slip_scale * slip_amplitude(ms, base, base_vals)
     out = physical_start(model, known, k_joint, u, float(pr.natural_frequencies(1)[0]))
     return split_stiffness(out, missing), missing
+
+
+def best_start(model: Model, ms: Sequence[FrfMeasurement], init: Any) -> dict[str, float]:
+    """The start the data prefer among the signed mirror images (:func:`sign_starts`); if
+    harmonic balance cannot follow the sweeps from any of them (an added term that slips
+    or softens too much), the same with the slip amplitude x4, x16 (stiffer, slipping later)."""
+    pr = ms[0].predictor
+    for scale in SLIP_SCALES:
+        start, added = _starts(model, ms, init, scale)
+        starts = sign_starts(model, start, added)
+        costs = []
+        for st in starts:
+            try:
+                r = np.concatenate([whitened_residual(m, pr.law_of(model, st)) for m in ms])
+                costs.append(float(r @ r) if np.all(np.isfinite(r)) else np.inf)
+            except (ConvergenceError, np.linalg.LinAlgError):
+                costs.append(np.inf)
+        if np.isfinite(min(costs)):
+            return starts[int(np.argmin(costs))]
+        if not added:
+            break
+    raise ConvergenceError(f"harmonic balance cannot follow the measured sweeps from any start of "
+                           f"'{model.expr}'")
 
 
 def split_stiffness(start: dict[str, float], added: Sequence[str]) -> dict[str, float]:
@@ -179,20 +207,10 @@ def fit_frf(model: Model | str, fit_ms: Sequence[FrfMeasurement],
                          field="model")
     if not fit_ms:
         raise InputError("no FRF measurements to fit", field="runs")
-    start, added = _starts(model, fit_ms, init)
     pr = fit_ms[0].predictor
     names = model.param_names
     last: list[np.ndarray] = []
-    starts = sign_starts(model, start, added)
-    if len(starts) > 1:                       # multi-start: the sign the data prefer
-        costs = []
-        for st in starts:
-            try:
-                r = np.concatenate([whitened_residual(m, pr.law_of(model, st)) for m in fit_ms])
-                costs.append(float(r @ r))
-            except (ConvergenceError, ValueError, np.linalg.LinAlgError):
-                costs.append(np.inf)
-        start = starts[int(np.argmin(costs))]
+    start = best_start(model, fit_ms, init)
     law0 = pr.law_of(model, start)
     typical = {n: abs(v) for n, v in start.items() if v}
 
@@ -206,8 +224,16 @@ def fit_frf(model: Model | str, fit_ms: Sequence[FrfMeasurement],
         last[:] = [r]
         return r
 
+    def jacobian(law) -> np.ndarray:
+        cols = []
+        for m in fit_ms:
+            _, d = m.predictor.predict_jacobian(m.frfset, law, names, m.frfset.harmonics)
+            cols.append(np.column_stack([whiten(d[..., j], m.std) for j in range(len(names))]))
+        return np.vstack(cols)
+
     lf = fit_law(law0, names, residual, None, max_nfev=max_nfev or 12 * len(names),
-                 scale_range=SCALE_RANGE, typical=typical)
+                 scale_range=SCALE_RANGE, typical=typical,
+                 jacobian=jacobian if ANALYTIC_JACOBIAN else None)
     params = model.make_params(values=lf.values)
     for k in names:
         params[k].stderr = lf.stderr[k]
