@@ -119,10 +119,12 @@ def test_batched_periodic_law_equals_the_model_along_each_primed_history(model, 
 def test_two_joint_stiffnesses_place_both_bending_modes(seed000):
     """Issue 32 item 5: rotational (the layer's E_e) and translational stiffness together
     put seed 000's measured 28.5 and 177 Hz on modes 1 and 2 (one stiffness could not)."""
+    from frfdata import seed000_steel
     from labjoint.structure.modal import update_stiffness
-    one = update_stiffness(seed000, [28.5, 177.0])
+    steel = seed000_steel(seed000)
+    one = update_stiffness(steel, [28.5, 177.0])
     assert abs(one.updated_hz[1] / 177.0 - 1) > 0.02
-    two = update_stiffness(seed000, [28.5, 177.0], "E_e_pa,transverse_stiffness_n_per_m")
+    two = update_stiffness(steel, [28.5, 177.0], "E_e_pa,transverse_stiffness_n_per_m")
     assert np.allclose(two.updated_hz, [28.5, 177.0], rtol=1e-4)
     d = two.to_dict()["parameters"]
     assert d["transverse_stiffness_n_per_m"]["unit"] == "N/m"
