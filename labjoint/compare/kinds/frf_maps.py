@@ -154,6 +154,8 @@ class FrfKind:
         for n in names:
             if n not in FRF_EFFECTS:
                 skipped[n] = f"cannot act in a structure's joint: {refusal(n)}"
+            elif only is None and n in ON_REQUEST:
+                skipped[n] = ON_REQUEST[n]
             elif EFFECTS[n].kind == "modifier" and not hyst:
                 skipped[n] = "scales slip strengths, but the model has no hysteretic part"
             else:
@@ -168,5 +170,10 @@ class FrfKind:
             val_ms: Sequence[FrfMeasurement] = (), init: Any = None) -> FitResult:
         return fit_frf(model, fit_ms, val_ms, init)
 
+
+#: effects that act in a joint but are tried only when named (--candidates): each fit in a
+#: structure costs seconds, and these share the signature of the slip laws tried by default
+ON_REQUEST = {n: "tried when named (--candidates): a hysteretic slip law with the signature of "
+                 "coulomb, iwan and richard_abbott, which are tried by default" for n in ("bouc_wen", "valanis")}
 
 FRF = FrfKind()
