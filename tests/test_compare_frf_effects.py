@@ -47,3 +47,11 @@ def test_softening_is_found_from_the_mirrored_start(pr):
     assert len(sign_starts(Model.parse("cubic_stiffness+offset"),
                            {"cubic_stiffness.k3": 1.0, "offset.F0": 2.0},
                            ["cubic_stiffness.k3", "offset.F0"])) == 4
+
+
+def test_starts_of_input_and_modifier_effects_come_from_the_slip_amplitude(pr):
+    from labjoint.compare.kinds.frf_fit import start_values
+    ms = prepare_frfsets([("lin", hidden_set(pr, None, steps=3))], pr)
+    u = slip_amplitude(ms, Model.parse("linear_stiffness"), {"linear_stiffness.k": K})
+    s = start_values(Model.parse("linear_stiffness+backlash"), ms, {"linear_stiffness.k": K})
+    assert s["backlash.gap"] == pytest.approx(u / 2) and s["linear_stiffness.k"] == K

@@ -100,19 +100,39 @@ class HarmonicBalance:
         R = Z @ x - self.external(F)
         J = Z if jacobian else None
         X = x.reshape(self.m, n)
-        for e, s in enumerate(self.sys.selectors):
-            Q = X @ s
+        sel = self.sys.selectors
+        for group in self.groups:
+            Qs = [X @ sel[e] for e in group]
             if not jacobian:
-                G = self._forces(e, Q, w)[0]
+                rows = [Q[None, :] for Q in Qs]
             else:
-                h = FD_REL * max(np.linalg.norm(Q), 1e-12)
-                batch = np.vstack([Q, Q + h * np.eye(self.m)])
-                Gb = self._forces(e, batch, w)
+                hs = [FD_REL * max(np.linalg.norm(Q), 1e-12) for Q in Qs]
+                rows = [np.vstack([Q, Q + h * np.eye(self.m)]) for Q, h in zip(Qs, hs)]
+            Gall = self._forces(group[0], np.vstack(rows), w)      # one law call per group
+            k = 0
+            for i, e in enumerate(group):
+                Gb = Gall[k:k + rows[i].shape[0]]
+                k += rows[i].shape[0]
                 G = Gb[0]
-                dG = ((Gb[1:] - G) / h).T                     # (2H+1, 2H+1): dG_k / dQ_l
-                J = J + np.kron(dG, np.outer(s, s))
-            R = R + np.outer(G, s).ravel()
+                if jacobian:
+                    dG = ((Gb[1:] - G) / hs[i]).T                # (2H+1, 2H+1): dG_k / dQ_l
+                    J = J + np.kron(dG, np.outer(sel[e], sel[e]))
+                R = R + np.outer(G, sel[e]).ravel()
         return R, J
+
+    @property
+    def groups(self) -> list[list[int]]:
+        """Elements evaluated in one batch: joints with the same law and geometry (the
+        threads of one coupling), every other element alone."""
+        if getattr(self, "_groups", None) is None:
+            keys: dict[object, list[int]] = {}
+            for e, el in enumerate(self.sys.elements):
+                j = getattr(el, "joint", None)
+                key = ((j.law.model.expr, tuple(sorted(j.law.params.items())), j.radius_m, j.stations)
+                       if j is not None else ("own", e))
+                keys.setdefault(key, []).append(e)
+            self._groups = list(keys.values())
+        return self._groups
 
     def d_dw(self, x: np.ndarray, w: float, F: float) -> np.ndarray:
         """dR/dw: exact for the linear part, finite difference for rate-dependent laws."""

@@ -147,8 +147,11 @@ def _starts(model: Model, ms: Sequence[FrfMeasurement], init: FitResult | Mappin
     if not missing:
         return known, []
     k_joint = pr.law.initial_stiffness()
-    base = Model.parse("+".join(n for n in model.names if all(
-        p in known for p in Model.parse(n).param_names)) or "linear_stiffness")
+    have = [n for n in model.names if all(f"{n}.{q.name}" in known for q in EFFECTS[n].params)]
+    try:                                   # the effects already known, if they make a model
+        base = Model.parse("+".join(have) or "linear_stiffness")
+    except InputError:
+        base = Model.parse("linear_stiffness")
     base_vals = physical_start(base, known, k_joint, 0.0, 1.0)
     u = slip_scale * slip_amplitude(ms, base, base_vals)
     out = physical_start(model, known, k_joint, u, float(pr.natural_frequencies(1)[0]))
