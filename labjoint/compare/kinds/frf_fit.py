@@ -59,7 +59,7 @@ def slip_amplitude(ms: Sequence[FrfMeasurement], model: Model, params: Mapping[s
 
 
 def physical_start(model: Model, known: Mapping[str, float], k_joint: float, u_slip: float,
-                   f1_hz: float) -> dict[str, float]:
+                   f1_hz: float, stiffer: float = 1.0) -> dict[str, float]:
     """Start values of ``model``'s parameters not in ``known`` (module docstring), chosen by
     the parameter's unit so that every added term carries ``ADDED_STIFFNESS`` of the
     joint's stuck stiffness k_j at the slip amplitude u_j the baseline predicts: a
@@ -91,6 +91,8 @@ def physical_start(model: Model, known: Mapping[str, float], k_joint: float, u_s
             out[name] = ka
         elif unit == "N":
             out[name] = ka * u
+        elif unit == "m":                  # a gap: stiffer when smaller
+            out[name] = 0.5 * u / stiffer ** 2
         elif unit in BY_UNIT:
             out[name] = BY_UNIT[unit](ka, u, w1)
         elif eff == "viscous":
@@ -102,7 +104,7 @@ def physical_start(model: Model, known: Mapping[str, float], k_joint: float, u_s
 
 #: start of a parameter by its unit (ka: added stiffness, u: slip amplitude, w1: mode 1)
 BY_UNIT = {"N/m^3": lambda ka, u, w1: ka / u ** 2, "N/m^2": lambda ka, u, w1: ka / u,
-           "m": lambda ka, u, w1: 0.5 * u, "kg": lambda ka, u, w1: ka / w1 ** 2,
+           "kg": lambda ka, u, w1: ka / w1 ** 2,
            "1/m": lambda ka, u, w1: 1.0 / u, "N^(1-n)/m": lambda ka, u, w1: 0.5 / u}
 #: units of terms whose sign the data must choose (the objective has a minimum for each)
 SIGNED_UNITS = ("N/m^3", "N/m^2", "N", "kg")
@@ -154,14 +156,15 @@ def _starts(model: Model, ms: Sequence[FrfMeasurement], init: FitResult | Mappin
         base = Model.parse("linear_stiffness")
     base_vals = physical_start(base, known, k_joint, 0.0, 1.0)
     u = slip_scale * slip_amplitude(ms, base, base_vals)
-    out = physical_start(model, known, k_joint, u, float(pr.natural_frequencies(1)[0]))
+    out = physical_start(model, known, k_joint, u, float(pr.natural_frequencies(1)[0]), slip_scale)
     return split_stiffness(out, missing), missing
 
 
 def best_start(model: Model, ms: Sequence[FrfMeasurement], init: Any) -> dict[str, float]:
     """The start the data prefer among the signed mirror images (:func:`sign_starts`); if
     harmonic balance cannot follow the sweeps from any of them (an added term that slips
-    or softens too much), the same with the slip amplitude x4, x16 (stiffer, slipping later)."""
+    or softens too much), the same with the slip amplitude x4, x16 (stiffer: slipping
+    later, a gap 16 and 256 times smaller)."""
     pr = ms[0].predictor
     for scale in SLIP_SCALES:
         start, added = _starts(model, ms, init, scale)
