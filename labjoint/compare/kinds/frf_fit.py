@@ -184,6 +184,24 @@ def best_start(model: Model, ms: Sequence[FrfMeasurement], init: Any) -> dict[st
                            f"'{model.expr}'")
 
 
+def neutral_start(model: Model, ms: Sequence[FrfMeasurement], init: Any) -> dict[str, float]:
+    """The start with every added term (nearly) vanishing beside the known ones (not split):
+    signed terms and gaps at zero, added stiffnesses at 1e-6 of theirs."""
+    start, added = _starts(model, ms, init)
+    pr = ms[0].predictor
+    prev = init.params_.valuesdict() if isinstance(init, FitResult) else dict(init or {})
+    known = {**{k: v for k, v in pr.law.params.items() if k in model.param_names},
+             **{k: float(v) for k, v in prev.items() if k in model.param_names}}
+    start.update(known)
+    q = model.make_params()
+    for n in added:
+        if q[n].lower < 0 or q[n].unit == "m":
+            start[n] = 0.0
+        elif q[n].unit == "N/m":
+            start[n] *= 1e-6
+    return start
+
+
 def split_stiffness(start: dict[str, float], added: Sequence[str]) -> dict[str, float]:
     """An added effect's stiffness is taken from a known linear stiffness rather than put
     beside it, so that the stuck joint (and the baseline's resonance) stays where the
@@ -216,7 +234,10 @@ def fit_frf(model: Model | str, fit_ms: Sequence[FrfMeasurement],
     pr = fit_ms[0].predictor
     names = model.param_names
     last: list[np.ndarray] = []
-    start = best_start(model, fit_ms, init)
+    try:
+        start = best_start(model, fit_ms, init)
+    except ConvergenceError:      # judged at its neutral values, flagged: not a crash of the diagnosis
+        start, max_nfev = neutral_start(model, fit_ms, init), 1
     law0 = pr.law_of(model, start)
     typical = {n: abs(v) for n, v in start.items() if v}
 
