@@ -29,7 +29,7 @@ from labjoint.compare.kinds.frf import prepare_frfsets  # noqa: E402
 from labjoint.structure import structure_from_dict  # noqa: E402
 from labjoint.structure.predict import FrfPredictor, synthetic_frfset  # noqa: E402
 
-CANDIDATES = ("viscous", "iwan", "coulomb", "richard_abbott", "cubic_stiffness", "offset", "backlash")
+CANDIDATES = ("viscous", "iwan", "coulomb", "richard_abbott", "cubic_stiffness", "offset", "inertia")
 
 
 def run(analytic: bool) -> tuple[float, float, str]:
