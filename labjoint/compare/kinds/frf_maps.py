@@ -175,5 +175,8 @@ class FrfKind:
 #: structure costs seconds, and these share the signature of the slip laws tried by default
 ON_REQUEST = {n: "tried when named (--candidates): a hysteretic slip law with the signature of "
                  "coulomb, iwan and richard_abbott, which are tried by default" for n in ("bouc_wen", "valanis")}
+ON_REQUEST["backlash"] = ("tried when named (--candidates): its gap acts on the whole joint law, "
+                          "stiffness included; on the benchmark's set harmonic balance could not "
+                          "follow a resonance from any start")
 
 FRF = FrfKind()
