@@ -3,6 +3,8 @@ baseline) and FRF sets computed from it with a known hidden joint law plus noise
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from labjoint.structure import structure_from_dict
@@ -20,7 +22,8 @@ def linear_joint_structure_dict() -> dict:
         j["model"] = "linear_stiffness"
         j["params"] = {"linear_stiffness.k": 1e10}
         j["stations"] = 4
-        j["layer"] = {k: j["layer"][k] for k in ("length_m", "thickness_m", "E_e_pa")}
+        j.pop("transverse_stiffness_n_per_m", None)     # the steel layer's, as at stage 1's start
+        j["layer"] = {**{k: j["layer"][k] for k in ("length_m", "thickness_m")}, "E_e_pa": 215e9}
     return d
 
 
@@ -49,9 +52,30 @@ def write_linear_structure(path) -> None:
     text = text.replace("stations = 8 ", "stations = 4 ").replace("stations = 8\n", "stations = 4\n")
     keep = []
     for line in text.splitlines():
-        if line.startswith(("E_p_pa", "S_Y_pa", "n = ")):
+        if line.startswith(("E_p_pa", "S_Y_pa", "n = ", "transverse_stiffness_n_per_m")):
             continue
+        if line.startswith("E_e_pa"):
+            line = "E_e_pa = 215e9"          # the steel layer, as at stage 1's start
         keep.append(line)
         if line.startswith("E_e_pa"):
             keep += ["[joints.params]", '"linear_stiffness.k" = 1e10']
     Path(path).write_text("\n".join(keep) + "\n")
+
+
+def seed000_steel(structure=None):
+    """configs/structure-seed000.toml at seed 000's stage-1 start (the file ships the updated
+    joint): the layer's E_e at the steel modulus, the translational stiffness of that layer
+    and Table 4's stress law (E_p = 10 MPa, S_Y = 14 MPa, n = 3.6)."""
+    from labjoint.structure import load_structure
+    from labjoint.structure.joint import layer_params, layer_transverse_stiffness
+    from labjoint.structure.modal import with_parameter
+    s = structure if structure is not None else load_structure("configs/structure-seed000.toml")
+    s = with_parameter(s, "E_e_pa", 215e9)
+    j = s.joints[0]
+    table4 = replace(j.layer, E_p_pa=1e7, S_Y_pa=1.4e7, n=3.6)
+    for k, v in layer_params(table4, j.radius_m).items():
+        if k != "richard_abbott.ke":
+            s = with_parameter(s, k, v)
+    s = with_parameter(s, "transverse_stiffness_n_per_m", layer_transverse_stiffness(table4, j.radius_m))
+    return s.with_joints(tuple(replace(jj, layer=replace(jj.layer, E_p_pa=1e7, S_Y_pa=1.4e7, n=3.6))
+                               for jj in s.joints))

@@ -54,6 +54,15 @@ def test_bad_input_names_the_option(files, capsys):
     assert main(["fit", str(files / "sweep.json"), "--model", "linear_stiffness", "--structure",
                  str(files / "nowhere.toml"), "--json"]) != 0
     assert "nowhere.toml" in capsys.readouterr().err
-    assert main(["fit", str(files / "sweep.json"), "--model", "bouc_wen", "--structure",
-                 str(files / "lin.toml"), "--modes", "4", "--json"]) != 0
-    assert "bouc_wen" in capsys.readouterr().err
+    assert main(["fit", str(files / "sweep.json"), "--model", "coulomb+wear", "--structure",
+                 str(files / "lin.toml"), "--modes", "4", "--json"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "wear" in err[0] and "steady periodic" in err[0]
+
+
+def test_too_few_steps_near_a_resonance_is_refused(files, capsys):
+    hidden_set(predictor(), None, steps=2).save(files / "two.json")
+    assert main(["diagnose", str(files / "two.json"), "--model", "linear_stiffness", "--structure",
+                 str(files / "lin.toml"), "--modes", "4", "--json"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "too few near a resonance" in err[0] and "at least 3 steps" in err[0]

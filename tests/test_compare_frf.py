@@ -70,10 +70,10 @@ def test_null_case_adds_nothing(pr):
 
 
 def test_effect_that_is_no_joint_law_is_refused(pr):
-    ms = prepare_frfsets([("lin", hidden_set(pr, None, steps=2))], pr)
+    ms = prepare_frfsets([("lin", hidden_set(pr, None, steps=3))], pr)
     with pytest.raises(InputError) as e:
-        kind_of(ms).fit("bouc_wen", ms)
-    assert e.value.field == "model" and "bouc_wen" in e.value.message
+        kind_of(ms).fit("coulomb+wear", ms)
+    assert e.value.field == "model" and "wear" in e.value.message and "steady periodic" in e.value.message
 
 
 def test_harmonics_count_in_the_error_and_the_maps(pr):

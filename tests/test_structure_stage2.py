@@ -56,3 +56,32 @@ def test_split_and_bad_parameter(predictor):
         predictor.predict(fs.__class__(fs.frequencies_hz, fs.level_n, fs.direction, fs.force, ("nowhere",),
                                        fs.response, fs.response_std))
     assert e.value.field == "sensors" and "nowhere" in e.value.message
+
+
+def test_stage2_on_data_its_law_cannot_fit_is_flagged_not_converged(predictor):
+    """Issue 32: a micro-slip (Iwan) set fitted from the seed-000 file's Richard-Abbott start
+    (F_y = 2e5 N) had driven F_y to 4.5e-5 N and called it converged with stderr 0.0."""
+    from labjoint.structure import JointLaw
+    hidden = JointLaw("linear_stiffness+iwan", {"linear_stiffness.k": 3e9, "iwan.K_T": 7e9,
+                                                "iwan.F_S": 3e3, "iwan.chi": -0.5, "iwan.beta": 0.1})
+    f = np.r_[np.linspace(36, 41, 6), np.linspace(228, 233, 2)]
+    fs = synthetic_frfset(predictor, hidden, f, [30.0], ("free_end",), harmonics=1, noise=0.01, seed=3)
+    res = update_nonlinear(predictor, fs, max_nfev=12)          # warnings are errors here
+    d = res.to_dict()
+    start = predictor.law.params["richard_abbott.F_y"]
+    fy = [h["parameters"]["richard_abbott.F_y"] for h in d["history"]]
+    assert min(fy) >= start / 1e3 * (1 - 1e-9)                  # the physical bounds held
+    assert d["converged"] is False and d["flags"]
+    assert all(np.isnan(p["stderr"]) for p in d["parameters"].values())   # never 0.0
+    assert np.all(np.isnan(d["correlation"]))
+
+
+def test_stage2_start_outside_the_bounds_is_refused(predictor):
+    fs = synthetic_frfset(predictor, None, [38.0, 39.0, 40.0], [10.0], ("free_end",), harmonics=1)
+    with pytest.raises(InputError) as e:
+        update_nonlinear(predictor, fs, law=predictor.law.with_params(**{"richard_abbott.n": 40.0}))
+    assert e.value.field == "richard_abbott.n" and "outside the bounds" in e.value.message
+    ke = predictor.law.params["richard_abbott.ke"]
+    with pytest.raises(InputError) as e:
+        update_nonlinear(predictor, fs, law=predictor.law.with_params(**{"richard_abbott.kp": 2 * ke}))
+    assert e.value.field == "richard_abbott.kp"

@@ -49,3 +49,7 @@ def test_stage2_cli_errors_name_the_input(frf, capsys):
     assert "F_S" in err and "richard_abbott.F_y" in err
     assert main(["structure", "stage2", STRUCTURE, str(path.with_name("none.json")), "--json"]) != 0
     assert "none.json" in capsys.readouterr().err
+    assert main(["structure", "stage2", STRUCTURE, str(path), "--modes", "4", *START,
+                 "--set", "richard_abbott.n=40", "--json"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "richard_abbott.n" in err[0] and "outside the bounds" in err[0]

@@ -38,7 +38,8 @@ def add_structure_arguments(p: argparse.ArgumentParser) -> None:
         if name == "update":
             q.add_argument("--measured-hz", required=True, help="measured natural frequencies, e.g. 28.5,177")
             q.add_argument("--parameter", default=None,
-                           help="joint parameter to update (default E_e_pa for a seed-000 layer)")
+                           help="joint parameter(s) to update, comma-separated (default E_e_pa for a "
+                                "seed-000 layer; E_e_pa,transverse_stiffness_n_per_m places two modes)")
         if name == "frf":
             q.add_argument("--force-n", type=float, required=True, help="force amplitude (N, peak)")
             q.add_argument("--band", required=True, help="frequency band START:END in Hz")
@@ -84,7 +85,9 @@ def _update(args: argparse.Namespace) -> int:
     if getattr(args, "json", False):
         emit_json(res)
         return 0
-    print(f"{r.parameter}: {r.initial:.4g} -> {r.value:.4g} in {len(r.history)} iterations")
+    for k, v in (r.values or {r.parameter: r.value}).items():
+        print(f"{k}: {(r.initials or {k: r.initial})[k]:.4g} -> {v:.4g}")
+    print(f"{len(r.history)} iterations")
     print(table(["mode", "initial Hz", "updated Hz", "measured Hz"],
                 zip(range(1, r.measured_hz.size + 1), r.initial_hz, r.updated_hz, r.measured_hz)))
     return 0

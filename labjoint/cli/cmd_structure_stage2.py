@@ -70,6 +70,8 @@ def run_stage2(args: argparse.Namespace) -> int:
         return 0
     print(table(["parameter", "value", "stderr"],
                 [(k, v["value"], v["stderr"]) for k, v in d["parameters"].items()]))
+    if not d["converged"]:
+        print(f"not converged: {'; '.join(d['flags'])} (standard errors not given)")
     val = d["error_validation_rms"]
     print(f"Eq. 9 RMS error: fit {d['error_fit_rms']:.4g} ({d['fit_steps']} steps around mode 1), "
           f"validation {'-' if val is None else f'{val:.4g}'} ({d['validation_steps']} steps)")

@@ -387,9 +387,10 @@ def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
         tie = f" (tied with {', '.join(best.tie_with)}: {best.tie_reason})" if best.tie_with else ""
         verdict = (f"add {best.effect}: validation NRMSE {100 * ev.nrmse(val_names):.3g} % -> "
                    f"{100 * best.nrmse_after_validation:.3g} %{tie}")
-    else:
-        verdict = (f"{unexplained(model, names)}: NRMSE {100 * ev.nrmse():.3g} % is "
-                   f"{ratio:.3g}x the noise floor and no candidate improves it significantly")
+    else:     # a kind may know that its data were too coarse to decide (frf: issue 32)
+        weak = getattr(kind, "inconclusive", lambda *a: None)(cands, ev.nrmse(val_names), fit_r, val_r)
+        verdict = weak or (f"{unexplained(model, names)}: NRMSE {100 * ev.nrmse():.3g} % is "
+                           f"{ratio:.3g}x the noise floor and no candidate improves it significantly")
     t3 = time.perf_counter()
     return Diagnosis(model, base_fit, ev, noise, floor_val, fit_names, val_names, rule, maps,
                      curves, found, cands, skipped, adequate, verdict, settings,

@@ -100,19 +100,39 @@ class HarmonicBalance:
         R = Z @ x - self.external(F)
         J = Z if jacobian else None
         X = x.reshape(self.m, n)
-        for e, s in enumerate(self.sys.selectors):
-            Q = X @ s
+        sel = self.sys.selectors
+        for group in self.groups:
+            Qs = [X @ sel[e] for e in group]
             if not jacobian:
-                G = self._forces(e, Q, w)[0]
+                rows = [Q[None, :] for Q in Qs]
             else:
-                h = FD_REL * max(np.linalg.norm(Q), 1e-12)
-                batch = np.vstack([Q, Q + h * np.eye(self.m)])
-                Gb = self._forces(e, batch, w)
+                hs = [FD_REL * max(np.linalg.norm(Q), 1e-12) for Q in Qs]
+                rows = [np.vstack([Q, Q + h * np.eye(self.m)]) for Q, h in zip(Qs, hs)]
+            Gall = self._forces(group[0], np.vstack(rows), w)      # one law call per group
+            k = 0
+            for i, e in enumerate(group):
+                Gb = Gall[k:k + rows[i].shape[0]]
+                k += rows[i].shape[0]
                 G = Gb[0]
-                dG = ((Gb[1:] - G) / h).T                     # (2H+1, 2H+1): dG_k / dQ_l
-                J = J + np.kron(dG, np.outer(s, s))
-            R = R + np.outer(G, s).ravel()
+                if jacobian:
+                    dG = ((Gb[1:] - G) / hs[i]).T                # (2H+1, 2H+1): dG_k / dQ_l
+                    J = J + np.kron(dG, np.outer(sel[e], sel[e]))
+                R = R + np.outer(G, sel[e]).ravel()
         return R, J
+
+    @property
+    def groups(self) -> list[list[int]]:
+        """Elements evaluated in one batch: joints with the same law and geometry (the
+        threads of one coupling), every other element alone."""
+        if getattr(self, "_groups", None) is None:
+            keys: dict[object, list[int]] = {}
+            for e, el in enumerate(self.sys.elements):
+                j = getattr(el, "joint", None)
+                key = ((j.law.model.expr, tuple(sorted(j.law.params.items())), j.radius_m, j.stations)
+                       if j is not None else ("own", e))
+                keys.setdefault(key, []).append(e)
+            self._groups = list(keys.values())
+        return self._groups
 
     def d_dw(self, x: np.ndarray, w: float, F: float) -> np.ndarray:
         """dR/dw: exact for the linear part, finite difference for rate-dependent laws."""
@@ -141,21 +161,22 @@ class HarmonicBalance:
         """Newton (with backtracking) at fixed w; ConvergenceError says where and why."""
         x = self.linear_solution(w, F) if x0 is None else np.array(x0, float)
         scale = max(np.linalg.norm(self.external(F)), 1e-300)
-        R, J = self.residual(x, w, F, jacobian=True)
+        R, _ = self.residual(x, w, F)
         r = np.linalg.norm(R) / scale
         for it in range(NEWTON_MAX):
             if r < tol:
                 return x
+            _, J = self.residual(x, w, F, jacobian=True)    # only where Newton goes on from
             dx = lu_solve(lu_factor(J), -R)
             lam = 1.0
             while True:
                 xn = x + lam * dx
-                Rn, Jn = self.residual(xn, w, F, jacobian=True)
+                Rn, _ = self.residual(xn, w, F)
                 rn = np.linalg.norm(Rn) / scale
                 if rn < r or lam < 1e-3:
                     break
                 lam /= 2
-            x, R, J, r = xn, Rn, Jn, rn
+            x, R, r = xn, Rn, rn
         if r < 1e3 * tol:
             return x
         raise ConvergenceError(f"harmonic balance did not converge at {w / (2 * np.pi):.6g} Hz: "

@@ -11,6 +11,19 @@ seed 000). Linear check: M = (r^2 / 2) k_t theta, k_t the law's stuck stiffness.
 A relative transverse displacement is carried by a linear tie (the layer's normal and
 shear stiffness), ``transverse_stiffness``.
 
+Which effects act, and in which direction (issue 32). The patches at +-cos(phi) mirror
+each other, so the even part of any law (a force that does not reverse with the motion:
+a preload offset, one-sided contact, a gap that closes on one side, asymmetric slip)
+cancels in their moment; only the odd part acts in shear. The even part acts in the
+normal direction, where bending opens the layer on one side and closes it on the other:
+along the opening u_n = r theta of the layer's fibre at phi = 0 (the side in contact),
+with moment r E[u_n], E[u] = (F[u] + F[-u]) / 2 the law's even part along the history
+(F[-u]: the law along the mirrored history, rates mirrored too). A law made only of
+odd effects (``ODD_EFFECTS``) has E = 0 and skips the normal direction; every other
+effect, including ones added to the vocabulary later, gets it. So the joint moment is
+M = sum_q (1/N_q) r cos(phi_q) F(u_q) + r E[r theta]. Effects that cannot act in a
+steady periodic joint are refused by name with the reason (``REFUSED``).
+
 Seed 000 writes the law as stress against strain (Eq. 2: E_e, E_p, S_Y, n); for a layer
 of area A = 2 pi r L and thickness h this is the richard_abbott force law with
 ke = E_e A / h, kp = E_p A / h, F_y = S_Y A (:func:`layer_params`).
@@ -26,6 +39,39 @@ from labjoint.errors import InputError
 from labjoint.structure.law import JointLaw
 
 NU_LAYER = 0.3
+#: the joint's translational (transverse) stiffness as an updatable parameter, N/m
+TRANSVERSE = "transverse_stiffness_n_per_m"
+#: effects whose law is odd (F[-u] = -F[u] along mirrored histories): no normal part
+ODD_EFFECTS = frozenset({"linear_stiffness", "viscous", "coulomb", "iwan", "bouc_wen", "valanis",
+                         "richard_abbott", "cubic_stiffness", "inertia", "backlash"})
+#: effects that cannot act in a structure's joint, with the reason
+REFUSED = {
+    "channel_delay": "a time shift between two measured channels, not a force of the joint",
+    "wear": "its slip strength keeps falling with the energy dissipated, so the joint has "
+            "no steady periodic state for harmonic balance or a step-sine FRF",
+}
+
+
+def refusal(effect: str) -> str | None:
+    """Why ``effect`` cannot act in a structure's joint, or None if it can.
+
+    >>> refusal("offset") is None, refusal("wear")[:13]
+    (True, 'its slip stre')
+    """
+    return REFUSED.get(effect)
+
+
+def check_structure_law(law: JointLaw, field: str = "joint.model") -> None:
+    """InputError naming the first effect of ``law`` that cannot act at structure level."""
+    for name in law.model.names:
+        why = refusal(name)
+        if why:
+            raise InputError(f"effect '{name}' cannot act in a structure's joint: {why}", field=field)
+
+
+def has_even_part(law: JointLaw) -> bool:
+    """Whether the law may have an even part (any effect not known to be odd)."""
+    return any(n not in ODD_EFFECTS for n in law.model.names)
 
 
 @dataclass(frozen=True)
@@ -73,6 +119,7 @@ class Joint:
         if self.stations < 4 or self.stations % 2:
             raise InputError(f"stations must be an even number >= 4, got {self.stations}",
                              field=f"joints.{self.name}.stations")
+        check_structure_law(self.law, field=f"joints.{self.name}.model")
 
     @property
     def station_cos(self) -> tuple[np.ndarray, np.ndarray]:
@@ -97,8 +144,18 @@ class Joint:
         U = (arm[None, :, None] * th[:, None, :]).reshape(b * c.size, -1)
         V = (arm[None, :, None] * thd[:, None, :]).reshape(b * c.size, -1)
         A = (arm[None, :, None] * thdd[:, None, :]).reshape(b * c.size, -1)
-        F = self.law.periodic(U, V, A, fs).reshape(b, c.size, -1)
-        return np.einsum("q,bqn->bn", w * arm, F)
+        r = self.radius_m
+        if not has_even_part(self.law):
+            F = self.law.periodic(U, V, A, fs).reshape(b, c.size, -1)
+            return np.einsum("q,bqn->bn", w * arm, F)
+        # the normal direction: the fibre's opening r theta and its mirror, in one batch
+        n = np.vstack([U, r * th, -r * th])
+        nd = np.vstack([V, r * thd, -r * thd])
+        ndd = np.vstack([A, r * thdd, -r * thdd])
+        F = self.law.periodic(n, nd, ndd, fs)
+        shear = np.einsum("q,bqn->bn", w * arm, F[:b * c.size].reshape(b, c.size, -1))
+        even = 0.5 * (F[b * c.size:b * c.size + b] + F[b * c.size + b:])
+        return shear + r * even
 
     def moment_step(self, reversals: np.ndarray, th: float, thd: float, thdd: float) -> float:
         """Joint moment after the past rotation ``reversals`` and a step to ``th``."""
@@ -106,11 +163,18 @@ class Joint:
         arm = self.radius_m * c
         f = [self.law.step_force(a * reversals, a * th, np.array([a * thd]), np.array([a * thdd]))[0]
              for a in arm]
-        return float(np.sum(w * arm * np.array(f)))
+        m = float(np.sum(w * arm * np.array(f)))
+        if has_even_part(self.law):
+            r = self.radius_m
+            fe = [self.law.step_force(s * r * reversals, s * r * th, np.array([s * r * thd]),
+                                      np.array([s * r * thdd]))[0] for s in (1.0, -1.0)]
+            m += r * 0.5 * (fe[0] + fe[1])
+        return m
 
     def with_parameter(self, name: str, value: float) -> Joint:
         """This joint with a stiffness parameter changed: ``E_e_pa`` (the layer's modulus:
-        ke and the transverse tie scale with it) or a law parameter ``effect.param``."""
+        ke and the transverse tie scale with it), ``transverse_stiffness_n_per_m`` (the tie
+        alone) or a law parameter ``effect.param``."""
         if name == "E_e_pa":
             if self.layer is None or self.layer.E_p_pa is None:
                 raise InputError("E_e_pa needs a [joints.layer] with the stress law",
@@ -120,8 +184,12 @@ class Joint:
             law = self.law.with_params(**{"richard_abbott.ke": value * A / h})
             kt = self.transverse_stiffness * value / self.layer.E_e_pa
             return replace(self, law=law, layer=layer, transverse_stiffness=kt)
+        if name == TRANSVERSE:
+            if not value > 0:
+                raise InputError(f"must be > 0, got {value!r}", field=TRANSVERSE)
+            return replace(self, transverse_stiffness=float(value))
         if name not in self.law.params:
-            raise InputError(f"not a parameter of joint '{self.name}' (E_e_pa or one of "
+            raise InputError(f"not a parameter of joint '{self.name}' (E_e_pa, {TRANSVERSE} or one of "
                              f"{', '.join(self.law.params)})", field="update.parameter")
         return replace(self, law=self.law.with_params(**{name: value}))
 
@@ -130,4 +198,6 @@ class Joint:
             return float(self.layer.E_e_pa)
         if name in self.law.params:
             return self.law.params[name]
+        if name == TRANSVERSE:
+            return float(self.transverse_stiffness)
         raise InputError(f"joint '{self.name}' has no parameter '{name}'", field="update.parameter")

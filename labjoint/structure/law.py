@@ -30,6 +30,9 @@ import numpy as np
 
 from labjoint.errors import InputError
 from labjoint.models import Model, ModelInputs
+from labjoint.models.effects import SlipModifiers
+
+NO_MODIFIERS = SlipModifiers()
 
 PRIME_PERIODS = 3
 #: effects whose force depends on the rate of the history, not only on its path
@@ -58,6 +61,26 @@ class JointLaw:
         except InputError as exc:
             raise InputError(exc.message, field=f"{field}.params.{exc.field}") from None
         self.rate_dependent = bool(RATE_EFFECTS & set(self.model.names))
+        self._free, self._mem = self._split()
+        # a memory part of hysteretic effects alone (no modifier, no input effect) is the
+        # sum of their simulations along u: Model.eval's own path for it, without its
+        # per-call bookkeeping (issue 32: that bookkeeping was 3/4 of a diagnosis's time)
+        self._vals = self.model.values(self.params)
+        self._direct = all(e.kind == "hysteretic" for e in self.model.effects)
+
+    def _split(self) -> tuple[JointLaw | None, JointLaw | None]:
+        """The memoryless part (force effects, evaluated for a whole batch of histories in
+        one call) and the part with memory (hysteretic effects and what modifies them,
+        one history at a time); None for an empty part. With an input effect (a gap, a
+        delay) every term sees the transformed history, so nothing is split off."""
+        kinds = {e.kind for e in self.model.effects}
+        free = [e.name for e in self.model.effects if e.kind == "force"]
+        if "input" in kinds or not free or len(free) == len(self.model.effects):
+            return None, None
+        mem = [e.name for e in self.model.effects if e.kind != "force"]
+        part = lambda names: JointLaw("+".join(names), {k: v for k, v in self.params.items()  # noqa: E731
+                                                        if k.split(".")[0] in names})
+        return part(free), part(mem)
 
     def with_params(self, **changes: float) -> JointLaw:
         """A copy with some parameters changed."""
@@ -77,6 +100,10 @@ class JointLaw:
         """
         u, v, a = (np.atleast_2d(np.asarray(x, float)) for x in (u, v, a))
         rows, n = u.shape
+        if self._free is not None:
+            return self._free.periodic(u, v, a, fs) + self._mem.periodic(u, v, a, fs)
+        if all(e.kind == "force" for e in self.model.effects):     # memoryless: one call
+            return self._eval(u.ravel(), v.ravel(), a.ravel(), fs, 0).reshape(rows, n)
         # every row started at its maximum (index arithmetic for the whole batch at once:
         # a roll and a tile per row had cost more than the law itself)
         i0 = np.argmax(u, axis=1)
@@ -87,7 +114,12 @@ class JointLaw:
         out = np.empty_like(u)
         n_prime = 1 + (PRIME_PERIODS - 1) * n
         for k in range(rows):
-            out[k, idx[k]] = self._eval(hist[0][k], hist[1][k], hist[2][k], fs, n_prime)
+            if self._direct:
+                f = sum(e.simulate(self._vals[e.name], hist[0][k], NO_MODIFIERS)[0]
+                        for e in self.model.effects)
+                out[k, idx[k]] = f[n_prime:]
+            else:
+                out[k, idx[k]] = self._eval(hist[0][k], hist[1][k], hist[2][k], fs, n_prime)
         return out
 
     def initial_stiffness(self, du: float = 1e-12) -> float:

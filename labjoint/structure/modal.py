@@ -19,6 +19,7 @@ from scipy.linalg import eigh
 
 from labjoint.errors import InputError, LabjointError
 from labjoint.structure.assembly import Structure
+from labjoint.structure.joint import TRANSVERSE
 
 BOUNDS = (1e-5, 1.1)
 MAX_LOG_STEP = np.log(10.0)
@@ -56,21 +57,23 @@ def with_parameter(structure: Structure, name: str, value: float) -> Structure:
     """Every joint that has parameter ``name`` with that value."""
     joints = []
     for j in structure.joints:
-        has = name in j.law.params or (name == "E_e_pa" and j.layer is not None)
+        has = name in j.law.params or name == TRANSVERSE or (name == "E_e_pa" and j.layer is not None)
         joints.append(j.with_parameter(name, value) if has else j)
     return structure.with_joints(tuple(joints))
 
 
 def parameter_value(structure: Structure, name: str) -> float:
     for j in structure.joints:
-        if name in j.law.params or (name == "E_e_pa" and j.layer is not None):
+        if name in j.law.params or name == TRANSVERSE or (name == "E_e_pa" and j.layer is not None):
             return j.parameter(name)
     raise InputError(f"no joint has parameter '{name}'", field="update.parameter")
 
 
 @dataclass(frozen=True)
 class UpdateResult:
-    """Stage-1 result: the parameter, the frequencies before and after, the history."""
+    """Stage-1 result: the parameter(s), the frequencies before and after, the history.
+    ``parameter``/``initial``/``value``/``bounds`` are the first parameter's; ``values``
+    etc. hold every updated parameter's."""
 
     parameter: str
     initial: float
@@ -81,56 +84,84 @@ class UpdateResult:
     updated_hz: np.ndarray
     history: list[dict]
     structure: Structure
+    values: dict[str, float] | None = None
+    initials: dict[str, float] | None = None
+    all_bounds: dict[str, tuple[float, float]] | None = None
 
     def to_dict(self) -> dict:
-        unit = "Pa" if self.parameter == "E_e_pa" else "SI"
-        return {"parameters": {self.parameter: {"value": self.value, "initial": self.initial,
-                                                "lower": self.bounds[0], "upper": self.bounds[1],
-                                                "unit": unit}},
+        values = self.values or {self.parameter: self.value}
+        initials = self.initials or {self.parameter: self.initial}
+        bounds = self.all_bounds or {self.parameter: self.bounds}
+        return {"parameters": {k: {"value": v, "initial": initials[k], "lower": bounds[k][0],
+                                   "upper": bounds[k][1],
+                                   "unit": "Pa" if k == "E_e_pa" else "N/m" if k == TRANSVERSE else "SI"}
+                               for k, v in values.items()},
                 "frequencies_hz": self.updated_hz.tolist(), "initial_frequencies_hz": self.initial_hz.tolist(),
                 "measured_hz": self.measured_hz.tolist(),
                 "objective": float(np.sum(((self.updated_hz - self.measured_hz) / self.measured_hz) ** 2)),
                 "history": self.history}
 
 
-def update_stiffness(structure: Structure, measured_hz: list[float] | np.ndarray, parameter: str | None = None,
-                     max_iter: int = 50, tol: float = 1e-6) -> UpdateResult:
-    """Eigen-sensitivity updating of one joint parameter (module docstring)."""
+def _with(structure: Structure, values: dict[str, float]) -> Structure:
+    s = structure
+    for k, v in values.items():
+        s = with_parameter(s, k, v)
+    return s
+
+
+def update_stiffness(structure: Structure, measured_hz: list[float] | np.ndarray,
+                     parameter: str | list[str] | None = None, max_iter: int = 50,
+                     tol: float = 1e-6) -> UpdateResult:
+    """Eigen-sensitivity updating of one joint parameter, or of several (a list or
+    ``"a,b"``: e.g. ``E_e_pa,transverse_stiffness_n_per_m``, the rotational and the
+    translational stiffness, to place two modes), by Gauss-Newton in log p (module
+    docstring). Parameters are applied in the order given."""
     f_test = np.asarray(measured_hz, float)
     if f_test.ndim != 1 or f_test.size == 0 or not np.all(np.isfinite(f_test) & (f_test > 0)):
         raise InputError("measured frequencies must be positive numbers", field="measured_hz")
-    name = parameter or default_parameter(structure)
-    p0 = parameter_value(structure, name)
-    if not p0 > 0:
-        raise InputError(f"start value must be > 0, got {p0:g}", field=name)
-    lo, hi = BOUNDS[0] * p0, BOUNDS[1] * p0
+    names = ([p.strip() for p in parameter.split(",") if p.strip()] if isinstance(parameter, str)
+             else list(parameter) if parameter else [default_parameter(structure)])
+    if len(names) > f_test.size:
+        raise InputError(f"{len(names)} parameters need at least as many measured frequencies, got "
+                         f"{f_test.size}", field="update.parameter")
+    p0 = {n: parameter_value(structure, n) for n in names}
+    for n, v in p0.items():
+        if not v > 0:
+            raise InputError(f"start value must be > 0, got {v:g}", field=n)
+    lo = np.log([BOUNDS[0] * p0[n] for n in names])
+    hi = np.log([BOUNDS[1] * p0[n] for n in names])
     m = f_test.size
     history = []
-    x = np.log(p0)
+    x = np.log([p0[n] for n in names])
     s = structure
     f0 = None
     for it in range(max_iter + 1):
-        p = float(np.exp(x))
-        s = with_parameter(structure, name, p)
+        p = dict(zip(names, np.exp(x).tolist()))
+        s = _with(structure, p)
         K = s.stiffness()
         md = modes(s, m, K)
         f = md.frequencies_hz
         f0 = f if f0 is None else f0
-        dp = 1e-6 * p
-        dK = (with_parameter(structure, name, p + dp).stiffness() - K) / dp
-        df_dp = np.einsum("ij,ik,kj->j", md.shapes, dK, md.shapes) / (8 * np.pi ** 2 * f)  # Eq. 8
         r = (f - f_test) / f_test
-        J = df_dp * p / f_test                                   # d r / d log p
-        history.append({"iteration": it, name: p, "frequencies_hz": f.tolist(),
-                        "objective": float(r @ r)})
-        if not (J @ J) > 0:
-            raise LabjointError(f"the frequencies do not depend on {name}: cannot update it")
-        step = float(np.clip(-(J @ r) / (J @ J), -MAX_LOG_STEP, MAX_LOG_STEP))
-        x_new = float(np.clip(x + step, np.log(lo), np.log(hi)))
-        if abs(x_new - x) < tol:
+        J = np.zeros((m, len(names)))
+        for c, n in enumerate(names):
+            dp = 1e-6 * p[n]
+            dK = (_with(structure, {**p, n: p[n] + dp}).stiffness() - K) / dp
+            df_dp = np.einsum("ij,ik,kj->j", md.shapes, dK, md.shapes) / (8 * np.pi ** 2 * f)  # Eq. 8
+            J[:, c] = df_dp * p[n] / f_test                       # d r / d log p
+        history.append({"iteration": it, **p, "frequencies_hz": f.tolist(), "objective": float(r @ r)})
+        dead = [n for c, n in enumerate(names) if not (J[:, c] @ J[:, c]) > 0]
+        if dead:
+            raise LabjointError(f"the frequencies do not depend on {dead[0]}: cannot update it")
+        step = np.clip(np.linalg.lstsq(J, -r, rcond=None)[0], -MAX_LOG_STEP, MAX_LOG_STEP)
+        x_new = np.clip(x + step, lo, hi)
+        if np.max(np.abs(x_new - x)) < tol:
             break
         x = x_new
     else:
-        raise LabjointError(f"stage-1 updating of {name} did not converge in {max_iter} "
-                            f"iterations (last value {np.exp(x):.6g}, objective {history[-1]['objective']:.3g})")
-    return UpdateResult(name, p0, float(np.exp(x)), (lo, hi), f_test, f0, f, history, s)
+        raise LabjointError(f"stage-1 updating of {', '.join(names)} did not converge in {max_iter} "
+                            f"iterations (objective {history[-1]['objective']:.3g})")
+    v = dict(zip(names, np.exp(x).tolist()))
+    b = {n: (float(np.exp(a)), float(np.exp(c))) for n, a, c in zip(names, lo, hi)}
+    return UpdateResult(names[0], p0[names[0]], v[names[0]], b[names[0]], f_test, f0, f, history, s,
+                        v, p0, b)

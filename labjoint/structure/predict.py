@@ -17,6 +17,7 @@ from collections.abc import Mapping
 from dataclasses import replace
 
 import numpy as np
+from scipy.linalg import lu_factor, lu_solve
 
 from labjoint.errors import InputError
 from labjoint.models import Model
@@ -32,6 +33,8 @@ MAX_HARMONICS = 5
 SAMPLES = 64
 #: relative residual of the harmonic balance solves (a measured phasor is known to ~1e-3)
 TOL = 1e-7
+#: relative step of a law parameter in dR/dp (the floor for parameters at zero)
+FD_PARAM, FD_FLOOR = 1e-6, 1e-12
 
 
 class FrfPredictor:
@@ -106,6 +109,46 @@ class FrfPredictor:
             ph = hb.phasors(x, rows)[h] * np.exp(1j * h * np.angle(F))[:, None]   # (h, S) displacement
             out[k, :, :h.size] = convert(ph, h * w, frfset.quantity).T
         return out
+
+    def predict_jacobian(self, frfset: FrfSet, law: JointLaw, names: tuple[str, ...],
+                         harmonics: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`predict` and its derivative in the law parameters ``names``, (n, S, H, P):
+        at each step's solution x the implicit function theorem gives
+        dx/dp = -(dR/dx)^-1 dR/dp, with dR/dx the harmonic balance's Jacobian and dR/dp
+        the change of the joints' force coefficients at fixed x (one law evaluation per
+        parameter, no Newton solve), instead of a whole prediction per parameter."""
+        H_out = frfset.harmonics
+        H = int(min(max(harmonics or self.harmonics, 1), MAX_HARMONICS))
+        rows = self.system.outputs[self.rows(frfset.sensors)]
+        hh = np.arange(1, min(H, H_out) + 1)
+        N = max(self.samples, 8 * H)
+        steps = [FD_PARAM * max(abs(law.params[n]), FD_FLOOR) for n in names]
+        pert = [HarmonicBalance(self.system_with(law.with_params(**{n: law.params[n] + d})), H, N)
+                for n, d in zip(names, steps)]
+        out = np.zeros((len(frfset), len(frfset.sensors), H_out), complex)
+        dout = np.zeros(out.shape + (len(names),), complex)
+        for k, w, F, x, hb in self._steps(frfset, law, H, True):
+            _, J = hb.residual(x, w, float(abs(F)), jacobian=True)
+            X = x.reshape(hb.m, hb.sys.n)
+            sel = hb.sys.selectors
+            dR = np.zeros((x.size, len(names)))
+            for group in hb.groups:                   # the joints of one law in one call
+                Qg = np.vstack([X @ sel[e] for e in group])
+                G0 = hb._forces(group[0], Qg, w)
+                for j, (hbj, d) in enumerate(zip(pert, steps)):
+                    dG = (hbj._forces(group[0], Qg, w) - G0) / d
+                    for i, e in enumerate(group):
+                        dR[:, j] += np.outer(dG[i], sel[e]).ravel()
+            lu = lu_factor(J)
+            # one right-hand side at a time: a multi-column solve goes to level-3 BLAS, whose
+            # threads spin on a shared machine (44 ms against 0.1 ms per step, measured)
+            dx = -np.column_stack([lu_solve(lu, dR[:, j]) for j in range(len(names))])
+            rot = np.exp(1j * hh * np.angle(F))[:, None]
+            out[k, :, :hh.size] = convert(hb.phasors(x, rows)[hh] * rot, hh * w, frfset.quantity).T
+            for j in range(len(names)):
+                dph = hb.phasors(dx[:, j], rows)[hh] * rot
+                dout[k, :, :hh.size, j] = convert(dph, hh * w, frfset.quantity).T
+        return out, dout
 
     def predict_rows(self, frfset: FrfSet, law: JointLaw | None, rows: np.ndarray) -> np.ndarray:
         """(n, r) harmonic-1 phasors of ``rows`` of the system's coordinates (e.g. the

@@ -39,6 +39,8 @@ from labjoint.structure.stage2 import split_by_mode
 METHOD = ("the FRF set's response_std of each phasor (residuals whitened by it: the floor is "
           "1 / rms of the whitened measured phasors)")
 MIN_STD_FRACTION = 1e-6
+#: steps a sweep needs around a resonance to show it (a peak and its two sides)
+MIN_STEPS = 3
 
 
 def whiten(resp: np.ndarray, std: np.ndarray) -> np.ndarray:
@@ -149,6 +151,12 @@ def prepare_frfsets(sets: Sequence[FrfSet | tuple[str, FrfSet]], predictor: FrfP
                 sub = FrfSet(sub.frequencies_hz, sub.level_n, sub.direction, sub.force, sub.sensors,
                              resp, sd, sub.quantity, sub.drive_v, sub.runs, sub.metadata)
                 nm = f"{name}@{lv:g}N-{d}-mode{m + 1}"
+                if len(sub) < MIN_STEPS:
+                    raise InputError(
+                        f"sweep {nm} has {len(sub)} step(s) near mode {m + 1} ({nat[m]:.4g} Hz): too "
+                        f"few near a resonance to decide; measure at least {MIN_STEPS} steps across "
+                        f"it, no more than {2 * 0.01 * nat[m] / 4:.2g} Hz apart for 1 % damping",
+                        file=fs.metadata.get("path"), field="frequencies_hz")
                 out.append(FrfMeasurement(nm, sub, predictor, int(m), _data(nm, sub, sd), sd,
                                           fs.metadata.get("path"), dict(fs.metadata)))
     return out

@@ -20,9 +20,11 @@ from typing import Any
 import numpy as np
 
 from labjoint.compare.kinds.frf_fit import FRF_EFFECTS, fit_frf
+from labjoint.compare.kinds.frf_verdict import inconclusive
 from labjoint.compare.kinds.frf import FrfMeasurement
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model
+from labjoint.structure.joint import refusal
 from labjoint.vocabulary import EFFECTS
 
 FAIL_RATIO = 2.0
@@ -151,16 +153,30 @@ class FrfKind:
         skipped, out = {}, []
         for n in names:
             if n not in FRF_EFFECTS:
-                skipped[n] = "not a joint law in the structure's harmonic balance"
+                skipped[n] = f"cannot act in a structure's joint: {refusal(n)}"
+            elif only is None and n in ON_REQUEST:
+                skipped[n] = ON_REQUEST[n]
             elif EFFECTS[n].kind == "modifier" and not hyst:
                 skipped[n] = "scales slip strengths, but the model has no hysteretic part"
             else:
                 out.append(n)
         return out, skipped
 
+    def inconclusive(self, cands: Sequence[Any], base_validation: float,
+                     fit_ms: Sequence[FrfMeasurement], val_ms: Sequence[FrfMeasurement]) -> str | None:
+        return inconclusive(cands, base_validation, fit_ms, val_ms)
+
     def fit(self, model: Model | str, fit_ms: Sequence[FrfMeasurement],
             val_ms: Sequence[FrfMeasurement] = (), init: Any = None) -> FitResult:
         return fit_frf(model, fit_ms, val_ms, init)
 
+
+#: effects that act in a joint but are tried only when named (--candidates): each fit in a
+#: structure costs seconds, and these share the signature of the slip laws tried by default
+ON_REQUEST = {n: "tried when named (--candidates): a hysteretic slip law with the signature of "
+                 "coulomb, iwan and richard_abbott, which are tried by default" for n in ("bouc_wen", "valanis")}
+ON_REQUEST["backlash"] = ("tried when named (--candidates): its gap acts on the whole joint law, "
+                          "stiffness included; on the benchmark's set harmonic balance could not "
+                          "follow a resonance from any start")
 
 FRF = FrfKind()
