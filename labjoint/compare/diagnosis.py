@@ -33,7 +33,8 @@ from typing import Any
 
 import numpy as np
 
-from labjoint.compare.candidates import ablate, candidate_effects, refine, refit_candidates
+from labjoint.compare.candidates import (ablate, candidate_effects, candidate_model, refine,
+                                         refit_candidates)
 from labjoint.compare.evidence import explanation
 from labjoint.compare.kinds import kind_of
 from labjoint.compare.measurement import Kind, Measurement, NoiseFloor, noise_floor
@@ -58,7 +59,7 @@ def unexplained(model: Model, tried: Sequence[str]) -> str:
 
     >>> m = Model.parse("linear_stiffness")
     >>> unexplained(m, ["offset", "inertia"])
-    'structure remains: the missing effect is not among the 2 tried (offset, inertia; 9 registered effects not tried)'
+    'structure remains: the missing effect is not among the 2 tried (offset, inertia; 13 registered effects not tried)'
     >>> unexplained(m, candidate_effects(m)[0])
     'structure remains that no known effect explains'
     """
@@ -259,6 +260,25 @@ def _ties(cands: list[CandidateResult], base_ev: Evaluation, val: list[str], flo
                     x.tie_reason = why if not x.tie_reason else x.tie_reason
 
 
+def simpler_first(cands: list[CandidateResult]) -> list[CandidateResult]:
+    """Candidates in ranking order, where tied ones (:func:`_ties`) go by fewer parameters
+    first (the simpler physical reading; then the lower validation NRMSE): the first name
+    is the one a user and the ladder take, and a tie cannot tell the data's preference."""
+    rest = list(cands)
+    out: list[CandidateResult] = []
+    while rest:
+        head = rest[0]
+        group = [c for c in rest if c is head or c.effect in head.tie_with]
+        pick = min(group, key=lambda c: (len(c.fit.params_), c.nrmse_after_validation))
+        if pick is not head and not pick.tie_reason.endswith("first)"):
+            pick.tie_reason = (f"{pick.tie_reason} ({pick.effect} ranked first: "
+                               f"{len(pick.fit.params_)} parameters against "
+                               f"{len(head.fit.params_)}, the simpler reading first)")
+        out.append(pick)
+        rest.remove(pick)
+    return out
+
+
 def judged_runs(runs: Sequence[Measurement], fit_r: Sequence[Measurement],
                 val_r: Sequence[Measurement]) -> list[Measurement]:
     """The measurements a diagnosis evaluates: ``runs``, or the fit and validation parts
@@ -299,7 +319,7 @@ def own_refits(own: Callable[..., FitResult], base_fit: FitResult, model: Model,
     """Candidates refitted by a kind's own fitter, each from the baseline's optimum."""
     out = {}
     for n in names:
-        out[n] = own(Model.parse(f"{model.expr}+{n}"), fit_r, val_r, init=base_fit)
+        out[n] = own(candidate_model(model, n), fit_r, val_r, init=base_fit)
         if progress:
             progress(n)
     return out
@@ -372,6 +392,7 @@ def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
     t2 = time.perf_counter()
     _ties(cands, ev, val_names, floor_val, sig_s)
     cands.sort(key=lambda c: (not c.significant, c.nrmse_after_validation))
+    cands = simpler_first(cands)
     best = next((c for c in cands if c.significant), None)
     adequate = near and best is None
     ratio = ev.nrmse() / noise.nrmse if noise.nrmse > 0 else float("inf")

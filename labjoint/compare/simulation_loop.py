@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from labjoint.compare.candidates import candidate_effects
+from labjoint.compare.candidates import candidate_effects, candidate_model
 from labjoint.compare.describe import pct_text
 from labjoint.compare.kinds import KINDS
 from labjoint.compare.kinds.record import RecordMeasurement
@@ -210,7 +210,7 @@ def diagnose_simulation(runs: Any, model: str | Model, *, validate: Sequence[Any
     t1 = time.perf_counter()
     cands = []
     for name in ([] if quiet else simulable):
-        ext = Model.parse(f"{model.expr}+{name}")
+        ext = candidate_model(model, name)
         try:
             fit = fit_prepared(fit_r, ext, validation=val_r, periodic=periodic,
                                substeps=substeps, seed=seed, warm=base.params)
