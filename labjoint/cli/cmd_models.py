@@ -124,13 +124,22 @@ def fit(args: argparse.Namespace) -> int:
         emit_json(res)
         return 0
     print(f"model {res['model']}: NRMSE {_pct(res['nrmse'])}, noise floor {_pct(res['noise_floor'])}")
-    print(table(["parameter", "value", "stderr", "unit"],
-                [[k, v["value"], v["stderr"], v["unit"]] for k, v in res["parameters"].items()]))
+    _print_parameters(res)
     print()
     print(table(["run", "NRMSE %", "energy loss err %", "stiffness err %"],
                 [[r["run"], _x100(r["nrmse"]), r["energy_loss_error_pct"], r["stiffness_error_pct"]]
                  for r in res["runs"]]))
     return 0
+
+
+def _print_parameters(res: dict[str, Any]) -> None:
+    """The parameter table, then each flagged parameter and each even effect's asymmetry."""
+    print(table(["parameter", "value", "stderr", "unit"],
+                [[k, v["value"], v["stderr"], v["unit"]] for k, v in res["parameters"].items()]))
+    for k, why in (res.get("flags") or {}).items():
+        print(f"warning: {k}: {why}")
+    for a in res.get("asymmetry") or []:
+        print(f"asymmetry: {a['text']}")
 
 
 def _fit_simulation(args: argparse.Namespace) -> int:
@@ -150,8 +159,7 @@ def _fit_simulation(args: argparse.Namespace) -> int:
         return 0
     print(f"model {res['model']} by simulation error: RMSE {res['rmse']:.4g} m, NRMSE "
           f"{_pct(res['nrmse'])}, noise floor {_pct(res['noise_floor'])}")
-    print(table(["parameter", "value", "stderr", "unit"],
-                [[k, v["value"], v["stderr"], v["unit"]] for k, v in res["parameters"].items()]))
+    _print_parameters(res)
     for w in res["warnings"]:
         print(f"warning: {w}")
     if args.out:
@@ -211,6 +219,10 @@ def _print_diagnosis(res: dict[str, Any], how: str) -> None:
     print(f"model {res['model']}{how}: NRMSE {_pct(res['nrmse'])}, noise floor "
           f"{_pct(res['noise_floor'])}, adequate: {'yes' if res['adequate'] else 'no'}")
     print(res["verdict"])
+    for k, why in (res.get("flags") or {}).items():
+        print(f"warning: {k}: {why}")
+    for a in res.get("asymmetry") or []:
+        print(f"asymmetry: {a['text']}")
     print("\nwhere it fails:")
     for f in res["failures"]:
         print(f"  [{f['where']}] {f['text']}")

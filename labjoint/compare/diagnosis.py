@@ -44,6 +44,7 @@ from labjoint.compare.significance import (PairedTest, SignificanceSettings, cor
                                            is_significant, noise_test, nrmse_se, paired_test)
 from labjoint.compare.ties import tie_reason
 from labjoint.models import FitResult, Model, ModelFitter
+from labjoint.models.asymmetry import EVEN, amplitude, asymmetry
 from labjoint.models.effects import get_effect
 
 DEFAULT_FACTOR = 1.5
@@ -103,6 +104,7 @@ class CandidateResult:
     explanation: str = ""
     tie_with: list[str] = field(default_factory=list)
     tie_reason: str = ""
+    asymmetry: list[dict[str, Any]] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         d = {"effect": self.effect, "nrmse_after": self.nrmse_after,
@@ -113,16 +115,31 @@ class CandidateResult:
              "parameters": parameters_dict(self.fit)}
         if self.tie_with:
             d["tie"] = {"with": list(self.tie_with), "reason": self.tie_reason}
+        if self.asymmetry:
+            d["asymmetry"] = self.asymmetry
         return d
 
 
+def fit_asymmetry(fit: FitResult, runs: Sequence[Measurement]) -> list[dict[str, Any]]:
+    """The even effects' asymmetry (:mod:`labjoint.models.asymmetry`) at the largest
+    displacement amplitude of the runs (none for FRF sets: their data are phasors)."""
+    if not any(n in EVEN for n in fit.model.names) or not runs or runs[0].kind == "frf":
+        return []
+    return asymmetry(fit.model, fit.params_.valuesdict(), amplitude([r.data for r in runs]))
+
+
 def parameters_dict(fit: FitResult) -> dict[str, dict[str, Any]]:
-    """``{"<effect>.<param>": {"value", "stderr", "unit"}}`` of a fit."""
+    """``{"<effect>.<param>": {"value", "stderr", "unit"}}`` of a fit, and ``"flag"`` where
+    the standard error is undetermined (then ``stderr`` is null) or exceeds the value
+    (:func:`labjoint.models.result.parameter_flags`)."""
     out = {}
+    flags = fit.flags_
     for k, p in fit.params_.items():
         se = fit.stderr_.get(k)
         out[k] = {"value": p.value, "stderr": None if se is None or not np.isfinite(se) else se,
                   "unit": p.unit}
+        if k in flags:
+            out[k]["flag"] = flags[k]
     return out
 
 
@@ -175,6 +192,8 @@ class Diagnosis:
             "split": self.split_rule, "fit_runs": self.fit_runs,
             "validation_runs": self.validation_runs,
             "parameters": parameters_dict(self.base),
+            "flags": self.base.flags_,
+            "asymmetry": fit_asymmetry(self.base, [r.run for r in self.evaluation.runs]),
             "runs": [r.to_dict() for r in self.evaluation.runs],
             "timing_s": self.timing_s,
         }
@@ -224,9 +243,12 @@ class Baseline:
         against = "" if ref is base_ev else " (against the baseline refitted from its optimum)"
         val_txt = (f"validation NRMSE {100 * nv_base:.3g} % -> {100 * nv:.3g} %{against} (noise "
                    f"floor {100 * self.floor:.3g} %), {reason}")
+        asym = fit_asymmetry(fit, self.runs)
+        words = "; ".join(a["text"] for a in asym)
+        evid = self.kind.evidence(name, base_ev, ev, self.maps, maps, fit, val_txt)
         return CandidateResult(name, fit, ev, ev.nrmse(), nv, test, sig, reason,
-                               self.kind.evidence(name, base_ev, ev, self.maps, maps, fit, val_txt),
-                               explanation(name))
+                               f"{evid}; {words}" if words else evid, explanation(name),
+                               asymmetry=asym)
 
 
 def _ties(cands: list[CandidateResult], base_ev: Evaluation, val: list[str], floor: float,
