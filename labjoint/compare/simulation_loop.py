@@ -184,6 +184,8 @@ def diagnose_simulation(runs: Any, model: str | Model, *, validate: Sequence[Any
                         factor: float = DEFAULT_FACTOR,
                         significance: SignificanceSettings = SignificanceSettings(),
                         seed: int = 0, base: SimulationFit | None = None,
+                        start: dict[str, float] | None = None,
+                        bounds: dict[str, tuple[float, float]] | None = None,
                         split: tuple[list[RecordMeasurement], list[RecordMeasurement], str] | None = None,
                         progress: Callable[[str], None] | None = None) -> SimulationDiagnosis:
     """Diagnose ``model`` by simulation error (module docstring)."""
@@ -193,7 +195,7 @@ def diagnose_simulation(runs: Any, model: str | Model, *, validate: Sequence[Any
     fit_r, val_r, rule = split or prepare_split(runs, validate, periodic=periodic, warmup=warmup)
     if base is None:
         base = fit_prepared(fit_r, model, validation=val_r, periodic=periodic,
-                            substeps=substeps, seed=seed)
+                            substeps=substeps, seed=seed, start=start, bounds=bounds)
     if progress:
         progress(f"fitted {model.expr} by simulation")
     floor, floor_val = displacement_floor(base.fit), displacement_floor(base.validation)
