@@ -158,9 +158,9 @@ def fit(args: argparse.Namespace) -> int:
 
     if args.error == "simulation":
         return _fit_simulation(args)
-    if args.out or args.periodic or args.start or args.bound:
-        raise InputError("--out, --periodic, --start and --bound go with --error simulation",
-                         field="error")
+    if args.out:
+        raise InputError("--out goes with --error simulation", field="error")
+    _simulation_only(args)
     res = fit_runs(args.runs, args.model, **_options(args, False))
     if args.json:
         emit_json(res)
