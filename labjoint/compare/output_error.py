@@ -10,7 +10,9 @@ the output in place of the force).
   excitation is found, and with it whether the record is periodic.
 - Start: the equation-error fit of the same model on the same records (the force
   balance along the measured history, :func:`labjoint.compare.api.fit_report`), which
-  needs only the data's loop quantities. Where it is not a stable oscillator (mass or
+  needs only the data's loop quantities; for a candidate, that or the same with the
+  smaller model's optimum for its parameters, whichever simulates the records better
+  (the smaller model's compromise can sit far from the larger one's). Where it is not a stable oscillator (mass or
   stiffness <= 0) or its simulation diverges on the first record, the mass, stiffness
   and damping come from the records' FRF instead (:mod:`labjoint.compare.sim_start`),
   the other parameters kept. The user's ``start`` values (``--start name=value``) go on
@@ -328,20 +330,46 @@ def _user(start: Parameters, values: dict[str, float] | None,
         q.value = v
 
 
+def _sse(model: Model, vals: dict[str, float], recs: list[RecordMeasurement], periodic: bool,
+         substeps: int) -> float:
+    """Simulation error (sum of squares over the judged samples, each record in units of
+    its displacement's standard deviation); inf where a simulation diverges."""
+    total = 0.0
+    for m in recs:
+        y, j = _output(m)
+        try:
+            pred = simulate(model, vals, m.data.force, m.fs, substeps=substeps, periodic=periodic)
+        except InputError:
+            return float("inf")
+        with np.errstate(invalid="ignore", over="ignore"):
+            r = (y - _aligned(pred, y, j))[j] / max(float(np.std(y[j])), 1e-300)
+        if not np.all(np.isfinite(r)):
+            return float("inf")
+        total += float(r @ r)
+    return total
+
+
 def start_values(fit_recs: list[RecordMeasurement], model: Model, seed: int = 0,
                  warm: Parameters | None = None, *, periodic: bool = False,
                  substeps: int = DEFAULT_SUBSTEPS, user: dict[str, float] | None = None,
                  bounds: dict[str, tuple[float, float]] | None = None) -> tuple[Parameters, str]:
     """Start of the search and where it came from (module docstring): the equation-error
-    fit of ``model`` with the values of ``warm`` (a fit of a smaller model) where it has
-    them, the FRF's m, c, k where that is unstable, then the user's values."""
+    fit of ``model``, or that fit with the values of ``warm`` (a fit of a smaller model)
+    where it has them, whichever simulates the records better; the FRF's m, c, k where
+    the chosen one is unstable; then the user's values."""
     start = fit_report(fit_recs, model, seed=seed).fit.params_.copy()
-    for k, q in (warm or {}).items():
-        if k in start:
-            start[k].value = float(q.value)
+    origin = "equation-error fit"
+    if warm:
+        mixed = start.copy()
+        for k, q in warm.items():
+            if k in mixed:
+                mixed[k].value = float(q.value)
+        own = _sse(model, start.valuesdict(), fit_recs, periodic, substeps) \
+            if _unstable(start.valuesdict()) is None else float("inf")
+        if _sse(model, mixed.valuesdict(), fit_recs, periodic, substeps) <= own:
+            start, origin = mixed, "equation-error fit with the smaller model's values"
     vals = start.valuesdict()
     why = _unstable(vals) or _diverges(model, vals, fit_recs[0], periodic, substeps)
-    origin = "equation-error fit" + (" and the smaller model's fit" if warm else "")
     if why is not None:
         for k, v in frf_start(fit_recs).items():
             if k in start:
