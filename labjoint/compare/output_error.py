@@ -35,7 +35,10 @@ the output in place of the force).
   first sample as zero instead biased the parameters by the noise of that one sample).
   Judged samples: those of the record kind (after the warm-up).
 - Noise floor: the record's displacement noise (period scatter or the difference method)
-  over the rms of its judged displacement.
+  and its force noise passed through the model's linear part (the force is the
+  simulation's input: sigma_F^2 times the mean of |H|^2 over 0..fs/2, H = 1 / (k - m w^2
+  + i c w) of the fitted inertia, viscous and linear_stiffness), over the rms of its
+  judged displacement.
 """
 
 from __future__ import annotations
@@ -117,13 +120,30 @@ def _aligned(pred: np.ndarray, y: np.ndarray, judged: np.ndarray) -> np.ndarray:
     return pred + float(np.mean((y - pred)[judged]))
 
 
+def output_noise(params: Parameters | dict[str, float], m: RecordMeasurement) -> float:
+    """The displacement noise a simulation error cannot go below (m): the record's own
+    and its force noise through the model's linear part (module docstring)."""
+    noise = m.noise()
+    val = {k: float(getattr(v, "value", v)) for k, v in params.items()}
+    mass, c, k = val.get("inertia.m", 0.0), val.get("viscous.c", 0.0), val.get("linear_stiffness.k", 0.0)
+    var = noise.displacement_std ** 2
+    if mass > 0 and np.isfinite(noise.force_std):
+        w = 2 * np.pi * np.linspace(0.0, 0.5 * m.fs, 65537)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            h2 = 1.0 / np.abs(k - mass * w * w + 1j * c * w) ** 2
+        h2 = h2[np.isfinite(h2)]
+        if h2.size:
+            var += noise.force_std ** 2 * float(np.mean(h2))
+    return float(np.sqrt(var))
+
+
 def predict_record(model: Model, params: Parameters | dict[str, float], m: RecordMeasurement,
                    *, periodic: bool = False, substeps: int = DEFAULT_SUBSTEPS) -> Prediction:
     """Simulate ``model`` on the record's force and compare with its displacement."""
     y, judged = _output(m)
     pred = simulate(model, params, m.data.force, m.fs, substeps=substeps, periodic=periodic)
     pred = _aligned(pred, y, judged)
-    return Prediction(m.name, pred, y, judged, float(m.noise().displacement_std), m.fs)
+    return Prediction(m.name, pred, y, judged, output_noise(params, m), m.fs)
 
 
 def displacement_floor(preds: list[Prediction]) -> float:

@@ -28,8 +28,9 @@ Preparation (:func:`prepare_record`):
   symmetric about its rest position sits on average under a force of zero mean).
 - derivatives: the band-limited spectral ones of :mod:`labjoint.models.inputs`, with
   periodic continuation at the edges only for periodic excitation. Band: for broadband
-  excitation (multisine, sweep, random) with a known band, ``EXCITED_FACTOR`` x its
-  highest frequency (the judged force balance in the excited band: a mass or damper fed
+  excitation (multisine, sweep, random), ``EXCITED_FACTOR`` x the frequency below which
+  ``EXCITED_POWER`` of the excitation's power lies (Welch, Hann windows, over the
+  excited span; the data's own band, not the detector's lines) (the judged force balance in the excited band: a mass or damper fed
   the displacement noise differentiated up to kHz had a residual of the noise times
   m w^2 and estimates biased towards zero, errors in the variables; an inertia +
   viscous + linear record with 0.5 % noise fitted m ~ 0 and k < 0 at 99.5 % NRMSE, and
@@ -60,6 +61,7 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
+from scipy.signal import welch
 
 from labjoint.compare.kinds.record_maps import RecordKind
 from labjoint.compare.measurement import RunNoise
@@ -75,6 +77,7 @@ from labjoint.storage import Run, read_any
 
 MIN_UNITS = 4
 EXCITED_FACTOR = 1.15
+EXCITED_POWER = 0.999
 EXCITED_ORDER = 24
 BLOCK_PERIODS = 4.0
 MAX_BLOCKS = 64
@@ -235,10 +238,25 @@ def _band(exc: Excitation) -> tuple[float | None, float | None]:
     return None, None
 
 
-def derivative_band(exc: Excitation, f_hi: float | None) -> tuple[float, int]:
-    """The derivatives' band (Hz) and roll-off order for an excitation (module docstring)."""
-    if exc.kind != "sine" and f_hi:
-        return EXCITED_FACTOR * f_hi, EXCITED_ORDER
+def power_top(x: np.ndarray, fs: float, share: float = EXCITED_POWER) -> float | None:
+    """The frequency (Hz) below which ``share`` of the power of ``x`` (mean removed) lies:
+    Welch, Hann windows of up to 4096 samples; None for a record too short or silent."""
+    x = np.asarray(x, dtype=float)
+    if x.size < 64:
+        return None
+    f, p = welch(x - x.mean(), fs=fs, nperseg=min(x.size, 4096))
+    c = np.cumsum(p)
+    if not c[-1] > 0:
+        return None
+    return float(f[min(int(np.searchsorted(c, share * c[-1])), f.size - 1)])
+
+
+def derivative_band(exc: Excitation, f_hi: float | None, top: float | None = None
+                    ) -> tuple[float, int]:
+    """The derivatives' band (Hz) and roll-off order for an excitation (module docstring);
+    ``top``: the excitation's :func:`power_top`."""
+    if exc.kind != "sine" and top:
+        return EXCITED_FACTOR * top, EXCITED_ORDER
     return max(DEFAULT_BAND_HZ, 8.0 * (f_hi or 0.0)), BUTTER_ORDER
 
 
@@ -302,7 +320,7 @@ def prepare_record(run: Run | str | Path, *, band_hz: float | None = None,
         ref = float(np.mean(u_raw[keep]))
     u = u_raw - ref
     f_hi = _band(exc)[1]
-    band, order = derivative_band(exc, f_hi)
+    band, order = derivative_band(exc, f_hi, power_top(np.asarray(run.excitation, float)[a0:a1], fs))
     band = min(band_hz if band_hz is not None else band, 0.4 * fs)
     v, a = derivatives(u, fs, band, fs / per if periodic and per else None, periodic=periodic,
                        order=order)
