@@ -140,3 +140,23 @@ def test_fit_out_and_predict_warmup_write_only_finite_numbers(tmp_path, capsys):
     assert res["nrmse"] < 1e-2 and res["warmup"] == "1.0"
     assert main(["predict", str(out), str(test), "--warmup", "-1", "--json"]) == 2
     assert "warmup" in capsys.readouterr().err
+
+
+def test_a_voltage_or_acceleration_where_the_model_needs_a_force_or_displacement_is_refused():
+    """Channels that state their quantity (imported files do) are guarded by it: a drive
+    voltage is never taken as the model's force, an acceleration never as displacement."""
+    r = steady_record("volts")
+    chans = {"displacement": r.displacement, "force": r.force}
+    for q, field in (({"force": "voltage", "displacement": "displacement"}, "force"),
+                     ({"force": "force", "displacement": "acceleration"}, "displacement")):
+        run = Run("volts", r.time, r.displacement, r.force,
+                  {"sample_rate_hz": FS, "channel_quantities": q,
+                   "displacement_channels": ["displacement"], "joint_force_channel": "force"},
+                  chans)
+        with pytest.raises(InputError, match=f"channel '{field}' is a {q[field]}") as exc:
+            prepare([run], kind="record", warmup=0)
+        assert exc.value.field == field
+    ok = Run("ok", r.time, r.displacement, r.force,
+             {"sample_rate_hz": FS, "channel_quantities": {"force": "force", "displacement": "displacement"},
+              "displacement_channels": ["displacement"], "joint_force_channel": "force"}, chans)
+    assert prepare([ok], kind="record", warmup=0)[0].name == "ok"
