@@ -29,8 +29,8 @@ Preparation (:func:`prepare_record`):
 - derivatives: the band-limited spectral ones of :mod:`labjoint.models.inputs`, with
   periodic continuation at the edges only for periodic excitation. Band: for broadband
   excitation (multisine, sweep, random), ``EXCITED_FACTOR`` x the frequency below which
-  ``EXCITED_POWER`` of the excitation's power lies (Welch, Hann windows, over the
-  excited span; the data's own band, not the detector's lines) (the judged force balance in the excited band: a mass or damper fed
+  ``EXCITED_POWER`` of the excitation's power lies (periodogram of the excited span;
+  the data's own band, not the detector's lines) (the judged force balance in the excited band: a mass or damper fed
   the displacement noise differentiated up to kHz had a residual of the noise times
   m w^2 and estimates biased towards zero, errors in the variables; an inertia +
   viscous + linear record with 0.5 % noise fitted m ~ 0 and k < 0 at 99.5 % NRMSE, and
@@ -61,7 +61,6 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
-from scipy.signal import welch
 
 from labjoint.compare.kinds.record_maps import RecordKind
 from labjoint.compare.measurement import RunNoise
@@ -240,11 +239,13 @@ def _band(exc: Excitation) -> tuple[float | None, float | None]:
 
 def power_top(x: np.ndarray, fs: float, share: float = EXCITED_POWER) -> float | None:
     """The frequency (Hz) below which ``share`` of the power of ``x`` (mean removed) lies:
-    Welch, Hann windows of up to 4096 samples; None for a record too short or silent."""
+    the periodogram of the whole span (every sample counts alike: Welch's segments drop a
+    sweep's last part, a taper its ends); None for a record too short or silent."""
     x = np.asarray(x, dtype=float)
     if x.size < 64:
         return None
-    f, p = welch(x - x.mean(), fs=fs, nperseg=min(x.size, 4096))
+    p = np.abs(np.fft.rfft(x - x.mean())) ** 2
+    f = np.fft.rfftfreq(x.size, 1.0 / fs)
     c = np.cumsum(p)
     if not c[-1] > 0:
         return None
