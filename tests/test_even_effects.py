@@ -32,7 +32,7 @@ def joint_force(u, v, k2=0.0, kc=0.0, gap=0.0):
     return F
 
 
-def sine_set(tmp_path, law, freq=50.0, fs=5000.0, noise=0.002, seed=0):
+def sine_set(tmp_path, law, freq=50.0, fs=5000.0, noise=0.002, seed=0, force=None):
     """CSV runs: a displacement sine ramped over 2 cycles (its velocity in closed form),
     the force from ``law`` plus Gaussian noise of ``noise`` x its rms."""
     rng = np.random.default_rng(seed)
@@ -44,7 +44,7 @@ def sine_set(tmp_path, law, freq=50.0, fs=5000.0, noise=0.002, seed=0):
         denv = np.where(t * freq < 2, freq / 2, 0.0)
         u = a * env * np.sin(w * t)
         v = a * (env * w * np.cos(w * t) + denv * np.sin(w * t))
-        F = joint_force(u, v, **law)
+        F = (force or joint_force)(u, v, **law)
         F = F + noise * np.std(F) * rng.standard_normal(F.size)
         p = tmp_path / f"run{i}.csv"
         with open(p, "w") as fh:
@@ -212,3 +212,27 @@ def test_simulation_error_diagnosis_names_the_quadratic_along_a_record():
     assert d.best.fit.params["quadratic_stiffness.k2"].value == pytest.approx(k2, rel=0.1)
     (a,) = d.best.fit.asymmetry()
     assert a["stiffer_side"] == "+u"
+
+
+@pytest.mark.slow
+def test_tied_candidates_go_by_fewer_parameters_and_the_ladder_takes_the_simpler(tmp_path):
+    """A bilinear joint (kink at rest): a contact with its gap at ~0 is the same law with
+    one parameter more; the two tie (the contact's extra parameter even lowers its NRMSE
+    by a hair), and the simpler is named first, in any order given (issue 33 item 9)."""
+    from labjoint.compare.api import diagnose_report, ladder_runs
+    from labjoint.compare.diagnosis import simpler_first
+
+    def bilinear(u, v):
+        return K * u + C * v + 3e5 * np.maximum(u, 0.0)
+
+    runs = sine_set(tmp_path, {}, force=bilinear)
+    d = diagnose_report(runs, "linear_stiffness+viscous",
+                        candidates="bilinear_stiffness,contact")
+    first, second = d.candidates[:2]
+    assert first.effect == "bilinear_stiffness" and second.effect == "contact"
+    assert first.tie_with == ["contact"] and "cannot be told apart" in first.tie_reason
+    assert d.verdict.startswith("add bilinear_stiffness")
+    assert [c.effect for c in simpler_first([second, first])][0] == "bilinear_stiffness"
+    lad = ladder_runs(runs, "linear_stiffness+viscous", candidates="bilinear_stiffness,contact",
+                      max_steps=1, save=False)
+    assert lad["steps"][1]["added"] == "bilinear_stiffness"

@@ -25,6 +25,18 @@ KNOWN = {
         "both shift the loop's mean force; asymmetric slip's shift follows the slip "
         "(amplitude), an offset is the same at every amplitude, so a wider amplitude range "
         "separates them"),
+    frozenset({"bilinear_stiffness", "contact"}): (
+        "a contact whose gap is (nearly) zero is a bilinear stiffness: both add a slope on "
+        "one side of rest; amplitudes below the gap, where a contact carries nothing, "
+        "separate them"),
+    frozenset({"quadratic_stiffness", "bilinear_stiffness"}): (
+        "both stiffen one side of rest: smoothly (k2 u^2, a 2nd harmonic growing with the "
+        "square of the amplitude) or with a kink at rest (in proportion to it); a wider "
+        "amplitude range separates them"),
+    frozenset({"cubic_stiffness", "bouc_wen"}): (
+        "a hardening Bouc-Wen law (alpha + beta < 0) with little loss bends the loop like "
+        "a cubic spring; its loss and the shape of its branches (data into the hysteretic "
+        "range, or of another frequency) separate them"),
     frozenset({"cubic_stiffness", "backlash"}): (
         "both make the apparent stiffness rise with amplitude; backlash leaves a flat waist "
         "at small displacement, visible with larger amplitude range or smaller amplitudes"),
