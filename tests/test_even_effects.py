@@ -220,7 +220,7 @@ def test_tied_candidates_go_by_fewer_parameters_and_the_ladder_takes_the_simpler
     one parameter more; the two tie (the contact's extra parameter even lowers its NRMSE
     by a hair), and the simpler is named first, in any order given (issue 33 item 9)."""
     from labjoint.compare.api import diagnose_report, ladder_runs
-    from labjoint.compare.diagnosis import simpler_first
+    from labjoint.compare.ties import simpler_first
 
     def bilinear(u, v):
         return K * u + C * v + 3e5 * np.maximum(u, 0.0)

@@ -40,9 +40,9 @@ from labjoint.compare.kinds import kind_of
 from labjoint.compare.measurement import Kind, Measurement, NoiseFloor, noise_floor
 from labjoint.compare.metrics import Evaluation, evaluate
 from labjoint.compare.runs import split_by_names
-from labjoint.compare.significance import (PairedTest, SignificanceSettings, correlation,
-                                           is_significant, noise_test, nrmse_se, paired_test)
-from labjoint.compare.ties import tie_reason
+from labjoint.compare.significance import (PairedTest, SignificanceSettings, is_significant,
+                                           noise_test)
+from labjoint.compare.ties import mark_ties, simpler_first
 from labjoint.models import FitResult, Model, ModelFitter
 from labjoint.models.asymmetry import EVEN, amplitude, asymmetry
 from labjoint.models.effects import get_effect
@@ -251,56 +251,6 @@ class Baseline:
                                asymmetry=asym)
 
 
-def _ties(cands: list[CandidateResult], base_ev: Evaluation, val: list[str], floor: float,
-          s: SignificanceSettings) -> None:
-    """Mark pairs that cannot be told apart on these data (:mod:`.significance`)."""
-    base_f = {r.name: r.model_force for r in base_ev.subset(val)}
-    ssf = sum(r.ssf for r in base_ev.subset(val))
-
-    def added(c: CandidateResult) -> np.ndarray:
-        return np.concatenate([(r.model_force - base_f[r.name])[r.run.data.steady]
-                               for r in c.evaluation.subset(val)])
-
-    useful = [c for c in cands if c.significant]
-    for i, a in enumerate(useful):
-        for bb in useful[i + 1:]:
-            test = paired_test(np.concatenate([r.unit_sse() for r in a.evaluation.subset(val)]),
-                               np.concatenate([r.unit_sse() for r in bb.evaluation.subset(val)]))
-            diff = abs(a.nrmse_after_validation - bb.nrmse_after_validation)
-            unc = max(2 * nrmse_se(test, a.nrmse_after_validation, bb.nrmse_after_validation, ssf),
-                      s.tie_tol * floor)
-            if diff > unc:
-                continue
-            rho = correlation(added(a), added(bb))
-            if rho < s.tie_corr:
-                continue
-            why = tie_reason(a.effect, bb.effect, a.nrmse_after_validation,
-                             bb.nrmse_after_validation, unc, rho)
-            for x, y in ((a, bb), (bb, a)):
-                if y.effect not in x.tie_with:
-                    x.tie_with.append(y.effect)
-                    x.tie_reason = why if not x.tie_reason else x.tie_reason
-
-
-def simpler_first(cands: list[CandidateResult]) -> list[CandidateResult]:
-    """Candidates in ranking order, where tied ones (:func:`_ties`) go by fewer parameters
-    first (the simpler physical reading; then the lower validation NRMSE): the first name
-    is the one a user and the ladder take, and a tie cannot tell the data's preference."""
-    rest = list(cands)
-    out: list[CandidateResult] = []
-    while rest:
-        head = rest[0]
-        group = [c for c in rest if c is head or c.effect in head.tie_with]
-        pick = min(group, key=lambda c: (len(c.fit.params_), c.nrmse_after_validation))
-        if pick is not head and not pick.tie_reason.endswith("first)"):
-            pick.tie_reason = (f"{pick.tie_reason} ({pick.effect} ranked first: "
-                               f"{len(pick.fit.params_)} parameters against "
-                               f"{len(head.fit.params_)}, the simpler reading first)")
-        out.append(pick)
-        rest.remove(pick)
-    return out
-
-
 def judged_runs(runs: Sequence[Measurement], fit_r: Sequence[Measurement],
                 val_r: Sequence[Measurement]) -> list[Measurement]:
     """The measurements a diagnosis evaluates: ``runs``, or the fit and validation parts
@@ -412,7 +362,7 @@ def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
             cands[i] = judge(c.effect, c.fit, evaluate(model, ab.params_, runs, loops=False))
     cands.sort(key=lambda c: c.nrmse_after_validation)
     t2 = time.perf_counter()
-    _ties(cands, ev, val_names, floor_val, sig_s)
+    mark_ties(cands, ev, val_names, floor_val, sig_s)
     cands.sort(key=lambda c: (not c.significant, c.nrmse_after_validation))
     cands = simpler_first(cands)
     best = next((c for c in cands if c.significant), None)

@@ -51,15 +51,14 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
-from labjoint.compare.api import fit_report
 from labjoint.compare.identifiability import band_warnings
 from labjoint.compare.kinds import prepare
 from labjoint.compare.kinds.record import RecordMeasurement
 from labjoint.compare.measurement import Measurement
-from labjoint.compare.sim_start import frf_start
+from labjoint.compare.sim_start import aligned, diverges, record_output, start_values
 from labjoint.errors import InputError
 from labjoint.models import LoopSummary, Model, Parameters
-from labjoint.models.asymmetry import EVEN, amplitude, asymmetry
+from labjoint.models.asymmetry import EVEN, asymmetry
 from labjoint.models.covariance import covariance
 from labjoint.models.effects import get_effect
 from labjoint.models.result import parameter_flags
@@ -109,17 +108,6 @@ class Prediction:
                 "noise_std_m": self.noise_std_m, "samples": int(self.judged.sum())}
 
 
-def _output(m: RecordMeasurement) -> tuple[np.ndarray, np.ndarray]:
-    """(the measured displacement about its zero, the judged mask) of a record."""
-    y = m.data.inputs.u + float(m.metadata.get("displacement_reference_m", 0.0))
-    return y, m.data.steady.copy()
-
-
-def _aligned(pred: np.ndarray, y: np.ndarray, judged: np.ndarray) -> np.ndarray:
-    """The prediction plus the constant that best matches it to ``y`` on the judged samples."""
-    return pred + float(np.mean((y - pred)[judged]))
-
-
 def output_noise(params: Parameters | dict[str, float], m: RecordMeasurement) -> float:
     """The displacement noise a simulation error cannot go below (m): the record's own
     and its force noise through the model's linear part (module docstring)."""
@@ -140,9 +128,9 @@ def output_noise(params: Parameters | dict[str, float], m: RecordMeasurement) ->
 def predict_record(model: Model, params: Parameters | dict[str, float], m: RecordMeasurement,
                    *, periodic: bool = False, substeps: int = DEFAULT_SUBSTEPS) -> Prediction:
     """Simulate ``model`` on the record's force and compare with its displacement."""
-    y, judged = _output(m)
+    y, judged = record_output(m)
     pred = simulate(model, params, m.data.force, m.fs, substeps=substeps, periodic=periodic)
-    pred = _aligned(pred, y, judged)
+    pred = aligned(pred, y, judged)
     return Prediction(m.name, pred, y, judged, output_noise(params, m), m.fs)
 
 
@@ -198,7 +186,7 @@ class SimulationFit:
         """Parameters whose standard error is undetermined or exceeds the value."""
         return parameter_flags({k: p.value for k, p in self.params.items()}, self.stderr)
 
-    def asymmetry(self, recs: list[RecordMeasurement] | None = None) -> list[dict[str, Any]]:
+    def asymmetry(self) -> list[dict[str, Any]]:
         """The even effects' asymmetry at the largest judged displacement amplitude."""
         if not any(n in EVEN for n in self.model.names):
             return []
@@ -295,116 +283,6 @@ def fit_simulation(runs: Any, model: str | Model, *, validate: list[Any] | None 
                         bounds=bounds)
 
 
-def _unstable(vals: dict[str, float]) -> str | None:
-    """Why a start is not a stable oscillator, or None."""
-    m, k = vals.get("inertia.m", 0.0), vals.get("linear_stiffness.k")
-    if not m > 0:
-        return f"mass inertia.m = {m:.3g} kg <= 0"
-    if k is not None and not k > 0:
-        return f"stiffness linear_stiffness.k = {k:.3g} N/m <= 0"
-    if vals.get("viscous.c", 0.0) < 0:
-        return f"damping viscous.c = {vals['viscous.c']:.3g} N s/m < 0"
-    return None
-
-
-def _diverges(model: Model, vals: dict[str, float], m: RecordMeasurement, periodic: bool,
-              substeps: int) -> str | None:
-    """Why the simulation of ``m`` is not usable (not finite, or 1e3 x the measured
-    displacement's range), or None."""
-    y, judged = _output(m)
-    try:
-        pred = simulate(model, vals, m.data.force, m.fs, substeps=substeps, periodic=periodic)
-    except InputError as exc:
-        return exc.message
-    if not np.all(np.isfinite(pred)):
-        return "the simulated displacement is not finite (it diverged)"
-    if np.ptp(pred[judged]) > 1e3 * max(np.ptp(y[judged]), 1e-300):
-        return (f"the simulated displacement spans {np.ptp(pred[judged]):.3g} m, over 1000x "
-                f"the measured {np.ptp(y[judged]):.3g} m (it diverged)")
-    return None
-
-
-def _user(start: Parameters, values: dict[str, float] | None,
-          bounds: dict[str, tuple[float, float]] | None) -> None:
-    """The user's bounds, then start values, on ``start``; refused by name when unknown,
-    not finite, or outside the bounds."""
-    for k, (lo, hi) in (bounds or {}).items():
-        if k not in start:
-            raise InputError(f"not a parameter of the model; known: {', '.join(start)}",
-                             field=f"bound.{k}")
-        q = start[k]
-        if not (float(lo) < float(hi)) or float(lo) > q.upper or float(hi) < q.lower:
-            raise InputError(f"bounds {lo:g}:{hi:g} are empty or outside the vocabulary's "
-                             f"[{q.lower:g}, {q.upper:g}] {q.unit}", field=f"bound.{k}")
-        q.lower, q.upper = max(q.lower, float(lo)), min(q.upper, float(hi))
-        q.value = float(np.clip(q.value, q.lower, q.upper))
-    for k, v in (values or {}).items():
-        if k not in start:
-            raise InputError(f"not a parameter of the model; known: {', '.join(start)}",
-                             field=f"start.{k}")
-        q = start[k]
-        v = float(v)
-        if not (np.isfinite(v) and q.lower <= v <= q.upper):
-            raise InputError(f"start {v:g} {q.unit} outside its bounds [{q.lower:g}, "
-                             f"{q.upper:g}]", field=f"start.{k}")
-        q.value = v
-
-
-def _sse(model: Model, vals: dict[str, float], recs: list[RecordMeasurement], periodic: bool,
-         substeps: int) -> float:
-    """Simulation error (sum of squares over the judged samples, each record in units of
-    its displacement's standard deviation); inf where a simulation diverges."""
-    total = 0.0
-    for m in recs:
-        y, j = _output(m)
-        try:
-            pred = simulate(model, vals, m.data.force, m.fs, substeps=substeps, periodic=periodic)
-        except InputError:
-            return float("inf")
-        with np.errstate(invalid="ignore", over="ignore"):
-            r = (y - _aligned(pred, y, j))[j] / max(float(np.std(y[j])), 1e-300)
-        if not np.all(np.isfinite(r)):
-            return float("inf")
-        total += float(r @ r)
-    return total
-
-
-def start_values(fit_recs: list[RecordMeasurement], model: Model, seed: int = 0,
-                 warm: Parameters | None = None, *, periodic: bool = False,
-                 substeps: int = DEFAULT_SUBSTEPS, user: dict[str, float] | None = None,
-                 bounds: dict[str, tuple[float, float]] | None = None) -> tuple[Parameters, str]:
-    """Start of the search and where it came from (module docstring): the equation-error
-    fit of ``model``, or that fit with the values of ``warm`` (a fit of a smaller model)
-    where it has them, whichever simulates the records better; the FRF's m, c, k where
-    the chosen one is unstable; then the user's values."""
-    start = fit_report(fit_recs, model, seed=seed).fit.params_.copy()
-    origin = "equation-error fit"
-    if warm:
-        mixed = start.copy()
-        for k, q in warm.items():
-            if k in mixed:
-                mixed[k].value = float(q.value)
-        own = _sse(model, start.valuesdict(), fit_recs, periodic, substeps) \
-            if _unstable(start.valuesdict()) is None else float("inf")
-        if _sse(model, mixed.valuesdict(), fit_recs, periodic, substeps) <= own:
-            start, origin = mixed, "equation-error fit with the smaller model's values"
-    vals = start.valuesdict()
-    why = _unstable(vals) or _diverges(model, vals, fit_recs[0], periodic, substeps)
-    if why is not None:
-        for k, v in frf_start(fit_recs).items():
-            if k in start:
-                start[k].value = v
-        origin = f"the records' FRF for m, c, k (the equation-error start was unstable: {why})"
-    for k, q in start.items():             # log-scaled parameters need a positive start
-        if q.value <= 0 and q.lower >= 0 and k != "viscous.c":
-            q.value = max(abs(q.upper) * 1e-6 if np.isfinite(q.upper) else 1e-6, 1e-9)
-    start["inertia.m"].lower = max(start["inertia.m"].lower, 0.0)
-    _user(start, user, bounds)
-    if user:
-        origin += f"; given: {', '.join(sorted(user))}"
-    return start, origin
-
-
 def fit_prepared(fit_recs: list[RecordMeasurement], model: Model, *,
                  validation: list[RecordMeasurement] | None = None, periodic: bool = False,
                  substeps: int = DEFAULT_SUBSTEPS, seed: int = 0,
@@ -417,7 +295,7 @@ def fit_prepared(fit_recs: list[RecordMeasurement], model: Model, *,
                                  substeps=substeps, user=start, bounds=bounds)
     val_recs = list(validation or [])
     sc = _Scaled(model, first, LoopSummary.from_runs([m.data for m in fit_recs]))
-    targets = [_output(m) for m in fit_recs]
+    targets = [record_output(m) for m in fit_recs]
     scales = [float(np.std(y[j])) for y, j in targets]
     n_evals = [0]
 
@@ -432,7 +310,7 @@ def fit_prepared(fit_recs: list[RecordMeasurement], model: Model, *,
             except InputError:
                 return np.full(sum(int(t[1].sum()) for t in targets), 1e3)
             with np.errstate(invalid="ignore", over="ignore"):
-                r = (y - _aligned(pred, y, j))[j] / s
+                r = (y - aligned(pred, y, j))[j] / s
             parts.append(np.where(np.isfinite(r), np.clip(r, -1e3, 1e3), 1e3))
         return np.concatenate(parts)
 
@@ -450,7 +328,7 @@ def fit_prepared(fit_recs: list[RecordMeasurement], model: Model, *,
                          f"{', '.join(bad)} not finite (start: {origin}); give --start "
                          "values or --bound limits", field="start")
     for m in fit_recs + val_recs:
-        why = _diverges(model, vals, m, periodic, substeps)
+        why = diverges(model, vals, m, periodic, substeps)
         if why:
             shown = ", ".join(f"{k} = {v:.4g}" for k, v in vals.items())
             raise InputError(f"the simulation-error fit of {model.expr} diverged on run "
@@ -518,7 +396,7 @@ def predict_file(model_path: str | Path, record: Any, *, periodic: bool = False,
     (seconds, or "auto": the record kind's rule); a simulation that diverges is refused."""
     model, vals, substeps = load_model(model_path)
     (m,) = prepare_records([record], periodic=periodic, warmup=warmup)
-    why = _diverges(model, vals, m, periodic, substeps)
+    why = diverges(model, vals, m, periodic, substeps)
     if why:
         raise InputError(f"the model diverges on run '{m.name}': {why}", file=str(model_path),
                          field="model")

@@ -80,7 +80,8 @@ class SimCandidate:
         return {"effect": self.effect, "model": self.fit.model.expr, "nrmse_after": self.fit.nrmse(),
                 "nrmse_after_validation": self.fit.nrmse("validation"),
                 "significant": self.significant, "p_value": self.test.p, "reason": self.reason,
-                "parameters": self.fit.model_dict()["parameters"]}
+                "parameters": self.fit.model_dict()["parameters"],
+                "asymmetry": self.fit.asymmetry()}
 
 
 @dataclass
@@ -111,6 +112,7 @@ class SimulationDiagnosis:
                 "fit_runs": [p.name for p in self.base.fit],
                 "validation_runs": [p.name for p in self.base.validation],
                 "parameters": self.base.model_dict()["parameters"],
+                "flags": self.base.flags(), "asymmetry": self.base.asymmetry(),
                 "failures": self.failures,
                 "candidates": [c.to_dict() for c in self.candidates], "skipped": self.skipped,
                 "timing_s": self.timing}
