@@ -27,6 +27,14 @@ Canonical laws (SI):
   g(u) = (ke - kp) u / (1 + |(ke - kp) u / F_y|^n)^(1/n) + kp u; Masing branches
   F = F_r + 2 g((u - u_r)/2) from the last reversal (u_r, F_r).
 - ``cubic_stiffness``: F = k3 u^3.
+- ``quadratic_stiffness``: F = k2 u^2 (even: F(-u) != -F(u)); beside linear_stiffness k the
+  secant stiffness at +-U is k +- k2 U, so k2 > 0 makes the +u side stiffer.
+- ``bilinear_stiffness``: F = dk max(u, 0): beside linear_stiffness k the joint is k_minus = k
+  for u < 0 and k_plus = k + dk for u > 0 (dk > 0: the +u side is stiffer).
+- ``contact``: a one-sided contact across a gap g >= 0 from rest, stiffness |k_c|, on the
+  side given by the sign of k_c: F = k_c max(sgn(k_c) u - g, 0) (k_c > 0: it closes at
+  u = +g and pushes back for u > g; k_c < 0: it closes at u = -g). Not ``backlash``: that
+  is a symmetric gap in series with the whole joint, this is a force in parallel on one side.
 - ``offset``: F = F0.
 - ``asymmetric_slip``: every slip strength of the hysteretic part is scaled by (1 + asym)
   while sliding in +u and by (1 - asym) while sliding in -u.
@@ -56,8 +64,10 @@ class ParamSpec:
 @dataclass(frozen=True)
 class EffectSpec:
     name: str
-    kind: str  # "force" (adds a force), "hysteretic" (adds a history-dependent force),
-    #            "modifier" (scales the hysteretic part's slip strengths), "input" (transforms u or t)
+    kind: str  # "force" (adds a force linear in its one parameter), "elastic" (adds a
+    #            memoryless force nonlinear in its parameters), "hysteretic" (adds a
+    #            history-dependent force), "modifier" (scales the hysteretic part's slip
+    #            strengths), "input" (transforms u or t)
     params: tuple[ParamSpec, ...]
 
 
@@ -92,6 +102,13 @@ EFFECTS: dict[str, EffectSpec] = {
             ParamSpec("F_y", "N", 0.0, INF, "yield force"),
             ParamSpec("n", "1", 0.1, 100.0, "shape factor"))),
         EffectSpec("cubic_stiffness", "force", (ParamSpec("k3", "N/m^3", -INF, INF, "cubic stiffness"),)),
+        EffectSpec("quadratic_stiffness", "force", (
+            ParamSpec("k2", "N/m^2", -INF, INF, "quadratic (even) stiffness: > 0 stiffer on the +u side"),)),
+        EffectSpec("bilinear_stiffness", "force", (
+            ParamSpec("dk", "N/m", -INF, INF, "stiffness added for u > 0: > 0 the +u side is stiffer"),)),
+        EffectSpec("contact", "elastic", (
+            ParamSpec("k_c", "N/m", -INF, INF, "contact stiffness; its sign is the side (> 0: +u)"),
+            ParamSpec("gap", "m", 0.0, INF, "travel from rest until the contact closes"))),
         EffectSpec("offset", "force", (ParamSpec("F0", "N", -INF, INF, "constant force"),)),
         EffectSpec("asymmetric_slip", "modifier", (
             ParamSpec("asym", "1", -0.95, 0.95, "relative slip-strength difference + vs -"),)),

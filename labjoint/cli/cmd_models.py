@@ -66,6 +66,47 @@ def _error(p: argparse.ArgumentParser) -> None:
     p.add_argument("--periodic", action="store_true",
                    help="with --error simulation: each record is whole periods of a steady "
                         "periodic input; simulate to its steady state")
+    p.add_argument("--start", action="append", default=None, metavar="NAME=VALUE",
+                   help="with --error simulation: start the search here (SI units, e.g. "
+                        "inertia.m=0.05); repeat or join by commas")
+    p.add_argument("--bound", action="append", default=None, metavar="NAME=LO:HI",
+                   help="with --error simulation: keep a parameter within LO:HI (SI units)")
+
+
+def _pairs(items: list[str] | None, flag: str) -> dict[str, str]:
+    out: dict[str, str] = {}
+    for item in items or []:
+        for part in item.split(","):
+            if not part.strip():
+                continue
+            name, eq, value = part.partition("=")
+            if not eq or not name.strip() or not value.strip():
+                raise InputError(f"expected NAME=VALUE, got {part!r}", field=flag)
+            out[name.strip()] = value.strip()
+    return out
+
+
+def _number(text: str, field: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise InputError(f"not a number: {text!r}", field=field) from None
+    if x != x or x in (float("inf"), float("-inf")):
+        raise InputError(f"not a finite number: {text!r}", field=field)
+    return x
+
+
+def start_and_bounds(args: argparse.Namespace) -> tuple[dict[str, float], dict[str, tuple[float, float]]]:
+    """``--start`` and ``--bound`` as {name: value} and {name: (lo, hi)}."""
+    start = {k: _number(v, f"start.{k}") for k, v in _pairs(args.start, "start").items()}
+    bounds = {}
+    for k, v in _pairs(args.bound, "bound").items():
+        lo, colon, hi = v.partition(":")
+        if not colon:
+            raise InputError(f"expected LO:HI, got {v!r}", field=f"bound.{k}")
+        bounds[k] = (_number(lo, f"bound.{k}") if lo.strip() else float("-inf"),
+                     _number(hi, f"bound.{k}") if hi.strip() else float("inf"))
+    return start, bounds
 
 
 def add_fit_arguments(p: argparse.ArgumentParser) -> None:
@@ -117,20 +158,30 @@ def fit(args: argparse.Namespace) -> int:
 
     if args.error == "simulation":
         return _fit_simulation(args)
-    if args.out or args.periodic:
-        raise InputError("--out and --periodic go with --error simulation", field="error")
+    if args.out:
+        raise InputError("--out goes with --error simulation", field="error")
+    _simulation_only(args)
     res = fit_runs(args.runs, args.model, **_options(args, False))
     if args.json:
         emit_json(res)
         return 0
     print(f"model {res['model']}: NRMSE {_pct(res['nrmse'])}, noise floor {_pct(res['noise_floor'])}")
-    print(table(["parameter", "value", "stderr", "unit"],
-                [[k, v["value"], v["stderr"], v["unit"]] for k, v in res["parameters"].items()]))
+    _print_parameters(res)
     print()
     print(table(["run", "NRMSE %", "energy loss err %", "stiffness err %"],
                 [[r["run"], _x100(r["nrmse"]), r["energy_loss_error_pct"], r["stiffness_error_pct"]]
                  for r in res["runs"]]))
     return 0
+
+
+def _print_parameters(res: dict[str, Any]) -> None:
+    """The parameter table, then each flagged parameter and each even effect's asymmetry."""
+    print(table(["parameter", "value", "stderr", "unit"],
+                [[k, v["value"], v["stderr"], v["unit"]] for k, v in res["parameters"].items()]))
+    for k, why in (res.get("flags") or {}).items():
+        print(f"warning: {k}: {why}")
+    for a in res.get("asymmetry") or []:
+        print(f"asymmetry: {a['text']}")
 
 
 def _fit_simulation(args: argparse.Namespace) -> int:
@@ -139,8 +190,9 @@ def _fit_simulation(args: argparse.Namespace) -> int:
     if args.structure:
         raise InputError("--error simulation judges records; FRF sets with --structure are "
                          "judged on their FRF residual", field="structure")
+    start, bounds = start_and_bounds(args)
     fit = fit_simulation(args.runs, args.model, validate=args.validate, periodic=args.periodic,
-                         warmup=args.warmup, seed=args.seed)
+                         warmup=args.warmup, seed=args.seed, start=start, bounds=bounds)
     if args.out:
         save_model(fit, args.out)
     res = fit.to_dict()
@@ -150,8 +202,7 @@ def _fit_simulation(args: argparse.Namespace) -> int:
         return 0
     print(f"model {res['model']} by simulation error: RMSE {res['rmse']:.4g} m, NRMSE "
           f"{_pct(res['nrmse'])}, noise floor {_pct(res['noise_floor'])}")
-    print(table(["parameter", "value", "stderr", "unit"],
-                [[k, v["value"], v["stderr"], v["unit"]] for k, v in res["parameters"].items()]))
+    _print_parameters(res)
     for w in res["warnings"]:
         print(f"warning: {w}")
     if args.out:
@@ -166,17 +217,20 @@ def _simulation_job(args: argparse.Namespace, operation: str, steps: int) -> dic
     if args.kind == "sine" or args.structure:
         raise InputError("--error simulation judges records (--kind record or auto; FRF sets "
                          "with --structure are judged on their FRF residual)", field="kind")
+    start, bounds = start_and_bounds(args)
     options = {"validate": args.validate, "periodic": args.periodic, "warmup": args.warmup,
                "seed": args.seed, "factor": args.factor, "alpha": args.alpha,
-               "candidates": args.candidates}
+               "candidates": args.candidates, "start": start or None, "bounds": bounds or None}
     return simulation_job(operation, args.runs, args.model, options,
                           max_steps=getattr(args, "max_steps", None),
                           progress=_progress(args, operation, steps))
 
 
 def _simulation_only(args: argparse.Namespace) -> None:
-    if args.periodic:
-        raise InputError("--periodic goes with --error simulation", field="periodic")
+    given = [f for f, v in (("periodic", args.periodic), ("start", args.start),
+                            ("bound", args.bound)) if v]
+    if given:
+        raise InputError(f"--{given[0]} goes with --error simulation", field=given[0])
 
 
 def diagnose(args: argparse.Namespace) -> int:
@@ -211,6 +265,10 @@ def _print_diagnosis(res: dict[str, Any], how: str) -> None:
     print(f"model {res['model']}{how}: NRMSE {_pct(res['nrmse'])}, noise floor "
           f"{_pct(res['noise_floor'])}, adequate: {'yes' if res['adequate'] else 'no'}")
     print(res["verdict"])
+    for k, why in (res.get("flags") or {}).items():
+        print(f"warning: {k}: {why}")
+    for a in res.get("asymmetry") or []:
+        print(f"asymmetry: {a['text']}")
     print("\nwhere it fails:")
     for f in res["failures"]:
         print(f"  [{f['where']}] {f['text']}")

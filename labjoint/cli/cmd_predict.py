@@ -19,6 +19,10 @@ def add_predict_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--periodic", action="store_true",
                    help="the record is one period of a steady periodic input: simulate until "
                         "the response is periodic, compare about the mean")
+    p.add_argument("--warmup", default="auto", metavar="SECONDS",
+                   help="seconds of the record left unjudged at its start (default auto: until "
+                        "the displacement has reached both its extremes, or none when the "
+                        "record starts at rest)")
     p.add_argument("--out", default=None, metavar="PRED.csv",
                    help="write time_s, displacement_m (measured), predicted_m")
 
@@ -26,7 +30,7 @@ def add_predict_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from labjoint.compare.output_error import predict_file
 
-    pred = predict_file(args.model, args.record, periodic=args.periodic)
+    pred = predict_file(args.model, args.record, periodic=args.periodic, warmup=args.warmup)
     if args.out:
         out = Path(args.out)
         tmp = out.with_name(out.name + ".tmp")
@@ -37,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
         tmp.replace(out)
     res = {"model": str(args.model), "record": str(args.record), "periodic": args.periodic,
            "rmse": pred.rmse, "nrmse": pred.nrmse, "noise_std_m": pred.noise_std_m,
-           "samples": int(pred.judged.sum()), "saved": args.out}
+           "samples": int(pred.judged.sum()), "warmup": args.warmup, "saved": args.out}
     if args.json:
         emit_json(res)
         return 0

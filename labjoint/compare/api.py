@@ -26,7 +26,8 @@ from pathlib import Path
 from typing import Any
 
 from labjoint.compare.frf_api import FRF_OPTIONS, is_frfset, load_frf, save_beside
-from labjoint.compare.diagnosis import DiagnoseSettings, Diagnosis, diagnose_prepared, parameters_dict
+from labjoint.compare.diagnosis import (DiagnoseSettings, Diagnosis, diagnose_prepared,
+                                       fit_asymmetry, parameters_dict)
 from labjoint.compare.jsonsafe import clean
 from labjoint.compare.ladders import Ladder, build_ladder
 from labjoint.compare.metrics import Evaluation, evaluate
@@ -143,6 +144,8 @@ class FitReport:
         d: dict[str, Any] = {
             "model": self.fit.model.expr, "kind": self.evaluation.runs[0].run.kind,
             "parameters": parameters_dict(self.fit),
+            "flags": self.fit.flags_,
+            "asymmetry": fit_asymmetry(self.fit, [r.run for r in self.evaluation.runs]),
             "nrmse": self.evaluation.nrmse(), "noise_floor": self.noise.nrmse,
             "runs": [r.to_dict() for r in self.evaluation.runs],
             "fit_runs": list(self.fit.fit_runs_), "validation_runs": self.validation_runs,

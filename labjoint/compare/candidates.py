@@ -1,7 +1,10 @@
 """Candidate effects for a model and their refits (warm, in parallel; or naive, serial).
 
-Every vocabulary effect not in the model is a candidate, except modifiers (wear,
-asymmetric_slip) when the model has no hysteretic part for them to act on.
+Every vocabulary effect not in the model is a candidate, except ``wear`` when the model
+has no hysteretic part for it to act on. ``asymmetric_slip`` is a candidate on its own:
+added to a model with no hysteretic part it comes with the slider it scales
+(``coulomb+asymmetric_slip``: a Jenkins element whose slip strength differs between +u
+and -u, :func:`added_terms`).
 
 Warm refit, in two stages from the baseline's fitted parameters:
 
@@ -67,6 +70,30 @@ REFINE_NFEV = 30
 _WORK: dict[str, Any] = {}
 
 
+#: modifiers tried on their own: the hysteretic law they come with when the model has none
+CARRIER = {"asymmetric_slip": "coulomb"}
+
+
+def added_terms(model: Model, name: str) -> str:
+    """The terms a candidate adds to ``model``: ``name``, or with a modifier of
+    :data:`CARRIER` and no hysteretic part in the model, the carrier law and ``name``.
+
+    >>> added_terms(Model.parse("linear_stiffness"), "asymmetric_slip")
+    'coulomb+asymmetric_slip'
+    >>> added_terms(Model.parse("linear_stiffness+iwan"), "asymmetric_slip")
+    'asymmetric_slip'
+    """
+    hyst = any(e.kind == "hysteretic" for e in model.effects)
+    if name in CARRIER and not hyst and CARRIER[name] not in model.names:
+        return f"{CARRIER[name]}+{name}"
+    return name
+
+
+def candidate_model(model: Model, name: str) -> Model:
+    """``model`` with candidate ``name`` added (:func:`added_terms`)."""
+    return Model.parse(f"{model.expr}+{added_terms(model, name)}")
+
+
 def candidate_effects(model: Model, only: Sequence[str] | None = None
                       ) -> tuple[list[str], dict[str, str]]:
     """(candidates, not applicable -> reason) for ``model``; ``only`` restricts the list."""
@@ -82,7 +109,7 @@ def candidate_effects(model: Model, only: Sequence[str] | None = None
     skipped = {}
     out = []
     for n in names:
-        if EFFECTS[n].kind == "modifier" and not hyst:
+        if EFFECTS[n].kind == "modifier" and not hyst and n not in CARRIER:
             skipped[n] = "scales slip strengths, but the model has no hysteretic part"
             continue
         out.append(n)
@@ -120,12 +147,16 @@ def start_params(model: Model, base: Model, name: str, summary: LoopSummary) -> 
 
 def screen_params(model: Model, base: Model, name: str, base_fit: FitResult,
                   summary: LoopSummary) -> Parameters:
-    """Parameters of the screen stage: the baseline's held at their fit, the candidate's free."""
+    """Parameters of the screen stage: the baseline's held at their fit, the candidate's
+    (and a carrier law's, :func:`added_terms`) free."""
     p = model.make_params(runs=summary)
-    over = start_params(model, base, name, summary)
+    added = [n for n in model.names if n not in base.names]
+    over = Parameters()
+    for n in added:
+        over.update(start_params(model, base, n, summary) or {})
     for k, q in p.items():
-        if k.split(".")[0] == name:
-            if over is not None and k in over:
+        if k.split(".")[0] in added:
+            if k in over:
                 p[k] = over[k]
         else:
             q.value = float(np.clip(base_fit.params_[k].value, q.lower, q.upper))
@@ -253,7 +284,7 @@ def refit_candidates(base: FitResult | None, base_model: Model, names: Sequence[
     staged = warm and base is not None
     tasks = []
     for name in sorted(names, key=_cost, reverse=True):
-        model = Model.parse(f"{base_model.expr}+{name}")
+        model = candidate_model(base_model, name)
         params = screen_params(model, base_model, name, base, summary) if staged else None
         tasks.append((name, _refit, (model.expr, params, multistart, seed, staged)))
     return _run(tasks, fit_runs, val_runs, _jobs(n_jobs) if warm else 1, progress, floor,

@@ -33,16 +33,18 @@ from typing import Any
 
 import numpy as np
 
-from labjoint.compare.candidates import ablate, candidate_effects, refine, refit_candidates
+from labjoint.compare.candidates import (ablate, candidate_effects, candidate_model, refine,
+                                         refit_candidates)
 from labjoint.compare.evidence import explanation
 from labjoint.compare.kinds import kind_of
 from labjoint.compare.measurement import Kind, Measurement, NoiseFloor, noise_floor
 from labjoint.compare.metrics import Evaluation, evaluate
 from labjoint.compare.runs import split_by_names
-from labjoint.compare.significance import (PairedTest, SignificanceSettings, correlation,
-                                           is_significant, noise_test, nrmse_se, paired_test)
-from labjoint.compare.ties import tie_reason
+from labjoint.compare.significance import (PairedTest, SignificanceSettings, is_significant,
+                                           noise_test)
+from labjoint.compare.ties import mark_ties, simpler_first
 from labjoint.models import FitResult, Model, ModelFitter
+from labjoint.models.asymmetry import EVEN, amplitude, asymmetry
 from labjoint.models.effects import get_effect
 
 DEFAULT_FACTOR = 1.5
@@ -58,7 +60,7 @@ def unexplained(model: Model, tried: Sequence[str]) -> str:
 
     >>> m = Model.parse("linear_stiffness")
     >>> unexplained(m, ["offset", "inertia"])
-    'structure remains: the missing effect is not among the 2 tried (offset, inertia; 9 registered effects not tried)'
+    'structure remains: the missing effect is not among the 2 tried (offset, inertia; 13 registered effects not tried)'
     >>> unexplained(m, candidate_effects(m)[0])
     'structure remains that no known effect explains'
     """
@@ -102,6 +104,7 @@ class CandidateResult:
     explanation: str = ""
     tie_with: list[str] = field(default_factory=list)
     tie_reason: str = ""
+    asymmetry: list[dict[str, Any]] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         d = {"effect": self.effect, "nrmse_after": self.nrmse_after,
@@ -112,16 +115,31 @@ class CandidateResult:
              "parameters": parameters_dict(self.fit)}
         if self.tie_with:
             d["tie"] = {"with": list(self.tie_with), "reason": self.tie_reason}
+        if self.asymmetry:
+            d["asymmetry"] = self.asymmetry
         return d
 
 
+def fit_asymmetry(fit: FitResult, runs: Sequence[Measurement]) -> list[dict[str, Any]]:
+    """The even effects' asymmetry (:mod:`labjoint.models.asymmetry`) at the largest
+    displacement amplitude of the runs (none for FRF sets: their data are phasors)."""
+    if not any(n in EVEN for n in fit.model.names) or not runs or runs[0].kind == "frf":
+        return []
+    return asymmetry(fit.model, fit.params_.valuesdict(), amplitude([r.data for r in runs]))
+
+
 def parameters_dict(fit: FitResult) -> dict[str, dict[str, Any]]:
-    """``{"<effect>.<param>": {"value", "stderr", "unit"}}`` of a fit."""
+    """``{"<effect>.<param>": {"value", "stderr", "unit"}}`` of a fit, and ``"flag"`` where
+    the standard error is undetermined (then ``stderr`` is null) or exceeds the value
+    (:func:`labjoint.models.result.parameter_flags`)."""
     out = {}
+    flags = fit.flags_
     for k, p in fit.params_.items():
         se = fit.stderr_.get(k)
         out[k] = {"value": p.value, "stderr": None if se is None or not np.isfinite(se) else se,
                   "unit": p.unit}
+        if k in flags:
+            out[k]["flag"] = flags[k]
     return out
 
 
@@ -174,6 +192,8 @@ class Diagnosis:
             "split": self.split_rule, "fit_runs": self.fit_runs,
             "validation_runs": self.validation_runs,
             "parameters": parameters_dict(self.base),
+            "flags": self.base.flags_,
+            "asymmetry": fit_asymmetry(self.base, [r.run for r in self.evaluation.runs]),
             "runs": [r.to_dict() for r in self.evaluation.runs],
             "timing_s": self.timing_s,
         }
@@ -223,40 +243,12 @@ class Baseline:
         against = "" if ref is base_ev else " (against the baseline refitted from its optimum)"
         val_txt = (f"validation NRMSE {100 * nv_base:.3g} % -> {100 * nv:.3g} %{against} (noise "
                    f"floor {100 * self.floor:.3g} %), {reason}")
+        asym = fit_asymmetry(fit, self.runs)
+        words = "; ".join(a["text"] for a in asym)
+        evid = self.kind.evidence(name, base_ev, ev, self.maps, maps, fit, val_txt)
         return CandidateResult(name, fit, ev, ev.nrmse(), nv, test, sig, reason,
-                               self.kind.evidence(name, base_ev, ev, self.maps, maps, fit, val_txt),
-                               explanation(name))
-
-
-def _ties(cands: list[CandidateResult], base_ev: Evaluation, val: list[str], floor: float,
-          s: SignificanceSettings) -> None:
-    """Mark pairs that cannot be told apart on these data (:mod:`.significance`)."""
-    base_f = {r.name: r.model_force for r in base_ev.subset(val)}
-    ssf = sum(r.ssf for r in base_ev.subset(val))
-
-    def added(c: CandidateResult) -> np.ndarray:
-        return np.concatenate([(r.model_force - base_f[r.name])[r.run.data.steady]
-                               for r in c.evaluation.subset(val)])
-
-    useful = [c for c in cands if c.significant]
-    for i, a in enumerate(useful):
-        for bb in useful[i + 1:]:
-            test = paired_test(np.concatenate([r.unit_sse() for r in a.evaluation.subset(val)]),
-                               np.concatenate([r.unit_sse() for r in bb.evaluation.subset(val)]))
-            diff = abs(a.nrmse_after_validation - bb.nrmse_after_validation)
-            unc = max(2 * nrmse_se(test, a.nrmse_after_validation, bb.nrmse_after_validation, ssf),
-                      s.tie_tol * floor)
-            if diff > unc:
-                continue
-            rho = correlation(added(a), added(bb))
-            if rho < s.tie_corr:
-                continue
-            why = tie_reason(a.effect, bb.effect, a.nrmse_after_validation,
-                             bb.nrmse_after_validation, unc, rho)
-            for x, y in ((a, bb), (bb, a)):
-                if y.effect not in x.tie_with:
-                    x.tie_with.append(y.effect)
-                    x.tie_reason = why if not x.tie_reason else x.tie_reason
+                               f"{evid}; {words}" if words else evid, explanation(name),
+                               asymmetry=asym)
 
 
 def judged_runs(runs: Sequence[Measurement], fit_r: Sequence[Measurement],
@@ -299,7 +291,7 @@ def own_refits(own: Callable[..., FitResult], base_fit: FitResult, model: Model,
     """Candidates refitted by a kind's own fitter, each from the baseline's optimum."""
     out = {}
     for n in names:
-        out[n] = own(Model.parse(f"{model.expr}+{n}"), fit_r, val_r, init=base_fit)
+        out[n] = own(candidate_model(model, n), fit_r, val_r, init=base_fit)
         if progress:
             progress(n)
     return out
@@ -370,8 +362,9 @@ def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
             cands[i] = judge(c.effect, c.fit, evaluate(model, ab.params_, runs, loops=False))
     cands.sort(key=lambda c: c.nrmse_after_validation)
     t2 = time.perf_counter()
-    _ties(cands, ev, val_names, floor_val, sig_s)
+    mark_ties(cands, ev, val_names, floor_val, sig_s)
     cands.sort(key=lambda c: (not c.significant, c.nrmse_after_validation))
+    cands = simpler_first(cands)
     best = next((c for c in cands if c.significant), None)
     adequate = near and best is None
     ratio = ev.nrmse() / noise.nrmse if noise.nrmse > 0 else float("inf")

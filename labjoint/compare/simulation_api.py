@@ -19,7 +19,7 @@ WINDOW_SAMPLES = 3000
 SEGMENTS = 100
 #: Options of the simulation kind (the rest of a model job's options are refused with it).
 OPTIONS = ("validate", "periodic", "warmup", "seed", "factor", "alpha", "candidates", "full",
-           "error", "kind")
+           "error", "kind", "start", "bounds")
 
 
 def prediction_series(p: Prediction, window: int = WINDOW_SAMPLES,
@@ -66,8 +66,10 @@ def simulation_job(operation: str, runs: Sequence[Any], model: str, options: dic
     check_options(options)
     common = {"validate": options.get("validate"), "periodic": bool(options.get("periodic", False)),
               "warmup": options.get("warmup", "auto"), "seed": int(options.get("seed", 0))}
+    user = {"start": options.get("start") or None,
+            "bounds": {k: tuple(v) for k, v in (options.get("bounds") or {}).items()} or None}
     if operation == "fit":
-        fit = fit_simulation(list(runs), model, **common)
+        fit = fit_simulation(list(runs), model, **common, **user)
         out = fit.to_dict()
         if options.get("full"):
             out["series"] = [prediction_series(p) for p in fit.fit]
@@ -76,7 +78,7 @@ def simulation_job(operation: str, runs: Sequence[Any], model: str, options: dic
     loop = {**common, "factor": float(options.get("factor", 1.5)),
             "significance": SignificanceSettings(**({"alpha": options["alpha"]}
                                                     if options.get("alpha") else {})),
-            "candidates": options.get("candidates")}
+            "candidates": options.get("candidates"), **user}
     if operation == "diagnose":
         return diagnose_simulation(list(runs), model, progress=progress, **loop).to_dict()
     if operation == "ladder":

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from labjoint.compare.candidates import candidate_effects
+from labjoint.compare.candidates import candidate_effects, candidate_model
 from labjoint.compare.describe import pct_text
 from labjoint.compare.kinds import KINDS
 from labjoint.compare.kinds.record import RecordMeasurement
@@ -80,7 +80,8 @@ class SimCandidate:
         return {"effect": self.effect, "model": self.fit.model.expr, "nrmse_after": self.fit.nrmse(),
                 "nrmse_after_validation": self.fit.nrmse("validation"),
                 "significant": self.significant, "p_value": self.test.p, "reason": self.reason,
-                "parameters": self.fit.model_dict()["parameters"]}
+                "parameters": self.fit.model_dict()["parameters"],
+                "asymmetry": self.fit.asymmetry()}
 
 
 @dataclass
@@ -111,6 +112,7 @@ class SimulationDiagnosis:
                 "fit_runs": [p.name for p in self.base.fit],
                 "validation_runs": [p.name for p in self.base.validation],
                 "parameters": self.base.model_dict()["parameters"],
+                "flags": self.base.flags(), "asymmetry": self.base.asymmetry(),
                 "failures": self.failures,
                 "candidates": [c.to_dict() for c in self.candidates], "skipped": self.skipped,
                 "timing_s": self.timing}
@@ -184,6 +186,8 @@ def diagnose_simulation(runs: Any, model: str | Model, *, validate: Sequence[Any
                         factor: float = DEFAULT_FACTOR,
                         significance: SignificanceSettings = SignificanceSettings(),
                         seed: int = 0, base: SimulationFit | None = None,
+                        start: dict[str, float] | None = None,
+                        bounds: dict[str, tuple[float, float]] | None = None,
                         split: tuple[list[RecordMeasurement], list[RecordMeasurement], str] | None = None,
                         progress: Callable[[str], None] | None = None) -> SimulationDiagnosis:
     """Diagnose ``model`` by simulation error (module docstring)."""
@@ -193,7 +197,7 @@ def diagnose_simulation(runs: Any, model: str | Model, *, validate: Sequence[Any
     fit_r, val_r, rule = split or prepare_split(runs, validate, periodic=periodic, warmup=warmup)
     if base is None:
         base = fit_prepared(fit_r, model, validation=val_r, periodic=periodic,
-                            substeps=substeps, seed=seed)
+                            substeps=substeps, seed=seed, start=start, bounds=bounds)
     if progress:
         progress(f"fitted {model.expr} by simulation")
     floor, floor_val = displacement_floor(base.fit), displacement_floor(base.validation)
@@ -210,7 +214,7 @@ def diagnose_simulation(runs: Any, model: str | Model, *, validate: Sequence[Any
     t1 = time.perf_counter()
     cands = []
     for name in ([] if quiet else simulable):
-        ext = Model.parse(f"{model.expr}+{name}")
+        ext = candidate_model(model, name)
         try:
             fit = fit_prepared(fit_r, ext, validation=val_r, periodic=periodic,
                                substeps=substeps, seed=seed, warm=base.params)

@@ -1,4 +1,6 @@
-"""Why two candidate effects can be indistinguishable on some data: the physics, per pair.
+"""Why two candidate effects can be indistinguishable on some data: the physics, per pair;
+which candidates of a diagnosis are tied (:func:`mark_ties`), and their order (the one
+with fewer parameters first, :func:`simpler_first`).
 
 >>> "viscous" in tie_reason("channel_delay", "viscous", 0.0071, 0.0072, 0.0006, 0.99)
 True
@@ -6,6 +8,12 @@ True
 
 from __future__ import annotations
 
+from typing import Any
+
+import numpy as np
+
+from labjoint.compare.significance import (SignificanceSettings, correlation, nrmse_se,
+                                           paired_test)
 from labjoint.vocabulary import EFFECTS
 
 #: frozenset({a, b}) -> the physical reason and what data would separate them
@@ -25,6 +33,18 @@ KNOWN = {
         "both shift the loop's mean force; asymmetric slip's shift follows the slip "
         "(amplitude), an offset is the same at every amplitude, so a wider amplitude range "
         "separates them"),
+    frozenset({"bilinear_stiffness", "contact"}): (
+        "a contact whose gap is (nearly) zero is a bilinear stiffness: both add a slope on "
+        "one side of rest; amplitudes below the gap, where a contact carries nothing, "
+        "separate them"),
+    frozenset({"quadratic_stiffness", "bilinear_stiffness"}): (
+        "both stiffen one side of rest: smoothly (k2 u^2, a 2nd harmonic growing with the "
+        "square of the amplitude) or with a kink at rest (in proportion to it); a wider "
+        "amplitude range separates them"),
+    frozenset({"cubic_stiffness", "bouc_wen"}): (
+        "a hardening Bouc-Wen law (alpha + beta < 0) with little loss bends the loop like "
+        "a cubic spring; its loss and the shape of its branches (data into the hysteretic "
+        "range, or of another frequency) separate them"),
     frozenset({"cubic_stiffness", "backlash"}): (
         "both make the apparent stiffness rise with amplitude; backlash leaves a flat waist "
         "at small displacement, visible with larger amplitude range or smaller amplitudes"),
@@ -46,3 +66,53 @@ def tie_reason(a: str, b: str, nrmse_a: float, nrmse_b: float, uncertainty: floa
         return (f"{text}; both are hysteretic slip laws whose loops coincide over this "
                 "amplitude range; a wider amplitude range (into macro-slip) separates them")
     return f"{text}; data over a wider range of amplitude and frequency may separate them"
+
+
+def mark_ties(cands: list[Any], base_ev: Any, val: list[str], floor: float,
+              s: SignificanceSettings) -> None:
+    """Mark pairs that cannot be told apart on these data (:mod:`.significance`)."""
+    base_f = {r.name: r.model_force for r in base_ev.subset(val)}
+    ssf = sum(r.ssf for r in base_ev.subset(val))
+
+    def added(c: Any) -> np.ndarray:
+        return np.concatenate([(r.model_force - base_f[r.name])[r.run.data.steady]
+                               for r in c.evaluation.subset(val)])
+
+    useful = [c for c in cands if c.significant]
+    for i, a in enumerate(useful):
+        for bb in useful[i + 1:]:
+            test = paired_test(np.concatenate([r.unit_sse() for r in a.evaluation.subset(val)]),
+                               np.concatenate([r.unit_sse() for r in bb.evaluation.subset(val)]))
+            diff = abs(a.nrmse_after_validation - bb.nrmse_after_validation)
+            unc = max(2 * nrmse_se(test, a.nrmse_after_validation, bb.nrmse_after_validation, ssf),
+                      s.tie_tol * floor)
+            if diff > unc:
+                continue
+            rho = correlation(added(a), added(bb))
+            if rho < s.tie_corr:
+                continue
+            why = tie_reason(a.effect, bb.effect, a.nrmse_after_validation,
+                             bb.nrmse_after_validation, unc, rho)
+            for x, y in ((a, bb), (bb, a)):
+                if y.effect not in x.tie_with:
+                    x.tie_with.append(y.effect)
+                    x.tie_reason = why if not x.tie_reason else x.tie_reason
+
+
+def simpler_first(cands: list[Any]) -> list[Any]:
+    """Candidates in ranking order, where tied ones (:func:`mark_ties`) go by fewer parameters
+    first (the simpler physical reading; then the lower validation NRMSE): the first name
+    is the one a user and the ladder take, and a tie cannot tell the data's preference."""
+    rest = list(cands)
+    out: list[Any] = []
+    while rest:
+        head = rest[0]
+        group = [c for c in rest if c is head or c.effect in head.tie_with]
+        pick = min(group, key=lambda c: (len(c.fit.params_), c.nrmse_after_validation))
+        if pick is not head and not pick.tie_reason.endswith("first)"):
+            pick.tie_reason = (f"{pick.tie_reason} ({pick.effect} ranked first: "
+                               f"{len(pick.fit.params_)} parameters against "
+                               f"{len(head.fit.params_)}, the simpler reading first)")
+        out.append(pick)
+        rest.remove(pick)
+    return out

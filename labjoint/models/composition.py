@@ -3,8 +3,8 @@
 Parameters are named ``<effect>.<param>`` (``iwan.K_T``). Evaluation order: input
 effects transform the displacement history (channel_delay first, then backlash), modifier
 effects set the slip-strength scaling, hysteretic effects are simulated along the
-transformed history (relaxed at its first sample), force effects add their terms; the
-sum is returned on the record samples.
+transformed history (relaxed at its first sample), elastic (memoryless) and force effects
+add their terms; the sum is returned on the record samples.
 
 >>> m = Model.parse("linear_stiffness + viscous")
 >>> m.expr, m.param_names
@@ -25,6 +25,7 @@ from labjoint.models.effects import REGISTRY, get_effect
 from labjoint.models.effects.base import (
     NO_MODIFIERS,
     Effect,
+    ElasticEffect,
     ForceEffect,
     HystereticEffect,
     InputEffect,
@@ -66,8 +67,9 @@ class Model:
             raise InputError(f"{', '.join(mods)} scale(s) the slip strengths of the model's "
                              f"hysteretic part, but the model has none; add one of: "
                              f"{', '.join(hyst)}", field="model")
-        if not kinds & {"force", "hysteretic"}:
-            raise InputError("the model has no force-producing effect (force or hysteretic)",
+        if not kinds & {"force", "elastic", "hysteretic"}:
+            raise InputError("the model has no force-producing effect (force, elastic or "
+                             "hysteretic)",
                              field="model")
         self.effects: tuple[Effect, ...] = tuple(effects)
 
@@ -208,7 +210,9 @@ class Model:
         forces = self._hysteretic(vals, x, mods)
         bases = {}
         for e in self.effects:
-            if isinstance(e, ForceEffect):
+            if isinstance(e, ElasticEffect):
+                forces[e.name] = e.elastic(vals[e.name], x.u_hist)
+            elif isinstance(e, ForceEffect):
                 b = e.basis(x)
                 if e.name in solve:
                     bases[e.name] = b

@@ -6,8 +6,9 @@ import numpy as np
 
 
 def covariance(J: np.ndarray, ssr: float) -> tuple[np.ndarray, str]:
-    """s^2 (J^T J)^-1 via SVD of the column-scaled Jacobian; inf variance along
-    directions the data do not determine."""
+    """s^2 (J^T J)^-1 via SVD of the column-scaled Jacobian; NaN (not a number: no
+    standard error exists, never a small one) for the parameters along directions the
+    data do not determine."""
     n, p = J.shape
     if p == 0:
         return np.zeros((0, 0)), ""
@@ -20,7 +21,7 @@ def covariance(J: np.ndarray, ssr: float) -> tuple[np.ndarray, str]:
     note = ""
     if not ok.all():
         bad = np.any(np.abs(vt[~ok]) > 0.1, axis=0)
-        cov[bad, :] = np.inf
-        cov[:, bad] = np.inf
+        cov[bad, :] = np.nan
+        cov[:, bad] = np.nan
         note = "; Jacobian rank-deficient: some parameters are not determined by the data"
     return cov, note

@@ -65,7 +65,8 @@ def _periodic(x: np.ndarray, per: float, pos: np.ndarray, start: int) -> np.ndar
     return CubicSpline(idx, x[start:start + k])(start + np.mod(pos - start, per))
 
 
-def _spectral(u: np.ndarray, fs: float, band: float) -> tuple[np.ndarray, np.ndarray]:
+def _spectral(u: np.ndarray, fs: float, band: float, order: int = BUTTER_ORDER
+              ) -> tuple[np.ndarray, np.ndarray]:
     """Band-limited derivatives with cubic end matching and odd extension (no wrap jump)."""
     n = u.size
     tau = np.arange(n) / fs
@@ -79,26 +80,28 @@ def _spectral(u: np.ndarray, fs: float, band: float) -> tuple[np.ndarray, np.nda
     m = ext.size
     spec = np.fft.rfft(ext)
     f = np.fft.rfftfreq(m, 1.0 / fs)
-    jw = 2j * np.pi * f / (1.0 + (f / band) ** (2 * BUTTER_ORDER))
+    jw = 2j * np.pi * f / (1.0 + (f / band) ** (2 * order))
     v = np.fft.irfft(spec * jw, m)[:n] + c1 + 2 * c2 * tau + 3 * c3 * tau ** 2
     a = np.fft.irfft(spec * jw * (2j * np.pi * f), m)[:n] + 2 * c2 + 6 * c3 * tau
     return v, a
 
 
 def derivatives(u: np.ndarray, fs: float, band_hz: float | None = None,
-                frequency_hz: float | None = None, periodic: bool = True
-                ) -> tuple[np.ndarray, np.ndarray]:
+                frequency_hz: float | None = None, periodic: bool = True,
+                order: int = BUTTER_ORDER) -> tuple[np.ndarray, np.ndarray]:
     """Velocity (m/s) and acceleration (m/s^2) of ``u`` (module docstring: the method).
 
     ``periodic=False``: a record that does not repeat (random, transient) is not continued
     periodically at its edges; only the cubic end matching and odd extension are used.
+    ``order``: of the Butterworth-shaped roll-off at the band (a steeper one keeps a
+    record's derivatives to its excited band, :mod:`labjoint.compare.kinds.record`).
     """
     u = np.asarray(u, dtype=float)
     if u.size < 2 * EDGE_WINDOW:
         raise InputError(f"record has {u.size} samples, need at least {2 * EDGE_WINDOW}",
                          field="displacement")
     if not periodic:
-        return _spectral(u, fs, default_band(fs, frequency_hz, band_hz))
+        return _spectral(u, fs, default_band(fs, frequency_hz, band_hz), order)
     f = frequency_hz
     if f is None:
         try:
@@ -108,12 +111,12 @@ def derivatives(u: np.ndarray, fs: float, band_hz: float | None = None,
     band = default_band(fs, f, band_hz)
     per = fs / f if f else np.inf
     if not np.isfinite(per) or per < 4 or u.size < 2 * per + 8:
-        return _spectral(u, fs, band)
+        return _spectral(u, fs, band, order)
     n_pad = int(round(np.ceil(max(PAD_SAMPLES, per) / per) * per))
     pre = _periodic(u, per, np.arange(-n_pad, 0, dtype=float), 0)
     post = _periodic(u, per, np.arange(u.size, u.size + n_pad, dtype=float),
                      u.size - int(np.ceil(per)) - 4)
-    v, a = _spectral(np.concatenate([pre, u, post]), fs, band)
+    v, a = _spectral(np.concatenate([pre, u, post]), fs, band, order)
     return v[n_pad:n_pad + u.size], a[n_pad:n_pad + u.size]
 
 

@@ -90,6 +90,9 @@ class Parameters(MutableMapping[str, Parameter]):
             raise InputError(f"unknown parameter; known: {', '.join(self._p) or 'none'}",
                              field=name) from None
 
+    def __contains__(self, name: object) -> bool:
+        return name in self._p
+
     def __setitem__(self, name: str, p: Parameter) -> None:
         if not isinstance(p, Parameter):
             raise InputError("expected a Parameter", field=name)

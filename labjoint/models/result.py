@@ -17,13 +17,34 @@ def _num(x: float | None) -> float | None:
     return None if x is None or not math.isfinite(x) else float(x)
 
 
+def parameter_flags(values: dict[str, float], stderr: dict[str, float | None]
+                    ) -> dict[str, str]:
+    """name -> why a fitted value should not be read as a result: its standard error is
+    undetermined (NaN: the covariance is singular along it, the data do not fix it) or
+    exceeds the value itself (the data do not tell it from zero).
+
+    >>> parameter_flags({"a.k": 1.26e6, "a.m": 7e-4, "a.c": 3.0},
+    ...                 {"a.k": 8.8e6, "a.m": float("nan"), "a.c": 0.1})
+    {'a.k': 'standard error 8.8e+06 exceeds the value 1.26e+06: the data do not tell it from zero', 'a.m': 'undetermined: the data do not fix it (singular covariance), no standard error'}
+    """
+    out = {}
+    for k, se in stderr.items():
+        v = values.get(k, math.nan)
+        if se is None or not math.isfinite(se):
+            out[k] = "undetermined: the data do not fix it (singular covariance), no standard error"
+        elif se > abs(v):
+            out[k] = (f"standard error {se:.3g} exceeds the value {v:.3g}: the data do not tell "
+                      "it from zero")
+    return out
+
+
 @dataclass
 class FitResult:
     """Parameters learned from a set of runs, their uncertainty and the fit quality.
 
     ``params_`` holds the fitted values (``stderr`` filled for varied parameters);
-    ``stderr_`` maps varied parameter -> standard error from (J^T J)^-1 s^2 (inf when the
-    data do not determine it); ``correlation_`` is the correlation matrix of the varied
+    ``stderr_`` maps varied parameter -> standard error from (J^T J)^-1 s^2 (NaN when the
+    data do not determine it: a singular covariance; :func:`parameter_flags` says so); ``correlation_`` is the correlation matrix of the varied
     parameters, ordered as ``varied_``. NRMSE (design.md): rms(F_meas - F_model) /
     rms(F_meas) pooled over the steady samples of the fit runs (``nrmse_``), per run
     (``run_nrmse_``), and over the validation runs if any (``validation_nrmse_``,
@@ -52,6 +73,11 @@ class FitResult:
     def values_(self) -> dict[str, float]:
         return self.params_.valuesdict()
 
+    @property
+    def flags_(self) -> dict[str, str]:
+        """Parameters whose standard error is undetermined or exceeds the value."""
+        return parameter_flags(self.values_, self.stderr_)
+
     def correlation(self, a: str, b: str) -> float:
         """Correlation coefficient of two varied parameters."""
         i, j = self.varied_.index(a), self.varied_.index(b)
@@ -68,7 +94,9 @@ class FitResult:
                     else f", validation NRMSE {self.validation_nrmse_:.4g}")]
         for k, p in self.params_.items():
             se = "fixed" if k not in self.stderr_ else f"+- {self.stderr_[k]:.3g}"
-            lines.append(f"  {k:28s} {p.value:12.5g} {se:>14s} {p.unit}")
+            flag = self.flags_.get(k)
+            lines.append(f"  {k:28s} {p.value:12.5g} {se:>14s} {p.unit}"
+                         + (f"  ({flag})" if flag else ""))
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
@@ -78,6 +106,7 @@ class FitResult:
             **self.model.to_dict(self.params_),
             "varied": list(self.varied_),
             "stderr": {k: _num(v) for k, v in self.stderr_.items()},
+            "flags": self.flags_,
             "correlation": corr,
             "nrmse": _num(self.nrmse_),
             "run_nrmse": {k: _num(v) for k, v in self.run_nrmse_.items()},

@@ -3,14 +3,17 @@
 A model whose effects include ``inertia`` is read as a single-degree-of-freedom equation
 of motion, the applied force F(t) balancing every effect's force on the displacement y:
 
-    m y'' + c y' + k y + k3 y^3 + F0 + z_bw + z_j = F(t)
+    m y'' + c y' + k y + k3 y^3 + k2 y^2 + dk max(y, 0) + F_c(y) + F0 + z_bw + z_j = F(t)
 
-(inertia m, viscous c, linear_stiffness k, cubic_stiffness k3, offset F0; the hysteretic
+(inertia m, viscous c, linear_stiffness k, cubic_stiffness k3, offset F0; the even laws
+quadratic_stiffness k2, bilinear_stiffness dk and contact F_c = k_c max(sgn(k_c) y - g, 0);
+the hysteretic
 forces of ``bouc_wen``, dz/dt = k0 y' - alpha |y'| |z|^(n-1) z - beta y' |z|^n (seed 001's
 classical form; the Bouc-Wen benchmark's law with alpha = beta_B gamma_B, beta = beta_B
 delta_B), and of
-``coulomb``, a Jenkins element: dz/dt = k y' while |z| < f_s or the motion unloads it, z
-held within +-f_s). Other effects are refused by name.
+``coulomb``, a Jenkins element: dz/dt = k y' while z is inside its slip strengths or the
+motion unloads it, z held within [-f_s (1 - asym), f_s (1 + asym)], asym from
+``asymmetric_slip``, 0 without it). Other effects are refused by name.
 
 Integrator (stated): classical fourth-order Runge-Kutta on (y, y', z_bw, z_j) with
 ``substeps`` steps per sample (20 by default, as the Bouc-Wen benchmark's own generator
@@ -38,11 +41,12 @@ from labjoint.models.params import Parameters
 DEFAULT_SUBSTEPS = 20
 MAX_PERIODS = 50
 SUPPORTED = ("inertia", "viscous", "linear_stiffness", "cubic_stiffness", "offset",
-             "bouc_wen", "coulomb")
+             "bouc_wen", "coulomb", "quadratic_stiffness", "bilinear_stiffness", "contact",
+             "asymmetric_slip")
 
 
 @njit(cache=True)
-def _rates(t_force, y, v, zb, zj, m, c, k, k3, f0, bw, jk):  # pragma: no cover - numba
+def _rates(t_force, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev):  # pragma: no cover - numba
     k0, al, be, n = bw[0], bw[1], bw[2], bw[3]
     dzb = 0.0
     if k0 > 0.0:
@@ -50,14 +54,19 @@ def _rates(t_force, y, v, zb, zj, m, c, k, k3, f0, bw, jk):  # pragma: no cover 
         dzb = v * (k0 - abs(zb) ** n * (al * s + be))
     dzj = 0.0
     if jk[0] > 0.0:
-        if abs(zj) < jk[1] or zj * v < 0.0:
+        if (-jk[1] * (1.0 - jk[2]) < zj < jk[1] * (1.0 + jk[2])) or zj * v < 0.0:
             dzj = jk[0] * v
-    a = (t_force - c * v - k * y - k3 * y * y * y - f0 - zb - zj) / m
+    f_even = ev[0] * y * y + ev[1] * max(y, 0.0)
+    if ev[2] > 0.0:
+        f_even += ev[2] * max(y - ev[3], 0.0)
+    elif ev[2] < 0.0:
+        f_even += ev[2] * max(-y - ev[3], 0.0)
+    a = (t_force - c * v - k * y - k3 * y * y * y - f_even - f0 - zb - zj) / m
     return v, a, dzb, dzj
 
 
 @njit(cache=True)
-def _integrate(force_fine, h, m, c, k, k3, f0, bw, jk, substeps, state):  # pragma: no cover
+def _integrate(force_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, state):  # pragma: no cover
     """y at every sample; ``force_fine`` holds the force at every half substep."""
     n = (force_fine.size - 1) // (2 * substeps) + 1
     out = np.empty(n)
@@ -67,19 +76,19 @@ def _integrate(force_fine, h, m, c, k, k3, f0, bw, jk, substeps, state):  # prag
         for s in range(substeps):
             j = 2 * (i * substeps + s)
             f0_, fm, f1 = force_fine[j], force_fine[j + 1], force_fine[j + 2]
-            k1 = _rates(f0_, y, v, zb, zj, m, c, k, k3, f0, bw, jk)
+            k1 = _rates(f0_, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev)
             k2 = _rates(fm, y + 0.5 * h * k1[0], v + 0.5 * h * k1[1], zb + 0.5 * h * k1[2],
-                        zj + 0.5 * h * k1[3], m, c, k, k3, f0, bw, jk)
+                        zj + 0.5 * h * k1[3], m, c, k, k3, f0, bw, jk, ev)
             k3_ = _rates(fm, y + 0.5 * h * k2[0], v + 0.5 * h * k2[1], zb + 0.5 * h * k2[2],
-                         zj + 0.5 * h * k2[3], m, c, k, k3, f0, bw, jk)
+                         zj + 0.5 * h * k2[3], m, c, k, k3, f0, bw, jk, ev)
             k4 = _rates(f1, y + h * k3_[0], v + h * k3_[1], zb + h * k3_[2], zj + h * k3_[3],
-                        m, c, k, k3, f0, bw, jk)
+                        m, c, k, k3, f0, bw, jk, ev)
             y += h * (k1[0] + 2.0 * k2[0] + 2.0 * k3_[0] + k4[0]) / 6.0
             v += h * (k1[1] + 2.0 * k2[1] + 2.0 * k3_[1] + k4[1]) / 6.0
             zb += h * (k1[2] + 2.0 * k2[2] + 2.0 * k3_[2] + k4[2]) / 6.0
             zj += h * (k1[3] + 2.0 * k2[3] + 2.0 * k3_[3] + k4[3]) / 6.0
             if jk[0] > 0.0:
-                zj = min(max(zj, -jk[1]), jk[1])
+                zj = min(max(zj, -jk[1] * (1.0 - jk[2])), jk[1] * (1.0 + jk[2]))
         out[i + 1] = y
     state[0], state[1], state[2], state[3] = y, v, zb, zj
     return out
@@ -94,6 +103,9 @@ def check_simulable(model: Model) -> None:
     if "inertia" not in model.names:
         raise InputError("simulating the displacement needs a mass: add inertia to the model",
                          field="model")
+    if "asymmetric_slip" in model.names and "coulomb" not in model.names:
+        raise InputError("the simulator applies asymmetric_slip to coulomb's slider only; "
+                         "add coulomb to the model", field="model")
 
 
 def _coefficients(model: Model, params: Parameters | Mapping[str, Any]) -> tuple:
@@ -105,11 +117,13 @@ def _coefficients(model: Model, params: Parameters | Mapping[str, Any]) -> tuple
     bw = np.zeros(4)
     if "bouc_wen" in vals:
         bw[:] = [g("bouc_wen", "k0"), g("bouc_wen", "alpha"), g("bouc_wen", "beta"), g("bouc_wen", "n")]
-    jk = np.zeros(2)
+    jk = np.zeros(3)
     if "coulomb" in vals:
-        jk[:] = [g("coulomb", "k"), g("coulomb", "f_s")]
+        jk[:] = [g("coulomb", "k"), g("coulomb", "f_s"), g("asymmetric_slip", "asym")]
+    ev = np.array([g("quadratic_stiffness", "k2"), g("bilinear_stiffness", "dk"),
+                   g("contact", "k_c"), g("contact", "gap")])
     return (m, g("viscous", "c"), g("linear_stiffness", "k"), g("cubic_stiffness", "k3"),
-            g("offset", "F0"), bw, jk)
+            g("offset", "F0"), bw, jk, ev)
 
 
 def fine_force(force: np.ndarray, substeps: int, periodic: bool) -> np.ndarray:
@@ -136,16 +150,16 @@ def simulate(model: Model | str, params: Parameters | Mapping[str, Any], force: 
         raise InputError("the force must be a finite record of 2 or more samples", field="force")
     if isinstance(substeps, bool) or int(substeps) < 1:
         raise InputError(f"must be a whole number >= 1, got {substeps!r}", field="substeps")
-    m, c, k, k3, f0, bw, jk = _coefficients(model, params)
+    m, c, k, k3, f0, bw, jk, ev = _coefficients(model, params)
     s = int(substeps)
     h = 1.0 / (fs * s)
     state = np.zeros(4)
     if not periodic:
-        return _integrate(fine_force(f, s, False), h, m, c, k, k3, f0, bw, jk, s, state)
+        return _integrate(fine_force(f, s, False), h, m, c, k, k3, f0, bw, jk, ev, s, state)
     one = fine_force(f, s, True)
     prev = None
     for _ in range(MAX_PERIODS):
-        y = _integrate(one, h, m, c, k, k3, f0, bw, jk, s, state)
+        y = _integrate(one, h, m, c, k, k3, f0, bw, jk, ev, s, state)
         if prev is not None and np.max(np.abs(y - prev)) <= 1e-9 * max(np.ptp(y), 1e-300):
             break
         prev = y

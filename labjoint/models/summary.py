@@ -5,7 +5,12 @@ Per run, over its steady samples: displacement and force amplitudes (half the
 divided by the number of cycles), equivalent stiffness and damping (least squares
 F ~ k u + c v + F0, the first-harmonic fit), the stick slope just after reversals and
 the tip slope just before them (straight-line fits over the first / last 10 % of each
-branch's travel), the per-cycle energies (wear) and the mean-force asymmetry.
+branch's travel), the per-cycle energies (wear) and the mean-force asymmetry; for the even
+(asymmetric) elastic effects, least squares of F on (u, v, 1) and one even term: u^2
+(``k2``), the two sides' slopes max(u, 0), min(u, 0) (``k_plus``, ``k_minus``), and a
+one-sided contact max(s u - g, 0) on the stiffer side s over a grid of gaps g from 0 to
+0.8 of that side's reach (``contact_k`` signed by the side, ``contact_gap``: the gap of
+least residual).
 """
 
 from __future__ import annotations
@@ -50,12 +55,52 @@ class RunLoop:
     k_stick: float
     k_tip: float
     cycle_energy: np.ndarray
+    k2: float = 0.0
+    k_plus: float = float("nan")
+    k_minus: float = float("nan")
+    contact_k: float = 0.0
+    contact_gap: float = 0.0
 
     @property
     def asymmetry(self) -> float:
         """(F_max + F_min) / (F_max - F_min) relative to the mean-force-free loop."""
         span = self.f_max - self.f_min
         return 0.0 if span <= 0 else float((self.f_max + self.f_min) / span)
+
+
+CONTACT_GAPS = np.linspace(0.0, 0.8, 9)
+
+
+def _lsq(cols: list[np.ndarray], f: np.ndarray) -> tuple[np.ndarray, float]:
+    """Least squares of f on the columns (normal equations of the scaled columns; einsum,
+    not a threaded BLAS): (coefficients, residual sum of squares)."""
+    A = np.column_stack(cols)
+    n = np.sqrt(np.einsum("ij,ij->j", A, A))
+    n[n == 0] = 1.0
+    As = A / n
+    th = np.linalg.lstsq(np.einsum("ij,ik->jk", As, As), np.einsum("ij,i->j", As, f),
+                         rcond=1e-12)[0]
+    r = f - As @ th
+    return th / n, float(r @ r)
+
+
+def even_terms(u: np.ndarray, v: np.ndarray, f: np.ndarray) -> dict[str, float]:
+    """The even effects' least-squares terms of one run (module docstring)."""
+    one = np.ones_like(u)
+    k2 = float(_lsq([u, u * u, v, one], f)[0][1])
+    th, _ = _lsq([np.maximum(u, 0.0), np.minimum(u, 0.0), v, one], f)
+    k_plus, k_minus = float(th[0]), float(th[1])
+    side = 1.0 if k_plus >= k_minus else -1.0
+    reach = float(np.max(side * u))
+    best = (np.inf, 0.0, 0.0)
+    if reach > 0:
+        for frac in CONTACT_GAPS:
+            g = frac * reach
+            th, ssr = _lsq([u, v, one, np.maximum(side * u - g, 0.0)], f)
+            if ssr < best[0]:
+                best = (ssr, side * abs(float(th[3])), g)
+    return {"k2": k2, "k_plus": k_plus, "k_minus": k_minus, "contact_k": best[1],
+            "contact_gap": best[2]}
 
 
 def run_loop(run: RunData) -> RunLoop:
@@ -89,7 +134,7 @@ def run_loop(run: RunData) -> RunLoop:
     cycle_energy = np.bincount(cyc, weights=pw)[:n_full] if n_full > 0 else np.array([energy])
     return RunLoop(run.name, float(freq), float(U), float(0.5 * (fhi - flo)), float(np.mean(u)),
                    float(np.mean(f)), float(fhi), float(flo), energy, float(k_eq), float(c_eq),
-                   float(stick), float(tip), cycle_energy)
+                   float(stick), float(tip), cycle_energy, **even_terms(u, v, f))
 
 
 @dataclass(frozen=True)

@@ -28,6 +28,7 @@ from labjoint.compare.runs import prepare_run
 from labjoint.errors import InputError
 from labjoint.signal.excitation import detect_excitation
 from labjoint.storage import Run, read_any
+from labjoint.storage.roles import channel_roles
 
 KINDS: dict[str, Kind] = {SINE.name: SINE, RECORD.name: RECORD, FRF.name: FRF, BACKBONE.name: BACKBONE}
 
@@ -41,6 +42,31 @@ def kind_of(ms: Sequence[Measurement]) -> Kind:
         raise InputError(f"the runs mix kinds of measurement {names}; prepare them all as "
                          "one kind (kind='record' takes any excitation)", field="runs")
     return KINDS[names[0]]
+
+
+#: what the joint models take and give: the relative displacement in, the joint force out
+#: (by equation error), or the force in and the displacement out (by simulation error)
+MODEL_QUANTITIES = {"displacement": "displacement", "force": "force"}
+
+
+def check_quantities(run: Run) -> None:
+    """Refuse a run whose force or displacement channel states another quantity (a
+    voltage where the model needs a force, an acceleration where it needs a displacement),
+    by the channels' ``channel_quantities`` metadata when the file carries it; one line
+    naming the run and the channel."""
+    q = run.metadata.get("channel_quantities") or {}
+    if not isinstance(q, dict) or not q:
+        return
+    roles = channel_roles(run.metadata, run.channels)
+    for role, names in (("force", [roles.joint_force]), ("displacement", list(roles.displacement))):
+        for name in names:
+            have = q.get(name)
+            if have is not None and str(have) != MODEL_QUANTITIES[role]:
+                raise InputError(f"run '{run.name}': channel '{name}' is a {have}, but a joint "
+                                 f"model's {role} must be a measured {role} (a {have} is never "
+                                 f"taken as one); map the {role} channel, or a shaker model "
+                                 "between the drive and the structure", file=run.path,
+                                 field=name)
 
 
 def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str = "auto",
@@ -62,6 +88,9 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
     items = [read_any(r) if isinstance(r, (str, Path)) else r for r in runs]
     if not items:
         raise InputError("no runs given", field="runs")
+    for r in items:
+        if isinstance(r, Run):
+            check_quantities(r)
     found = {id(r): detect_excitation(r.excitation, r.sample_rate_hz, dict(r.metadata))
              for r in items if isinstance(r, Run) and kind in ("auto", "sine")}
     if kind == "sine":

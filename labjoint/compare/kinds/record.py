@@ -27,8 +27,16 @@ Preparation (:func:`prepare_record`):
   by less than ``REST_FRACTION`` of its judged range before it), else the mean over the judged units (whole periods or blocks: where a joint that is
   symmetric about its rest position sits on average under a force of zero mean).
 - derivatives: the band-limited spectral ones of :mod:`labjoint.models.inputs`, with
-  periodic continuation at the edges only for periodic excitation, band max(3 kHz, 8 x
-  the highest excited frequency), capped at 0.4 fs.
+  periodic continuation at the edges only for periodic excitation. Band: for broadband
+  excitation (multisine, sweep, random), ``EXCITED_FACTOR`` x the frequency below which
+  ``EXCITED_POWER`` of the excitation's power lies (periodogram of the excited span;
+  the data's own band, not the detector's lines) (the judged force balance in the excited band: a mass or damper fed
+  the displacement noise differentiated up to kHz had a residual of the noise times
+  m w^2 and estimates biased towards zero, errors in the variables; an inertia +
+  viscous + linear record with 0.5 % noise fitted m ~ 0 and k < 0 at 99.5 % NRMSE, and
+  a channel delay looked like the fix), with a roll-off of order ``EXCITED_ORDER`` (it
+  passes 99.9 % of the top excited line's velocity and stops the noise above the band). A sine, or a band unknown: max(3 kHz, 8 x the
+  highest excited frequency). Capped at 0.4 fs.
 
 Noise floor (stated): periodic excitation with at least ``MIN_WINDOW_CYCLES`` judged
 periods: the period-to-period scatter of the sine kind (:mod:`labjoint.compare.noise`,
@@ -40,7 +48,10 @@ from its median absolute deviation, divided by C(2d, d), the smallest over d = 1
 consistent for Gaussian white noise on a signal smooth on the sample scale, whose
 stick-slip kinks are sparse spikes the median ignores; an upper bound where the signal
 itself holds power near Nyquist). Force-equivalent noise sigma_F^2 + k^2 sigma_u^2 as for sines,
-k the least-squares stiffness of F on (u, v, 1).
+k the least-squares stiffness of F on (u, v, 1), plus the displacement noise passed through
+the derivatives into the damping and inertia forces: c^2 sigma_u^2 G_v + m^2 sigma_u^2 G_a,
+(k, c, m) the least squares of F on (u, v, a, 1), G_v and G_a the white-noise gains of the
+band-limited first and second derivatives (the mean of |H(f)|^2 over 0..fs/2).
 """
 
 from __future__ import annotations
@@ -58,12 +69,15 @@ from labjoint.compare.noise import (MIN_WINDOW_CYCLES, difference_variance, inte
                                     scatter_variance)
 from labjoint.errors import InputError
 from labjoint.models import RunData
-from labjoint.models.inputs import DEFAULT_BAND_HZ, ModelInputs, derivatives
+from labjoint.models.inputs import BUTTER_ORDER, DEFAULT_BAND_HZ, ModelInputs, derivatives
 from labjoint.signal.cycles import cycles as resample_cycles
 from labjoint.signal.excitation import Excitation, detect_excitation
 from labjoint.storage import Run, read_any
 
 MIN_UNITS = 4
+EXCITED_FACTOR = 1.15
+EXCITED_POWER = 0.999
+EXCITED_ORDER = 24
 BLOCK_PERIODS = 4.0
 MAX_BLOCKS = 64
 REST_FRACTION = 0.02
@@ -133,9 +147,14 @@ class RecordMeasurement:
                                            period_scatter(u, self.bounds), n_units, 1)
         else:
             var_f, var_u, n_used, n_win = difference_variance(F[j]), difference_variance(u[j]), n_units, 0
-        A = np.column_stack([u[j], self.data.inputs.v[j], np.ones(j.stop - j.start)])
-        k = float(np.linalg.lstsq(A, F[j], rcond=None)[0][0])
-        var_eq = var_f + (k * k * var_u if np.isfinite(var_u) else 0.0)
+        inp = self.data.inputs
+        A = np.column_stack([u[j], inp.v[j], inp.a[j], np.ones(j.stop - j.start)])
+        k, c, m = (float(x) for x in np.linalg.lstsq(A, F[j], rcond=None)[0][:3])
+        band = float(self.metadata.get("derivative_band_hz", DEFAULT_BAND_HZ))
+        g_v, g_a = derivative_gains(self.fs, band,
+                                    int(self.metadata.get("derivative_order", BUTTER_ORDER)))
+        gain = k * k + c * c * g_v + m * m * g_a
+        var_eq = var_f + (gain * var_u if np.isfinite(var_u) else 0.0)
         rms = float(np.sqrt(np.mean(F[j] ** 2)))
         eq = float(np.sqrt(var_eq)) if np.isfinite(var_eq) else float("nan")
         return RunNoise(self.name, float(np.sqrt(var_f)), float(np.sqrt(var_u)), eq,
@@ -218,6 +237,40 @@ def _band(exc: Excitation) -> tuple[float | None, float | None]:
     return None, None
 
 
+def power_top(x: np.ndarray, fs: float, share: float = EXCITED_POWER) -> float | None:
+    """The frequency (Hz) below which ``share`` of the power of ``x`` (mean removed) lies:
+    the periodogram of the whole span (every sample counts alike: Welch's segments drop a
+    sweep's last part, a taper its ends); None for a record too short or silent."""
+    x = np.asarray(x, dtype=float)
+    if x.size < 64:
+        return None
+    p = np.abs(np.fft.rfft(x - x.mean())) ** 2
+    f = np.fft.rfftfreq(x.size, 1.0 / fs)
+    c = np.cumsum(p)
+    if not c[-1] > 0:
+        return None
+    return float(f[min(int(np.searchsorted(c, share * c[-1])), f.size - 1)])
+
+
+def derivative_band(exc: Excitation, f_hi: float | None, top: float | None = None
+                    ) -> tuple[float, int]:
+    """The derivatives' band (Hz) and roll-off order for an excitation (module docstring);
+    ``top``: the excitation's :func:`power_top`."""
+    if exc.kind != "sine" and top:
+        return EXCITED_FACTOR * top, EXCITED_ORDER
+    return max(DEFAULT_BAND_HZ, 8.0 * (f_hi or 0.0)), BUTTER_ORDER
+
+
+def derivative_gains(fs: float, band: float, order: int = BUTTER_ORDER) -> tuple[float, float]:
+    """White-noise variance gains (G_v in 1/s^2, G_a in 1/s^4) of the band-limited
+    derivatives of :func:`labjoint.models.inputs.derivatives`: the mean of |H(f)|^2 over
+    0..fs/2 with H = (j 2 pi f)^d / (1 + (f / band)^(2 order))."""
+    f = np.linspace(0.0, 0.5 * fs, 8193)
+    h2 = 1.0 / (1.0 + (f / band) ** (2 * order)) ** 2
+    w2 = (2 * np.pi * f) ** 2
+    return float(np.mean(w2 * h2)), float(np.mean(w2 * w2 * h2))
+
+
 def prepare_record(run: Run | str | Path, *, band_hz: float | None = None,
                    warmup: str | float = "auto",
                    excitation: Excitation | None = None) -> RecordMeasurement:
@@ -268,12 +321,15 @@ def prepare_record(run: Run | str | Path, *, band_hz: float | None = None,
         ref = float(np.mean(u_raw[keep]))
     u = u_raw - ref
     f_hi = _band(exc)[1]
-    band = band_hz if band_hz is not None else max(DEFAULT_BAND_HZ, 8.0 * (f_hi or 0.0))
-    v, a = derivatives(u, fs, band, fs / per if periodic and per else None, periodic=periodic)
+    band, order = derivative_band(exc, f_hi, power_top(np.asarray(run.excitation, float)[a0:a1], fs))
+    band = min(band_hz if band_hz is not None else band, 0.4 * fs)
+    v, a = derivatives(u, fs, band, fs / per if periodic and per else None, periodic=periodic,
+                       order=order)
     ups = np.count_nonzero((u[keep][:-1] < 0) & (u[keep][1:] >= 0))
     f_char = ups * fs / keep.sum() if ups else (f_hi or fs / keep.sum())
     md = dict(run.metadata)
-    md.update(displacement_reference_m=ref, excitation=exc.to_dict(), judged_from_s=spans[0, 0] / fs)
+    md.update(displacement_reference_m=ref, excitation=exc.to_dict(), judged_from_s=spans[0, 0] / fs,
+              derivative_band_hz=band, derivative_order=order)
     inputs = ModelInputs(u, v, a, fs, 0, 0.0, float(f_char), run.name, md)
     data = RunData(inputs, F, keep)
     return RecordMeasurement(run.name, data, exc, spans, bounds, run.path, md)

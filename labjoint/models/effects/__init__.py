@@ -12,6 +12,7 @@ from labjoint.errors import InputError
 from labjoint.models.effects.backlash import Backlash
 from labjoint.models.effects.base import (
     Effect,
+    ElasticEffect,
     ForceEffect,
     HystereticEffect,
     InputEffect,
@@ -22,6 +23,7 @@ from labjoint.models.effects.bouc_wen import BoucWen
 from labjoint.models.effects.coulomb import Coulomb
 from labjoint.models.effects.delay import ChannelDelay
 from labjoint.models.effects.elastic import CubicStiffness, LinearStiffness, Offset
+from labjoint.models.effects.even import BilinearStiffness, Contact, QuadraticStiffness
 from labjoint.models.effects.inertia import Inertia
 from labjoint.models.effects.iwan import Iwan
 from labjoint.models.effects.modifiers import AsymmetricSlip, Wear
@@ -33,7 +35,7 @@ from labjoint.vocabulary import EFFECTS
 REGISTRY: dict[str, type[Effect]] = {
     cls.name: cls
     for cls in (LinearStiffness, Viscous, Coulomb, Iwan, BoucWen, Valanis, RichardAbbott,
-                CubicStiffness, Offset, AsymmetricSlip, Inertia, Wear, Backlash, ChannelDelay)
+                CubicStiffness, QuadraticStiffness, BilinearStiffness, Contact, Offset, AsymmetricSlip, Inertia, Wear, Backlash, ChannelDelay)
 }
 assert set(REGISTRY) == set(EFFECTS), "every vocabulary effect needs exactly one class"
 
@@ -47,5 +49,5 @@ def get_effect(name: str) -> Effect:
     return REGISTRY[key]()
 
 
-__all__ = ["REGISTRY", "get_effect", "Effect", "ForceEffect", "HystereticEffect",
+__all__ = ["REGISTRY", "get_effect", "Effect", "ElasticEffect", "ForceEffect", "HystereticEffect",
            "ModifierEffect", "InputEffect", "SlipModifiers"]

@@ -10,6 +10,9 @@ Families:
 - :class:`ForceEffect` (kind "force"): force = parameter x a regressor built from the
   history (``basis``); all vocabulary force terms are linear in their one parameter, so
   fits solve them exactly (variable projection).
+- :class:`ElasticEffect` (kind "elastic"): a memoryless force F = f(u; params), nonlinear
+  in some parameter (a contact's gap), evaluated on whole arrays at once (any shape: the
+  structure's harmonic balance passes a batch of histories).
 - :class:`HystereticEffect` (kind "hysteretic"): history-dependent force, simulated
   sample by sample from a relaxed state at the first sample (numba kernels).
 - :class:`ModifierEffect` (kind "modifier"): scales the slip strengths of the model's
@@ -152,6 +155,20 @@ class ForceEffect(Effect):
               modifiers: SlipModifiers = NO_MODIFIERS) -> np.ndarray:
         (p,) = self.param_names
         return float(params[p]) * self.basis(inputs)[inputs.n_prime:]
+
+
+class ElasticEffect(Effect):
+    """Memoryless force F = f(u; params), nonlinear in its parameters."""
+
+    _family = "elastic"
+
+    @abc.abstractmethod
+    def elastic(self, params: Mapping[str, float], u: np.ndarray) -> np.ndarray:
+        """Force (N) at displacements ``u`` (m), elementwise (any shape)."""
+
+    def force(self, params: Mapping[str, float], inputs: ModelInputs,
+              modifiers: SlipModifiers = NO_MODIFIERS) -> np.ndarray:
+        return self.elastic(params, inputs.u_hist)[inputs.n_prime:]
 
 
 class HystereticEffect(Effect):
