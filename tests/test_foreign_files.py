@@ -70,7 +70,7 @@ def test_bad_foreign_files_are_refused_by_name_and_nothing_is_stored(tmp_path):
         read_foreign(tmp_path / "short.tdms", tmp_path / "map.toml")
     (tmp_path / "bad.toml").write_text(MAP.replace('"Force"', '"Load"'))
     _tdms(tmp_path / "a.tdms")
-    with pytest.raises(InputError, match="no channel 'Load'.*Force"):
+    with pytest.raises(InputError, match="no channel 'Measurement/Load'.*Force"):
         read_foreign(tmp_path / "a.tdms", tmp_path / "bad.toml")
     (tmp_path / "alias.toml").write_text(MAP.replace("80.0", "1500.0"))
     with pytest.raises(InputError, match="Nyquist"):

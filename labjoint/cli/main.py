@@ -17,7 +17,7 @@ from labjoint.errors import HardwareError, InputError, LabjointError, LimitExcee
 # subcommand -> (module in labjoint.cli, function, help)
 COMMANDS = {
     "simulate": ("cmd_simulate", "run", "run a plan on the simulated rig and analyse it"),
-    "import": ("cmd_import", "run", "import CSV, TDMS or HDF5 files into run files"),
+    "import": ("cmd_import", "run", "import CSV, MAT, UFF, TDMS or HDF5 files into run files"),
     "export": ("cmd_export", "run", "write runs as universal files (UFF 58) for modal tools"),
     "analyze": ("cmd_analyze", "run", "identify energy loss, damping and stiffness of runs"),
     "calibrate": ("cmd_calibrate", "calibrate", "calibrate the joint-force sensor (N/V per frequency)"),
@@ -29,6 +29,9 @@ COMMANDS = {
     "fit": ("cmd_models", "fit", "fit a joint model to runs"),
     "diagnose": ("cmd_models", "diagnose", "where a model fails and which effect is missing"),
     "ladder": ("cmd_models", "ladder", "add effects until the model is adequate"),
+    "frf": ("cmd_frf", "run_frf", "FRFs (H1, H2, Hv, coherence, std) of broadband records, one level per record"),
+    "modes": ("cmd_frf", "run_modes", "natural frequency, damping and mode shape per level (LSCF/LSFD, half-power)"),
+    "distortion": ("cmd_distortion", "run", "harmonics of steady sines; odd/even distortion of multisines"),
     "predict": ("cmd_predict", "run", "simulate a saved model on a record's force"),
     "structure": ("cmd_structure", "run", "assembled-structure model: modes, stage-1 update, nonlinear FRF"),
     "hw": ("cmd_hw", "run", "hardware: `labjoint hw check` lists instruments and DAQ devices"),

@@ -15,7 +15,7 @@ import numpy as np
 from labjoint.errors import HardwareError, InputError
 
 SENSOR_KINDS = ("force", "capacitive", "nanocomposite", "imported", "voltage", "accelerometer")
-QUANTITIES = ("force", "displacement", "voltage", "time", "acceleration")
+QUANTITIES = ("force", "displacement", "voltage", "time", "acceleration", "velocity")
 
 
 @dataclass(frozen=True)
@@ -48,7 +48,9 @@ class ChannelSpec:
         if self.sensor not in SENSOR_KINDS:
             raise InputError(f"unknown sensor kind {self.sensor!r}; known: {SENSOR_KINDS}",
                              field=f"channels.{self.name}.sensor")
-        if self.quantity not in QUANTITIES:
+        imported_other = (self.sensor == "imported" and self.quantity.replace("_", "").isalnum()
+                          and self.quantity.islower())    # imported: other quantities kept as given
+        if self.quantity not in QUANTITIES and not imported_other:
             raise InputError(f"unknown quantity {self.quantity!r}; known: {QUANTITIES}",
                              field=f"channels.{self.name}.quantity")
         if not np.isfinite(self.sensitivity) or self.sensitivity == 0:

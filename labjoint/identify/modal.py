@@ -5,8 +5,10 @@ Two estimators side by side, per sweep (force level, direction) of an
 
 - LSCF poles with LSFD modal constants, by sdypy-ema (``sdypy.EMA.Model``), over every
   response sensor at once; the pole nearest the FRF's peak is taken from the
-  stabilisation of increasing model orders. A step-sine grid that is not uniform is
-  interpolated onto a uniform one first (LSCF needs it).
+  stabilisation of increasing model orders. A step-sine grid that is not uniform, or not
+  on whole multiples of its spacing, is interpolated onto one that is first, and the
+  lines below the band are given as zeros from 0 Hz (LSCF needs both: off the grid,
+  every pole moved by a share of a line, 20.033 Hz for 20 Hz).
 - Half-power (seed 001): zeta = delta_f / (2 f_n) between the points where the mobility
   falls to its peak over sqrt(2), interpolated linearly between steps.
 
@@ -67,6 +69,29 @@ def half_power(frequencies_hz: Any, frf: Any, quantity: str = "acceleration") ->
     return fn, float((hi - lo) / (2 * fn))
 
 
+def _grid(f: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lines on k df (interpolated when the grid is not uniform or not on multiples of df)."""
+    srt = np.argsort(f)
+    f, h = f[srt], h[:, srt]
+    df = float(np.min(np.diff(f)))
+    if df <= 0:
+        raise InputError("frequencies must be distinct within a level", field="frequencies_hz")
+    k0, k1 = int(np.ceil(f[0] / df - 1e-6)), int(np.floor(f[-1] / df + 1e-6))
+    grid = np.arange(k0, k1 + 1) * df
+    if grid.size == f.size and np.allclose(grid, f, rtol=0, atol=1e-6 * df):
+        return grid, h
+    return grid, np.array([np.interp(grid, f, r.real) + 1j * np.interp(grid, f, r.imag) for r in h])
+
+
+def _from_zero(f: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The lines below the band as zeros from 0 Hz (sdypy's own padding, ``np.arange(0,
+    f0, df)``, can add a line through rounding and shift every pole by a line's share)."""
+    df = float(f[1] - f[0])
+    k0 = int(round(f[0] / df))
+    return (np.arange(k0 + f.size) * df,
+            np.concatenate([np.zeros((h.shape[0], k0), complex), h], axis=1))
+
+
 def lscf(frequencies_hz: Any, frf: Any, quantity: str = "acceleration", near_hz: float | None = None,
          order: int = 8) -> dict[str, Any]:
     """LSCF pole nearest ``near_hz`` (default: the peak) and LSFD modal constants, by
@@ -78,21 +103,16 @@ def lscf(frequencies_hz: Any, frf: Any, quantity: str = "acceleration", near_hz:
     if f.ndim != 1 or f.size < 6 or h.shape[1] != f.size:
         raise InputError("LSCF needs at least 6 frequencies and FRFs shaped (sensors, frequencies)",
                          field="frequencies_hz")
-    srt = np.argsort(f)
-    f, h = f[srt], h[:, srt]
-    df = float(np.min(np.diff(f)))
-    if df <= 0:
-        raise InputError("frequencies must be distinct within a sweep", field="frequencies_hz")
-    grid = np.arange(f[0], f[-1] + 0.5 * df, df) if not np.allclose(np.diff(f), df) else f
-    if grid is not f:
-        h = np.array([np.interp(grid, f, r.real) + 1j * np.interp(grid, f, r.imag) for r in h])
+    grid, h = _grid(f, h)
+    df = float(grid[1] - grid[0])
     if near_hz is None:
         near_hz = float(grid[np.argmax(np.abs(_mobility(grid, h, quantity)).sum(axis=0))])
     form = FORMS[quantity][0]
     # sdypy-ema's numerical warnings (logs of poles, stabilisation ratios) and progress bars stay inside
     with warnings.catch_warnings(), contextlib.redirect_stderr(io.StringIO()):
         warnings.simplefilter("ignore")
-        m = EMA.Model(frf=h, freq=grid, lower=grid[0], upper=grid[-1] + 0.5 * df, pol_order_high=order,
+        g0, h0 = _from_zero(grid, h)
+        m = EMA.Model(frf=h0, freq=g0, lower=grid[0], upper=grid[-1] + 0.5 * df, pol_order_high=order,
                       frf_form=form)
         m.get_poles(method="lscf", show_progress=False)
         picks = _pick(m, near_hz, grid[0], grid[-1])
@@ -134,7 +154,8 @@ def modal_parameters(s: FrfSet, sensor: str | None = None, order: int = 8) -> li
         h = s.response[idx, :, 0].T / s.force[idx] if h is None else h
         j = s.sensors.index(sensor) if sensor else int(np.argmax(np.abs(h).max(axis=1)))
         fn, zeta = half_power(f, h[j], s.quantity)
-        out.append({"level_n": level, "direction": direction, "steps": int(idx.size),
+        out.append({"level_n": level, "level_units": s.level_units, "direction": direction,
+                    "steps": int(idx.size),
                     "sensor": s.sensors[j],
                     "lscf": lscf(f, h, s.quantity, near_hz=fn, order=order),
                     "half_power": {"natural_frequency_hz": fn,

@@ -6,6 +6,13 @@ f, the generator voltage phasor (for labs without a force sensor, responses per 
 and per sensor the response phasors at h f for h = 1..H (acceleration, m/s^2), each with
 the standard deviation of its estimate (the noise floor of the comparison).
 
+A broadband FRF (:mod:`labjoint.signal.broadband`) is stored in the same contract: one
+"step" per frequency line, ``level_n`` the record's level, ``force`` the unit phasor (1 in
+the drive's unit) so that ``response`` is the FRF itself, ``estimator`` H1, H2 or Hv, and
+``coherence`` per line and sensor. ``drive_quantity`` says what the drive is: "force"
+(N) or "voltage" (V, an amplifier or generator output; then ``level_n`` and ``force``
+are in volts, never newtons: :attr:`FrfSet.units`, e.g. "m/s/V", says so).
+
 Phasor convention: a signal a cos(h w t + phi) has phasor a exp(i phi) at harmonic h
 (amplitude, not RMS). The accelerance at step k, sensor s is
 ``response[k, s, 0] / force[k]``.
@@ -33,6 +40,10 @@ from labjoint.errors import InputError
 
 FORMAT = "labjoint.frfset/1"
 QUANTITIES = ("acceleration", "velocity", "displacement")
+#: SI unit of each response quantity and of each drive quantity
+RESPONSE_UNITS = {"acceleration": "m/s^2", "velocity": "m/s", "displacement": "m"}
+DRIVES = {"force": "N", "voltage": "V"}
+ESTIMATORS = ("stepped_sine", "H1", "H2", "Hv")
 
 
 def _complex(a: Any, name: str) -> np.ndarray:
@@ -57,6 +68,9 @@ class FrfSet:
     drive_v: np.ndarray | None = None   # (n,) generator voltage phasor at f, V (or None)
     runs: tuple[str, ...] = ()          # the run each step came from (or empty)
     metadata: dict[str, Any] = field(default_factory=dict)
+    drive_quantity: str = "force"       # "force" (N) or "voltage" (V): the unit of force, level_n
+    estimator: str = "stepped_sine"     # or a broadband estimator: H1, H2, Hv
+    coherence: np.ndarray | None = None  # (n, S) coherence of a broadband estimate (or None)
 
     def __post_init__(self) -> None:
         put = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 - frozen dataclass
@@ -101,6 +115,25 @@ class FrfSet:
         if runs and len(runs) != n:
             raise InputError(f"must name {n} runs or none", field="runs")
         put("runs", runs)
+        if self.drive_quantity not in DRIVES:
+            raise InputError(f"must be one of {list(DRIVES)}", field="drive_quantity")
+        if self.estimator not in ESTIMATORS:
+            raise InputError(f"must be one of {ESTIMATORS}", field="estimator")
+        if self.coherence is not None:
+            c = np.asarray(self.coherence, float)
+            if c.shape != r.shape[:2] or not np.all((c >= 0) & (c <= 1)):
+                raise InputError(f"must be {r.shape[:2]} values in [0, 1]", field="coherence")
+            put("coherence", c)
+
+    @property
+    def units(self) -> str:
+        """The FRF's unit, response over drive, e.g. "m/s^2/N" or "m/s/V"."""
+        return f"{RESPONSE_UNITS[self.quantity]}/{DRIVES[self.drive_quantity]}"
+
+    @property
+    def level_units(self) -> str:
+        """The unit of ``level_n`` and ``force``: "N" or "V"."""
+        return DRIVES[self.drive_quantity]
 
     @property
     def harmonics(self) -> int:
@@ -127,7 +160,9 @@ class FrfSet:
         return FrfSet(self.frequencies_hz[idx], self.level_n[idx], self.direction[idx],
                       self.force[idx], self.sensors, self.response[idx], self.response_std[idx],
                       self.quantity, None if self.drive_v is None else self.drive_v[idx],
-                      tuple(self.runs[i] for i in idx) if self.runs else (), dict(self.metadata))
+                      tuple(self.runs[i] for i in idx) if self.runs else (), dict(self.metadata),
+                      self.drive_quantity, self.estimator,
+                      None if self.coherence is None else self.coherence[idx])
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON types; complex numbers as [re, im] pairs."""
@@ -137,7 +172,10 @@ class FrfSet:
                 "force": c(self.force), "sensors": list(self.sensors), "response": c(self.response),
                 "response_std": self.response_std.tolist(), "quantity": self.quantity,
                 "drive_v": None if self.drive_v is None else c(self.drive_v),
-                "runs": list(self.runs), "metadata": self.metadata}
+                "runs": list(self.runs), "metadata": self.metadata,
+                "drive_quantity": self.drive_quantity, "units": self.units,
+                "level_units": self.level_units, "estimator": self.estimator,
+                "coherence": None if self.coherence is None else self.coherence.tolist()}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "FrfSet":
@@ -155,7 +193,9 @@ class FrfSet:
                        tuple(d["sensors"]), c("response"), d["response_std"],
                        d.get("quantity", "acceleration"),
                        None if d.get("drive_v") is None else c("drive_v"),
-                       tuple(d.get("runs", ())), dict(d.get("metadata", {})))
+                       tuple(d.get("runs", ())), dict(d.get("metadata", {})),
+                       d.get("drive_quantity", "force"), d.get("estimator", "stepped_sine"),
+                       d.get("coherence"))
         except KeyError as exc:
             raise InputError("missing from the FRF set", field=str(exc.args[0])) from None
         except (TypeError, ValueError) as exc:
@@ -202,9 +242,19 @@ def concat(sets: "list[FrfSet]") -> FrfSet:
         raise InputError("the FRF sets name different sensors", field="frfsets")
     if len({s.quantity for s in sets}) > 1:
         raise InputError("the FRF sets measure different quantities", field="frfsets")
+    if len({s.drive_quantity for s in sets}) > 1:
+        raise InputError("the FRF sets have different drives (force and voltage)", field="frfsets")
     H = min(s.harmonics for s in sets)
+    coh = (None if any(s.coherence is None for s in sets)
+           else np.concatenate([s.coherence for s in sets]))
+    est = {s.estimator for s in sets}
+    if len(est) > 1:
+        raise InputError(f"the FRF sets mix estimators {sorted(est)}", field="frfsets")
     cat = lambda f: np.concatenate([f(s) for s in sets])  # noqa: E731
     return FrfSet(cat(lambda s: s.frequencies_hz), cat(lambda s: s.level_n),
                   cat(lambda s: s.direction), cat(lambda s: s.force), sets[0].sensors,
                   cat(lambda s: s.response[:, :, :H]), cat(lambda s: s.response_std[:, :, :H]),
-                  sets[0].quantity)
+                  sets[0].quantity,
+                  runs=tuple(r for s in sets for r in s.runs) if all(s.runs for s in sets) else (),
+                  drive_quantity=sets[0].drive_quantity,
+                  estimator=est.pop(), coherence=coh)

@@ -4,7 +4,8 @@ Imported runs carry physical values, not volts: each column is stored as-is in i
 raw dataset with ``@units`` = its physical unit, sensor kind "imported" and a unity
 calibration (sensitivity 1.0, range inf), so the reader's physical units are the
 CSV's numbers exactly. Channels: ``displacement`` (m), ``force`` (N) and one per
-extra column (named as in the header, unit from the name's suffix). The file is
+extra column (named as in the header, quantity ``unknown``: a name is not a unit; a
+channel map names quantities and units, :mod:`labjoint.storage.importers`). The file is
 written under a temporary name and renamed only when complete; a failed import
 leaves nothing in ``data_dir``.
 
@@ -20,7 +21,6 @@ leaves nothing in ``data_dir``.
 
 from __future__ import annotations
 
-import math
 import os
 import re
 import secrets
@@ -33,30 +33,8 @@ import numpy as np
 from labjoint.errors import InputError
 from labjoint.hardware.interfaces import ChannelSpec
 from labjoint.storage import layout
-from labjoint.storage.csv_parse import ParsedCSV, parse_csv, unit_of
+from labjoint.storage.csv_parse import ParsedCSV, parse_csv
 from labjoint.storage.writer import utc_now
-
-_QUANTITY_BY_UNIT = {"N": "force", "m": "displacement", "s": "time", "V": "voltage"}
-
-
-def _channels(parsed: ParsedCSV) -> list[tuple[ChannelSpec, np.ndarray]]:
-    out = []
-    required = {"displacement_m": ("displacement", "displacement", "m"),
-                "force_n": ("force", "force", "N")}
-    for key, (name, quantity, unit) in required.items():
-        spec = ChannelSpec(name=name, sensor="imported", quantity=quantity, unit=unit,
-                           sensitivity=1.0, range_v=math.inf, coupling="DC")
-        out.append((spec, parsed.column(key)))
-    for col in parsed.columns:
-        if col.lower() in ("time_s", "displacement_m", "force_n"):
-            continue
-        unit = unit_of(col)
-        spec = ChannelSpec(name=col, sensor="imported",
-                           quantity=_QUANTITY_BY_UNIT.get(unit, "voltage"), unit=unit,
-                           sensitivity=1.0, range_v=math.inf, coupling="DC")
-        out.append((spec, parsed.column(col)))
-    return out
-
 
 def import_csv(csv_path: str | Path, data_dir: str | Path, name: str | None = None,
                catalog: Any = None) -> Path:
@@ -72,39 +50,62 @@ def import_parsed(parsed: ParsedCSV, data_dir: str | Path, name: str | None = No
                   catalog: Any = None) -> Path:
     """Store columns read by :func:`parse_csv` or :func:`labjoint.storage.foreign.read_foreign`
     as ``<data_dir>/<name>.h5`` (name: the source file's stem)."""
-    src = parsed.path
-    if name is None:
-        name = re.sub(r"[^A-Za-z0-9_.\-]", "_", src.stem).lstrip("._-") or "imported"
+    md: dict[str, Any] = dict(parsed.metadata)
+    md.update(displacement_channels=["displacement"], joint_force_channel="force")
+    md.setdefault("csv_header", parsed.columns)
+    return store_channels(parsed.path, parsed.column("time_s"), parsed.sample_rate_hz,
+                          parsed.specs(), md, data_dir, name=name, catalog=catalog)
+
+
+def safe_name(text: str) -> str:
+    """A run name made of ``text`` (a file stem, an HDF5 group): other characters -> _."""
+    return re.sub(r"[^A-Za-z0-9_.\-]", "_", text).lstrip("._-") or "imported"
+
+
+def store_channels(src: Path, time: np.ndarray, sample_rate_hz: float,
+                   chans: list[tuple[ChannelSpec, np.ndarray]], metadata: dict[str, Any],
+                   data_dir: str | Path, *, name: str | None = None, catalog: Any = None,
+                   signal: str | None = None, extra: Any = None) -> Path:
+    """Store channels in physical (SI) units as ``<data_dir>/<name>.h5`` (name: the
+    source's stem): written under a temporary name, renamed only when complete.
+
+    ``metadata`` may list ``drive_channels`` and ``response_channels``; every channel's
+    quantity and unit come from its spec (:func:`layout.create_layout`); ``extra(f)``
+    may write more (a processed group) into the open file before it is published.
+    """
+    name = safe_name(Path(src).stem) if name is None else name
     final = layout.run_path(data_dir, name)
     if catalog is not None:
         catalog.check_free(name, final)
     if final.exists():
         raise InputError("a run file with this name already exists; pass another name",
                          file=str(final))
-    chans = _channels(parsed)
-    md: dict[str, Any] = dict(parsed.metadata)
+    md = dict(metadata)
     now = utc_now()
     md.setdefault("start_time", now)
-    md.update(plan=md.get("plan", "import"), source_file=str(src.resolve()), imported_at=now,
-              displacement_channels=["displacement"], joint_force_channel="force")
-    md.setdefault("csv_header", parsed.columns)
+    md.update(plan=md.get("plan", "import"), source_file=str(Path(src).resolve()),
+              imported_at=now)
+    names = [c.name for c, _ in chans]
     Path(data_dir).mkdir(parents=True, exist_ok=True)
     tmp = layout.temp_path(final, f"{os.getpid()}-{secrets.token_hex(4)}")
     try:
         with layout.H5_LOCK, h5py.File(tmp, "w", libver="latest") as f:
             layout.create_layout(f, name=name, uid=secrets.token_hex(16),
-                                 channels=[c for c, _ in chans],
-                                 sample_rate_hz=parsed.sample_rate_hz, metadata=md,
-                                 source="imported", signal="force", data_units=None)
+                                 channels=[c for c, _ in chans], sample_rate_hz=sample_rate_hz,
+                                 metadata=md, source="imported",
+                                 signal=signal or ("force" if "force" in names else None),
+                                 data_units=None)
             data = f["entry/data"]
-            n = parsed.values.shape[0]
-            for key, values in [("time", parsed.column("time_s"))] + [(c.name, v) for c, v in chans]:
+            n = len(time)
+            for key, values in [("time", time)] + [(c.name, v) for c, v in chans]:
                 data[key].resize((n,))
                 data[key][:] = values
             e = f["entry"]
             e["end_time"][()] = np.bytes_(now.encode())
             e["n_samples"][()] = n
             e["status"][()] = np.bytes_(b"complete")
+            if extra is not None:
+                extra(f)
         layout.publish(tmp, final)
     except BaseException:
         tmp.unlink(missing_ok=True)

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from labjoint.errors import InputError
+from labjoint.hardware.interfaces import ChannelSpec
 from labjoint.storage.run import Run
 
 REQUIRED = ("time_s", "displacement_m", "force_N")
@@ -55,6 +56,39 @@ class ParsedCSV:
         low = [c.lower() for c in self.columns]
         return self.values[:, low.index(name.lower())]
 
+    def specs(self) -> list[tuple[ChannelSpec, np.ndarray]]:
+        """Channel specs and samples of the import format's columns: ``displacement``
+        (m), ``force`` (N) and each further column with quantity ``unknown`` and no unit
+        (a column name is not a unit: give a channel map to name quantities)."""
+        out = []
+        for key, name, quantity, unit in (("displacement_m", "displacement", "displacement", "m"),
+                                          ("force_n", "force", "force", "N")):
+            out.append((_imported_spec(name, quantity, unit), self.column(key)))
+        for col in self.columns:
+            if col.lower() not in ("time_s", "displacement_m", "force_n"):
+                out.append((_imported_spec(col, "unknown", ""), self.column(col)))
+        return out
+
+    def to_channels(self, channels: list[str] | None = None) -> Any:
+        """The CSV as a :class:`labjoint.storage.channels.ChannelRecord` (unstored)."""
+        from labjoint.storage.channels import make_record
+        from labjoint.storage.roles import channel_roles
+
+        specs = dict((s.name, (s, v)) for s, v in self.specs())
+        run = self.to_run()
+        names = list(specs) if channels is None else list(channels)
+        for n in names:
+            if n not in specs:
+                raise InputError(f"no channel {n!r}; channels: {list(specs)}",
+                                 file=str(self.path), field=n)
+        md = dict(run.metadata)
+        md["channel_quantities"] = {n: s.quantity for n, (s, _) in specs.items()}
+        roles = channel_roles(md, list(specs))
+        md.update(drive_channels=list(roles.drives), response_channels=list(roles.responses))
+        return make_record(run.name, run.time, self.sample_rate_hz, md,
+                           [specs[n][0] for n in names], {n: specs[n][1] for n in names},
+                           roles, str(self.path))
+
     def to_run(self) -> Run:
         """The CSV as a :class:`Run` without storing it (channels named as an imported
         run file's: ``displacement``, ``force`` and the extra columns; ``path`` the CSV)."""
@@ -69,6 +103,11 @@ class ParsedCSV:
         return Run(name=self.path.stem, time=self.column("time_s"),
                    displacement=chans["displacement"], force=chans["force"],
                    metadata=md, channels=chans, path=str(self.path))
+
+
+def _imported_spec(name: str, quantity: str, unit: str) -> ChannelSpec:
+    return ChannelSpec(name=name, sensor="imported", quantity=quantity, unit=unit,
+                       sensitivity=1.0, range_v=math.inf, coupling="DC")
 
 
 def unit_of(column: str) -> str:

@@ -1,8 +1,12 @@
-"""Records from other tools: LabVIEW TDMS files and HDF5 layouts (the Bouc-Wen
-benchmark's), read through a small TOML channel map into the CSV import's columns.
+"""Records from other tools through the older, joint-level map form: LabVIEW TDMS files
+and HDF5 layouts (the Bouc-Wen benchmark's) into the CSV import's columns. Such a map is
+turned into a :class:`~labjoint.storage.channel_map.ChannelMap` (:func:`legacy_channel_map`)
+and read and checked by the channel-map importer, like every other lab export; maps with
+a quantity and unit per channel (:mod:`labjoint.storage.channel_map`) say more.
 
 A map names, for each column of the import format (design.md: ``displacement_m`` and
-``force_N`` required, further columns ``name_unit``), where its samples are and the
+``force_N`` required; further columns are kept with quantity ``unknown``: a name is not
+a unit), where its samples are and the
 factor that brings them to the column's SI unit; the sample rate comes from the map, a
 dataset, or the TDMS channel's ``wf_increment``; ``[metadata]`` adds the CSV's
 ``# key: value`` metadata::
@@ -36,7 +40,8 @@ from typing import Any
 import numpy as np
 
 from labjoint.errors import InputError
-from labjoint.storage.csv_parse import KNOWN_KEYS, REQUIRED, ParsedCSV, unit_of
+from labjoint.storage.channel_map import ChannelMap, MapChannel
+from labjoint.storage.csv_parse import REQUIRED, ParsedCSV, unit_of
 
 FOREIGN_SUFFIXES = {".tdms": "tdms", ".h5": "hdf5", ".hdf5": "hdf5"}
 #: built-in maps, by name
@@ -92,97 +97,50 @@ def _fmt(path: Path, m: dict[str, Any]) -> str:
     return fmt
 
 
-def _tdms(path: Path, m: dict[str, Any]) -> tuple[dict[str, np.ndarray], float | None]:
-    from nptdms import TdmsFile
-
-    try:
-        f = TdmsFile.read(path)
-    except Exception as exc:  # nptdms raises ValueError, KeyError, struct errors ...
-        raise InputError(f"not a readable TDMS file: {exc}", file=str(path)) from None
-    out, fs = {}, None
+def legacy_channel_map(m: dict[str, Any], fmt: str) -> ChannelMap:
+    """An older-form map (checked by :func:`load_map`) as a :class:`ChannelMap`:
+    ``displacement_m`` -> channel ``displacement`` (m, a response), ``force_N`` ->
+    ``force`` (N, the drive), further columns kept with quantity ``unknown``."""
+    known = {"displacement_m": ("displacement", "displacement", "m", "response"),
+             "force_n": ("force", "force", "N", "drive")}
+    channels = []
     for col, c in m["channels"].items():
-        g, ch = c.get("group"), c.get("channel")
-        try:
-            obj = f[str(g)][str(ch)]
-        except KeyError:
-            have = {gr.name: [x.name for x in gr.channels()] for gr in f.groups()}
-            raise InputError(f"no channel {ch!r} in group {g!r}; the file has {have}",
-                             file=str(path), field=col) from None
-        out[col] = np.asarray(obj[:], dtype=float) * float(c.get("scale", 1.0))
-        inc = obj.properties.get("wf_increment")
-        if fs is None and inc:
-            fs = 1.0 / float(inc)
-    return out, fs
-
-
-def _hdf5(path: Path, m: dict[str, Any]) -> tuple[dict[str, np.ndarray], float | None]:
-    import h5py
-
-    try:
-        f = h5py.File(path, "r")
-    except OSError as exc:
-        raise InputError(f"not a readable HDF5 file: {exc}", file=str(path)) from None
-    with f:
-        def get(name: str, field: str) -> np.ndarray:
-            if name not in f or not isinstance(f[name], h5py.Dataset):
-                raise InputError(f"no dataset {name!r}", file=str(path), field=field)
-            return np.asarray(f[name][()], dtype=float)
-        out = {}
-        for col, c in m["channels"].items():
-            a = get(str(c.get("dataset")), col)
-            if a.ndim == 2 and ("column" in c or a.shape[1] == 1):
-                k = int(c.get("column", 0))
-                if not 0 <= k < a.shape[1]:
-                    raise InputError(f"column {k} outside the dataset's {a.shape[1]}",
-                                     file=str(path), field=col)
-                a = a[:, k]
-            if a.ndim != 1:
-                raise InputError(f"dataset of shape {a.shape}: give column = k", file=str(path),
-                                 field=col)
-            out[col] = a * float(c.get("scale", 1.0))
-        fs = None
-        if "sample_rate_dataset" in m:
-            fs = float(np.ravel(get(str(m["sample_rate_dataset"]), "sample_rate_dataset"))[0])
-    return out, fs
+        name, quantity, units, role = known.get(col.lower(), (col, "unknown", "", "other"))
+        source = f"{c.get('group')}/{c.get('channel')}" if fmt == "tdms" else str(c.get("dataset"))
+        column = int(c["column"]) if "column" in c else None
+        channels.append(MapChannel(name, source, quantity, units, units, float(c.get("scale", 1.0)),
+                                   role, column))
+    time: dict[str, Any] = {}
+    if "sample_rate_hz" in m:
+        time["sample_rate_hz"] = m["sample_rate_hz"]
+    elif "sample_rate_dataset" in m:
+        time["sample_rate_source"] = str(m["sample_rate_dataset"])
+    return ChannelMap(m["_source"], fmt, channels, time=time, metadata=dict(m.get("metadata", {})))
 
 
 def read_foreign(path: str | Path, channel_map: str | Path | dict[str, Any]) -> ParsedCSV:
-    """The record at ``path`` as the CSV import's columns (module docstring)."""
+    """The record at ``path`` as the CSV import's columns (module docstring), read and
+    checked by the channel-map importer (:mod:`labjoint.storage.importers`)."""
+    from labjoint.storage.importers import prepare_record
+    from labjoint.storage.sources import read_tests
+
     p = Path(path)
     m = load_map(channel_map)
     if not p.is_file():
         raise InputError("no such file", file=str(p))
     fmt = _fmt(p, m)
-    cols, fs_file = (_tdms if fmt == "tdms" else _hdf5)(p, m)
-    fs = m.get("sample_rate_hz", fs_file)
-    if fs is None:
-        raise InputError("no sample rate: give sample_rate_hz in the map", file=str(p),
-                         field="sample_rate_hz")
-    if isinstance(fs, bool) or not isinstance(fs, (int, float)) or not (math.isfinite(fs) and fs > 0):
-        raise InputError(f"sample rate must be > 0, got {fs!r}", file=str(p), field="sample_rate_hz")
-    lengths = {c: a.size for c, a in cols.items()}
-    if len(set(lengths.values())) != 1:
-        raise InputError(f"channels of unequal length {lengths}: refused, not truncated",
-                         file=str(p), field="channels")
-    n = next(iter(lengths.values()))
-    if n < 2:
-        raise InputError("need at least 2 samples", file=str(p), field="channels")
-    for c, a in cols.items():
-        if not np.all(np.isfinite(a)):
-            k = int(np.flatnonzero(~np.isfinite(a))[0])
-            raise InputError(f"sample {k} is not a finite number", file=str(p), field=c)
-    md = dict(m.get("metadata", {}))
-    for k in KNOWN_KEYS:
-        if k in md and (isinstance(md[k], bool) or not isinstance(md[k], (int, float))):
-            raise InputError(f"{k} must be a number, got {md[k]!r}", file=str(p), field=k)
-    md["sample_rate_hz"] = float(fs)
-    drive = md.get("frequency_hz")
-    if drive is not None and drive >= fs / 2:
-        raise InputError(f"frequency_hz {drive:g} Hz is at or above the Nyquist frequency "
-                         f"{fs / 2:g} Hz of the record", file=str(p), field="frequency_hz")
-    md["source_format"] = fmt
-    md["channel_map"] = m["_source"]
-    names = ["time_s", "displacement_m", "force_N"] + [c for c in cols if c not in REQUIRED]
-    t = np.arange(n) / float(fs)
-    values = np.column_stack([t] + [cols[c] for c in names[1:]])
-    return ParsedCSV(p, names, values, md, float(fs))
+    cmap = legacy_channel_map(m, fmt)
+    if "sample_rate_hz" in m:
+        fs = m["sample_rate_hz"]
+        if isinstance(fs, bool) or not isinstance(fs, (int, float)) or not (math.isfinite(fs) and fs > 0):
+            raise InputError(f"sample rate must be > 0, got {fs!r}", file=str(p),
+                             field="sample_rate_hz")
+    pr = prepare_record(read_tests(p, fmt, [], {})[0], cmap)
+    cols = {spec.name: x for spec, x in pr.channels}
+    names = ["time_s", "displacement_m", "force_N"] + [c for c in cols if c not in ("displacement", "force")]
+    values = np.column_stack([pr.time, cols["displacement"], cols["force"]] +
+                             [cols[c] for c in names[3:]])
+    md = {k: v for k, v in pr.metadata.items()
+          if k not in ("drive_channels", "response_channels", "source_units", "source_test")}
+    md.update(sample_rate_hz=pr.sample_rate_hz, source_format=fmt, channel_map=m["_source"])
+    return ParsedCSV(p, names, values, md, pr.sample_rate_hz)

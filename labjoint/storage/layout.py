@@ -20,6 +20,11 @@ Starred datasets change while a run is written. SWMR writers may only write into
 extend datasets that already exist (no new objects or attributes), so everything that
 changes is a pre-created fixed-size dataset (``status`` S16, ``end_time`` S40,
 ``n_samples``) or a resizable chunked one. Every dataset has ``@units`` ("" = none).
+Every channel dataset also has ``@quantity`` (displacement, velocity, acceleration, force,
+voltage, or another kept as given) and ``@physical_units``, the SI unit of that quantity
+(:mod:`labjoint.storage.quantities`); ``@units`` is the unit of the stored numbers: "V"
+for an acquired run's raw volts, the SI unit itself for an imported run. The metadata
+lists ``channel_quantities``, ``drive_channels`` and ``response_channels``.
 
 Raw channel data are float64 volts: the DAQ driver hands out float64 values already
 scaled by its own calibration polynomial, and float64 keeps them bit-exact; float32
@@ -46,6 +51,7 @@ import numpy as np
 from labjoint import __version__
 from labjoint.errors import InputError
 from labjoint.hardware.interfaces import ChannelSpec
+from labjoint.storage.roles import channel_roles
 
 #: Every HDF5 access of this process goes through this lock: reader and writer calls,
 #: and multi-step sequences (refresh, then shape, then slice) are atomic with respect to
@@ -231,6 +237,19 @@ def read_sensor(g: h5py.Group) -> ChannelSpec:
                        calibration_phase=phase)
 
 
+def channel_metadata(metadata: dict[str, Any], channels: list[ChannelSpec],
+                     quantities: dict[str, str] | None = None) -> dict[str, Any]:
+    """``channel_quantities`` (name -> quantity: ``quantities``, else the specs'),
+    ``drive_channels`` and ``response_channels`` of a run (the metadata's own lists where
+    it gives them, else the rules of :mod:`labjoint.storage.roles`)."""
+    md = dict(metadata)
+    md["channel_quantities"] = dict(quantities) if quantities is not None else \
+        {c.name: c.quantity for c in channels}
+    roles = channel_roles(md, [c.name for c in channels])
+    return {"channel_quantities": md["channel_quantities"],
+            "drive_channels": list(roles.drives), "response_channels": list(roles.responses)}
+
+
 def check_channels(channels: list[ChannelSpec]) -> None:
     """Channel list usable in a run file: non-empty, unique names, none called ``time``."""
     names = [c.name for c in channels]
@@ -294,6 +313,7 @@ def create_layout(f: h5py.File, *, name: str, uid: str, channels: list[ChannelSp
         number(e, "plan_step", step, "", dtype="<i8")
     else:
         text(e, "plan_step", str(step))
+    md.update(channel_metadata(md, channels))
     text(e, "metadata_json", to_json(md))
 
     sample = _collection(e, "sample", "NXsample")
@@ -329,6 +349,8 @@ def create_layout(f: h5py.File, *, name: str, uid: str, channels: list[ChannelSp
     for spec in channels:
         ds = _resizable(data, spec.name, data_units or spec.unit, "f8")
         ds.attrs["long_name"] = f"{spec.name} ({spec.quantity}, {spec.sensor})"
+        ds.attrs["quantity"] = spec.quantity
+        ds.attrs["physical_units"] = spec.unit
 
     acq = _collection(e, "acquisition", "NXcollection")
     _resizable(acq, "gaps", "", "<i8", shape=(0, 2), chunks=(64, 2))

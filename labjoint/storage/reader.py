@@ -28,6 +28,7 @@ import numpy as np
 from labjoint.errors import InputError
 from labjoint.hardware.interfaces import ChannelSpec
 from labjoint.storage import layout
+from labjoint.storage.channels import ChannelRecord, make_record, spec_quantity
 from labjoint.storage.csv_parse import parse_csv
 from labjoint.storage.roles import channel_roles
 from labjoint.storage.run import Run
@@ -76,7 +77,12 @@ def _static_part(rf: "RunFile") -> tuple:
     key = (str(rf.path.resolve()), st.st_ino, st.st_dev)
     hit = _STATIC.get(key)
     if hit is None:
-        hit = (tuple(rf._read_channels()), json.loads(_s(rf._e["metadata_json"][()])),
+        chans = tuple(rf._read_channels())
+        md = json.loads(_s(rf._e["metadata_json"][()]))
+        if "channel_quantities" not in md:       # written before channels carried quantities
+            md.update(layout.channel_metadata(md, list(chans),
+                                              {c.name: spec_quantity(c)[0] for c in chans}))
+        hit = (chans, md,
                _s(rf._e["title"][()]), _s(rf._e["entry_identifier"][()]),
                _s(rf._e.attrs.get("labjoint_source", "")))
         if len(_STATIC) >= _STATIC_MAX:
@@ -256,6 +262,16 @@ class RunFile:
                    path=str(self.path))
 
     @layout.locked
+    def to_channels(self, channels: list[str] | None = None) -> ChannelRecord:
+        """Every channel (or those named) in SI units with quantity, units and role."""
+        names = self.channel_names if channels is None else list(channels)
+        specs = [self.channel(n) for n in names]
+        md = self.metadata
+        roles = channel_roles(md, self.channel_names)
+        return make_record(self.name, self.time(), self.sample_rate_hz, md, specs,
+                           {n: self.physical(n) for n in names}, roles, str(self.path))
+
+    @layout.locked
     def close(self) -> None:
         """Release this reader; the file closes when its last reader in the process does."""
         if self._closed:
@@ -358,6 +374,17 @@ CSV_SUFFIXES = (".csv", ".txt")
 def is_csv(path: str | Path) -> bool:
     """Whether ``path`` is read as a CSV record (by its suffix)."""
     return Path(path).suffix.lower() in CSV_SUFFIXES
+
+
+def read_channels(path: str | Path, channels: list[str] | None = None) -> ChannelRecord:
+    """A run file (or a CSV record in the import format) as a :class:`ChannelRecord`:
+    time, sample rate, metadata and per channel samples (SI), quantity, units, role
+    (``drive``, ``response``, ``other``; tests/test_channel_contract.py shows each)."""
+    p = Path(path)
+    if is_csv(p):
+        return parse_csv(p).to_channels(channels)
+    with open_run(p) as rf:
+        return rf.to_channels(channels)
 
 
 def read_any(path: str | Path, force: str = "joint") -> Run:

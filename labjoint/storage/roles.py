@@ -6,11 +6,19 @@ Rules, from the run's metadata first: ``displacement_channels`` (two: their diff
 (an imported CSV), else ``disp_1``/``disp_2``; the joint force is ``joint_force_channel``,
 else ``force`` (imported) or ``shear_nc`` (the nanocomposite sensor); the reference force
 ``reference_force_channel``, else ``force_ref``.
+
+Drives and responses (any number of each): ``drive_channels`` and ``response_channels``
+of the metadata (every imported or newly written run lists them), else, for older files,
+from the rules above and each channel's stored quantity (``channel_quantities``): the
+drives are the reference force (or, without one, the joint force) and every voltage
+channel; the responses every motion channel and a joint force that is not the drive.
+A voltage is never a force: a force role that names a voltage channel, or a run whose
+only drive is a voltage, is refused with one line naming the channel.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Iterable
 
 from labjoint.errors import InputError
@@ -33,6 +41,14 @@ class ChannelRoles:
     joint_force: str
     reference_force: str
     names: tuple[str, ...]
+    quantities: dict[str, str] = field(default_factory=dict)
+    drives: tuple[str, ...] = ()
+    responses: tuple[str, ...] = ()
+
+    def role(self, channel: str) -> str:
+        """``drive``, ``response`` or ``other``."""
+        return "drive" if channel in self.drives else \
+            "response" if channel in self.responses else "other"
 
     def force(self, kind: str = "joint") -> str:
         """The joint (interface) or the reference (drive) force channel."""
@@ -44,6 +60,28 @@ class ChannelRoles:
         """Displacement channel(s) and the ``kind`` force channel, all present, or an error
         naming the missing channel (and ``source``, the file)."""
         fch = self.force(kind)
+        q = self.quantities
+        if q and (fch not in self.names or q.get(fch) == "voltage"):
+            volts = [c for c in self.drives if q.get(c) == "voltage"] or \
+                [c for c in self.names if q.get(c) == "voltage"]
+            if fch not in self.names and not any(q.get(c) == "force" for c in self.names) and volts:
+                raise InputError(f"no force channel: the drive is a voltage ({', '.join(volts)}), "
+                                 "never used as a force; this pipeline needs a measured force",
+                                 file=source, field=volts[0])
+            if q.get(fch) == "voltage":
+                raise InputError(f"no force channel: {fch!r} is a voltage, never used as a force",
+                                 file=source, field=fch)
+        if q and not any(c in self.names for c in self.displacement):
+            motion = [f"{c} ({q[c]})" for c in self.names if q.get(c) in ("velocity", "acceleration")]
+            if motion:
+                raise InputError("no displacement channel: the responses are "
+                                 f"{', '.join(motion)}; this pipeline needs the relative "
+                                 "displacement across the joint", file=source,
+                                 field=self.displacement[0] if self.displacement else "displacement")
+        for c in self.displacement:
+            if q and c in self.names and q.get(c) not in (None, "displacement"):
+                raise InputError(f"channel {c!r} is a {q[c]}, not a displacement; this pipeline "
+                                 "needs a relative displacement", file=source, field=c)
         if len(self.displacement) not in (1, 2):
             raise InputError("displacement_channels must name one or two channels",
                              file=source, field="displacement_channels")
@@ -74,4 +112,25 @@ def channel_roles(metadata: dict[str, Any], channel_names: Iterable[str]) -> Cha
         disp = ["disp_1", "disp_2"]
     joint = metadata.get("joint_force_channel") or ("force" if "force" in names else "shear_nc")
     reference = metadata.get("reference_force_channel") or "force_ref"
-    return ChannelRoles(disp, str(joint), str(reference), names)
+    quantities = {str(k): str(v) for k, v in (metadata.get("channel_quantities") or {}).items()}
+    drives, responses = drive_response(metadata, names, quantities, str(joint), str(reference))
+    return ChannelRoles(disp, str(joint), str(reference), names, quantities, drives, responses)
+
+
+def drive_response(metadata: dict[str, Any], names: tuple[str, ...], quantities: dict[str, str],
+                   joint: str, reference: str) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """Drive and response channels: the metadata's lists, else the module doc's rules.
+
+    >>> drive_response({}, ("force_ref", "disp_1", "shear_nc"), {"force_ref": "force",
+    ...                 "disp_1": "displacement", "shear_nc": "force"}, "shear_nc", "force_ref")
+    (('force_ref',), ('disp_1', 'shear_nc'))
+    """
+    if "drive_channels" in metadata or "response_channels" in metadata:
+        return (tuple(str(c) for c in metadata.get("drive_channels") or ()),
+                tuple(str(c) for c in metadata.get("response_channels") or ()))
+    force_drive = reference if reference in names else joint if joint in names else None
+    drives = [c for c in names if c == force_drive or quantities.get(c) == "voltage"]
+    motion = ("displacement", "velocity", "acceleration")
+    responses = [c for c in names if c not in drives
+                 and (quantities.get(c) in motion or c == joint)]
+    return tuple(drives), tuple(responses)
