@@ -5,7 +5,10 @@
   (:mod:`.record`);
 - ``frf``: constant-force stepped-sine FRFs of a structure with their harmonics, the
   model inside the structure (:mod:`.frf`, :mod:`.frf_maps`; prepared with
-  :func:`labjoint.compare.kinds.frf.prepare_frfsets`).
+  :func:`labjoint.compare.kinds.frf.prepare_frfsets`);
+- ``modal``: records of a structure nobody can describe, inside a modal model of its
+  measured modes with the joint on mode 1, judged on the measured responses
+  (:mod:`.modal`, :mod:`.modal_fit`; prepared with :func:`.modal.prepare_modal`).
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from typing import Any
 
 from labjoint.compare.kinds.frf import FrfMeasurement
 from labjoint.compare.kinds.frf_maps import FRF
+from labjoint.compare.kinds.modal_fit import MODAL
 from labjoint.compare.kinds.record import RECORD, RecordMeasurement, prepare_record
 from labjoint.compare.kinds.sine import SINE
 from labjoint.compare.measurement import Kind, Measurement
@@ -25,7 +29,7 @@ from labjoint.errors import InputError
 from labjoint.signal.excitation import detect_excitation
 from labjoint.storage import Run, read_any
 
-KINDS: dict[str, Kind] = {SINE.name: SINE, RECORD.name: RECORD, FRF.name: FRF}
+KINDS: dict[str, Kind] = {SINE.name: SINE, RECORD.name: RECORD, FRF.name: FRF, MODAL.name: MODAL}
 
 
 def kind_of(ms: Sequence[Measurement]) -> Kind:
@@ -51,6 +55,9 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
     """
     if kind not in ("auto", *KINDS):
         raise InputError(f"unknown kind {kind!r}; known: auto, {', '.join(KINDS)}", field="kind")
+    if kind == "modal":
+        raise InputError("the modal kind takes records with the measured modes (prepare_modal, or "
+                         "the modal option: --modal MODES.json)", field="kind")
     if kind == "frf":
         raise InputError("the frf kind takes FRF sets inside a structure (prepare_frfsets, or "
                          "the structure option), not runs", field="kind")
@@ -95,4 +102,4 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
     return out
 
 
-__all__ = ["KINDS", "kind_of", "prepare", "SINE", "RECORD", "FRF"]
+__all__ = ["KINDS", "kind_of", "prepare", "SINE", "RECORD", "FRF", "MODAL"]
