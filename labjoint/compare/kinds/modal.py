@@ -35,6 +35,7 @@ from labjoint.compare.noise import difference_variance
 from labjoint.errors import InputError
 from labjoint.models import Model, Parameters, RunData
 from labjoint.models.inputs import ModelInputs, estimate_frequency
+from labjoint.storage.channels import ChannelRecord
 from labjoint.storage.reader import read_channels
 from labjoint.structure.nlmode import (QUANTITY_ORDER, Drive, ModalBasis, linear_states,
                                        mode_states, response)
@@ -142,10 +143,11 @@ def _drive_end(v: np.ndarray, fs: float) -> int:
     return min(v.size, max(b, end - int(END_MARGIN_S * fs)))
 
 
-def prepare_modal(path: str, basis: ModalBasis, responses: Sequence[str] | None = None,
+def prepare_modal(path: str | ChannelRecord, basis: ModalBasis, responses: Sequence[str] | None = None,
                   warmup_s: float = WARMUP_S, judge_s: float = JUDGE_S) -> ModalMeasurement:
-    """A run file (or CSV record) as a modal measurement (module docstring)."""
-    rec = read_channels(path)
+    """A run file, CSV record or channel record as a modal measurement (module docstring)."""
+    rec = path if isinstance(path, ChannelRecord) else read_channels(path)
+    path = rec.path if isinstance(path, ChannelRecord) else path
     drives = rec.drives
     if len(drives) != 1:
         raise InputError(f"the modal kind needs one drive channel (a voltage or a force), the record "
