@@ -180,14 +180,11 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
             return None
         return project(fit_ms, qs)[2]
 
-    amp = 0.0
-    q0 = [m.states(model, {**{n: known.get(n, 0.0) for n in model.param_names},
-                           "modal.drive": known["modal.drive"]}) for m in fit_ms] \
-        if all(n in known for n in names) else None
-    if q0 is None:
-        base = {n: known.get(n, 0.0) for n in model.param_names}
-        q0 = [m.states(model, {**base, "modal.drive": known["modal.drive"]}) for m in fit_ms]
-    amp = max(float(np.nanmax(np.abs(q[:, 0]))) for q in q0)
+    sub = [e for e in model.names if all(p in known for p in Model.parse(e).param_names)]
+    amp = 1e-3
+    if sub:     # the records' largest modal displacement under the effects already known
+        q0 = [m.states(Model.parse("+".join(sub)), known) for m in fit_ms]
+        amp = max(float(np.nanmax(np.abs(q[:, 0]))) for q in q0)
     best, best_cost = None, np.inf
     for cand in _starts(model, known, amp):
         lo_hi = [bnd[n] for n in names]
