@@ -37,6 +37,7 @@ refused by name). The model is per volt; a per-newton one needs the force or the
 drive-point participation, which these records do not hold.
 
 Integrator (stated): classical 4th-order Runge-Kutta with ``substeps`` steps per sample
+(at least 4, and w h <= 0.1 at 1.5 x the highest measured mode)
 on (q, q', z_bouc_wen, z_jenkins) by the forward simulator's own rates
 (:mod:`labjoint.models.simulate`, the same laws), the voltage between samples
 band-limited (its ``fine_force``). A segment starts from the linear steady state of its
@@ -59,6 +60,7 @@ from labjoint.models import Model
 from labjoint.models.simulate import SUPPORTED, _coefficients, _rates, fine_force
 
 SUBSTEPS = 4
+MAX_WH = 0.1            # RK4 step: w h at most this at 1.5x the highest mode (phase error ~1e-7 a step)
 #: effects that can act on a mode's coordinate (the forward simulator's laws; the modal
 #: mass is the model's own, so ``inertia`` is not one of them)
 MODAL_EFFECTS = tuple(n for n in SUPPORTED if n != "inertia")
@@ -184,9 +186,12 @@ class Drive:
     n: int
     frequency_hz: float | None = None
     phasor: complex = 0j
+    substeps: int = SUBSTEPS
 
     @classmethod
-    def of(cls, volts: np.ndarray, fs: float, frequency_hz: float | None = None) -> Drive:
+    def of(cls, volts: np.ndarray, fs: float, frequency_hz: float | None = None,
+           highest_hz: float = 0.0) -> Drive:
+        """``highest_hz``: the highest mode; the substeps keep w h <= ``MAX_WH`` at 1.5x it."""
         v = np.asarray(volts, float)
         ph = 0j
         if frequency_hz:
@@ -195,7 +200,8 @@ class Drive:
                                  np.ones_like(t)])
             a, b, _ = np.linalg.lstsq(A, v, rcond=None)[0]
             ph = complex(a, -b)                  # V ~ Re(ph e^{i w t})
-        return cls(fine_force(v, SUBSTEPS, False), float(fs), v.size, frequency_hz, ph)
+        sub = max(SUBSTEPS, int(np.ceil(1.5 * 2 * np.pi * highest_hz / (MAX_WH * fs))))
+        return cls(fine_force(v, sub, False), float(fs), v.size, frequency_hz, ph, sub)
 
 
 def _start(d: Drive, gain: float, k: float, c: float) -> tuple[float, float]:
@@ -215,8 +221,8 @@ def mode_states(model: Model, params: Mapping[str, Any], drive: Drive) -> np.nda
     m, c, k, k3, f0, bw, jk, ev = _coefficients(full, vals)
     b = vals["modal.drive"]
     y0, v0 = _start(drive, b, k, c)
-    return _mode(b * drive.fine, 1.0 / (drive.fs * SUBSTEPS), m, c, k, k3, f0, bw, jk, ev,
-                 SUBSTEPS, y0, v0)
+    return _mode(b * drive.fine, 1.0 / (drive.fs * drive.substeps), m, c, k, k3, f0, bw, jk, ev,
+                 drive.substeps, y0, v0)
 
 
 def linear_states(mode: MeasuredMode, drive: Drive) -> np.ndarray:
@@ -225,8 +231,8 @@ def linear_states(mode: MeasuredMode, drive: Drive) -> np.ndarray:
     c, k = 2 * mode.damping_ratio * w, w * w
     y0, v0 = _start(drive, 1.0, k, c)
     z3 = np.zeros(3)
-    return _mode(drive.fine, 1.0 / (drive.fs * SUBSTEPS), 1.0, c, k, 0.0, 0.0, np.zeros(4), z3,
-                 np.zeros(4), SUBSTEPS, y0, v0)
+    return _mode(drive.fine, 1.0 / (drive.fs * drive.substeps), 1.0, c, k, 0.0, 0.0, np.zeros(4), z3,
+                 np.zeros(4), drive.substeps, y0, v0)
 
 
 def response(q: np.ndarray, lin: Sequence[np.ndarray], quantity: str, phi: float,

@@ -193,7 +193,7 @@ def prepare_modal(path: str | ChannelRecord, basis: ModalBasis, responses: Seque
         judged = slice(n_seg - n_judge, n_seg)
     else:
         seg, judged = slice(0, n_all), slice(0, n_all)
-    drive = Drive.of(dr.samples[seg], fs, f)
+    drive = Drive.of(dr.samples[seg], fs, f, max(m.frequency_hz for m in basis.modes))
     meas, scales = [], []
     for ch in names:
         y = np.asarray(rec.channel(ch).samples[seg], float)[judged]

@@ -11,8 +11,9 @@ that linear solve at the optimum (conditional on the varied parameters).
 Start: from ``init`` (a fitted smaller model: the diagnosis and the ladder pass the
 baseline), else k = w_1^2, c = 2 zeta_1 w_1 of the measured mode 1 and ``modal.drive``
 from the linear model's projection; an added effect's parameters from a short list of
-physical starts (a few percent of the linear force at the records' largest modal
-displacement, either sign), the one that simulates the records best. A trial whose
+physical starts (1 to 30 % of the linear force at the records' largest modal
+displacement, either sign; at most ``MAX_STARTS``), the one that simulates the records
+best. A trial whose
 simulation diverges is rejected (its residual made large); a fit that ends diverged or
 non-finite is refused naming the parameters.
 """
@@ -33,6 +34,7 @@ from labjoint.models.scores import nrmse_from_sums, pooled_nrmse
 from labjoint.structure.nlmode import QUANTITY_ORDER, check_modal_model
 
 PENALTY = 1e3
+MAX_STARTS = 16
 
 
 def _gain_names(m: ModalMeasurement) -> list[str]:
@@ -91,16 +93,17 @@ def _starts(model: Model, known: Mapping[str, float], amp: float) -> list[dict[s
     """Physical starts of the parameters not in ``known`` (module docstring)."""
     k = abs(known.get("linear_stiffness.k", 1.0))
     a = max(amp, 1e-12)
+    sym = lambda base, *f: [s * x * base for x in f for s in (1, -1)]  # noqa: E731
     opts: dict[str, list[float]] = {
         "linear_stiffness.k": [k], "viscous.c": [known.get("viscous.c", 0.0)],
-        "quadratic_stiffness.k2": [0.1 * k / a, -0.1 * k / a],
-        "cubic_stiffness.k3": [0.05 * k / a**2, -0.05 * k / a**2],
-        "bilinear_stiffness.dk": [0.1 * k, -0.1 * k],
-        "contact.k_c": [0.3 * k, -0.3 * k], "contact.gap": [0.3 * a],
-        "coulomb.k": [0.2 * k], "coulomb.f_s": [0.1 * k * a, 0.02 * k * a],
-        "asymmetric_slip.asym": [0.2, -0.2],
-        "bouc_wen.k0": [0.2 * k], "bouc_wen.n": [1.0],
-        "bouc_wen.alpha": [0.2 * k / (0.1 * k * a)], "bouc_wen.beta": [0.2 * k / (0.1 * k * a)],
+        "quadratic_stiffness.k2": sym(k / a, 0.01, 0.03, 0.1, 0.3),
+        "cubic_stiffness.k3": sym(k / a**2, 0.01, 0.03, 0.1, 0.3),
+        "bilinear_stiffness.dk": sym(k, 0.01, 0.03, 0.1, 0.3),
+        "contact.k_c": sym(k, 0.03, 0.1, 0.3), "contact.gap": [0.1 * a, 0.5 * a],
+        "coulomb.k": [0.05 * k, 0.2 * k], "coulomb.f_s": [0.01 * k * a, 0.05 * k * a, 0.2 * k * a],
+        "asymmetric_slip.asym": [0.3, -0.3, 0.1, -0.1],
+        "bouc_wen.k0": [0.05 * k, 0.2 * k], "bouc_wen.n": [1.0],
+        "bouc_wen.alpha": [10 / a, 1 / a], "bouc_wen.beta": [10 / a, 1 / a],
         "offset.F0": [0.0],
     }
     new = [n for n in model.param_names if n not in known]
@@ -112,7 +115,7 @@ def _starts(model: Model, known: Mapping[str, float], amp: float) -> list[dict[s
         if "coulomb.k" in new and "linear_stiffness.k" in d:
             d["linear_stiffness.k"] = known.get("linear_stiffness.k", k) - d["coulomb.k"]
         out.append(d)
-    return out[:8]
+    return out[:MAX_STARTS]
 
 
 def _bounds(model: Model, bounds: Mapping[str, tuple[float, float]] | None
@@ -260,13 +263,18 @@ class ModalKind:
     """Set-level operations of modal records (:class:`labjoint.compare.measurement.Kind`).
 
     Split: random/burst records (no frequency) are fitted; of the steady sines, ordered by
-    frequency, every third (from the second) validates, the others are fitted."""
+    frequency, every third (from the second) validates, the others are fitted (with fewer
+    than three sines the records alternate)."""
 
     name = "modal"
 
     def split(self, ms: Sequence[ModalMeasurement]) -> tuple[list, list, str]:
         sines = sorted([m for m in ms if m.frequency_hz], key=lambda m: m.frequency_hz)
-        val = sines[1::3] if len(sines) >= 3 else []
+        if len(sines) < 3:
+            if len(ms) < 2:
+                return list(ms), [], "one record: fitted, not validated"
+            return list(ms[::2]), list(ms[1::2]), "records alternate between fit and validation"
+        val = sines[1::3]
         keep = {m.name for m in val}
         return [m for m in ms if m.name not in keep], val, \
             "sines ordered by frequency: every third (from the second) validates; the rest and every record fit"
