@@ -189,3 +189,14 @@ def test_cli_refuses_with_exit_2_and_saves_nothing(tmp_path, capsys):
                "--out", str(out), "--json"])
     err = capsys.readouterr()
     assert rc == 2 and "iwan" in err.err and err.out == "" and not out.exists()
+
+
+def test_cli_refuses_a_shaker_parameter_by_name(tmp_path, capsys):
+    mfile = tmp_path / "modes.json"
+    _, modes = _basis()
+    mfile.write_text(json.dumps({"levels": [{"level": 1.0, "modes": modes}]}))
+    rc = main(["fit", str(tmp_path / "none.h5"), "--modal", str(mfile), "--model",
+               "linear_stiffness+viscous", "--shaker-fit", "armature_mass_kg", "--json"])
+    err = capsys.readouterr()
+    assert rc == 2 and "shaker.armature_mass_kg" in err.err and "not identifiable" in err.err
+    assert err.out == ""

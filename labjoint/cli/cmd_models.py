@@ -47,6 +47,10 @@ def _common(p: argparse.ArgumentParser) -> None:
                         "coordinate, judged by simulation error of the measured responses")
     p.add_argument("--responses", default=None, metavar="A,B,...",
                    help="with --modal: the response channels compared (default every motion channel)")
+    p.add_argument("--shaker-fit", default=None, metavar="A,B,...",
+                   help="with --modal: shaker parameters (labjoint.structure.shaker.Shaker fields) "
+                        "to identify; each is refused by name with what the voltage-driven "
+                        "records see of it instead")
     p.add_argument("--kind", choices=("auto", "sine", "record", "frf", "modal"), default="auto",
                    help="judge steady-sine cycles (sine) or the record along its history under "
                         "any excitation (record); auto: sine when every run is a steady sine")
@@ -143,7 +147,18 @@ def _prime(v: str) -> int | str:
     return v if v == "auto" else int(v)
 
 
+def _shaker(args: argparse.Namespace) -> None:
+    """Refuse shaker parameters the records cannot identify (nlmode.shaker_identifiable)."""
+    if args.shaker_fit:
+        from labjoint.structure.nlmode import shaker_identifiable
+
+        if not args.modal:
+            raise InputError("--shaker-fit goes with --modal", field="shaker_fit")
+        shaker_identifiable([n.strip() for n in args.shaker_fit.split(",") if n.strip()])
+
+
 def _options(args: argparse.Namespace, judging: bool) -> dict[str, Any]:
+    _shaker(args)
     o: dict[str, Any] = {"validate": args.validate, "prime_cycles": _prime(args.prime_cycles),
                          "seed": args.seed, "kind": args.kind, "warmup": args.warmup,
                          "structure": args.structure, "modes": args.modes,
@@ -218,6 +233,7 @@ def _print_parameters(res: dict[str, Any]) -> None:
 
 
 def _not_modal(args: argparse.Namespace) -> None:
+    _shaker(args)
     if args.modal:
         raise InputError("--modal is judged by simulation error of the responses already; leave "
                          "out --error simulation", field="error")

@@ -93,6 +93,8 @@ def _measured(d: dict[str, Any], ms: Sequence[Measurement]) -> dict[str, Any]:
         d["measurement"] = "modal"
         d["error"] = ("simulation error of the measured responses (each channel in its quantity, "
                       "over its rms), the joint on mode 1 of the measured modes")
+        d["parameters_per"] = ("unit modal mass: the joint's parameters act on q, mode 1's "
+                               "displacement at the reference sensor (m); N reads N/kg")
     return d
 
 

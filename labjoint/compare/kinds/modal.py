@@ -82,6 +82,11 @@ class ModalMeasurement:
     def states(self, model: Model, params: Parameters | dict) -> np.ndarray:
         return mode_states(model, params, self.drive)
 
+    def displacement_amplitude(self, model: Model, params: Parameters | dict) -> float:
+        """The largest |q| on the judged samples (m at the reference sensor, mode 1)."""
+        q = self.states(model, {k: float(v.value if hasattr(v, "value") else v) for k, v in params.items()})
+        return float(np.nanmax(np.abs(q[self.judged, 0])))
+
     def responses(self, model: Model, params: Parameters | dict,
                   q: np.ndarray | None = None) -> dict[str, np.ndarray]:
         """The model's reading of every channel over the segment (SI, its quantity)."""
