@@ -24,7 +24,7 @@ holds power near Nyquist), pooled over channels.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar
 
@@ -37,8 +37,8 @@ from labjoint.models import Model, Parameters, RunData
 from labjoint.models.inputs import ModelInputs, estimate_frequency
 from labjoint.storage.channels import ChannelRecord
 from labjoint.storage.reader import read_channels
-from labjoint.structure.nlmode import (QUANTITY_ORDER, Drive, ModalBasis, linear_states,
-                                       mode_states, response)
+from labjoint.structure.nlmode import (QUANTITY_ORDER, Drive, MeasuredMode, ModalBasis,
+                                       linear_states, mode_states, response)
 
 METHOD = ("per response channel the difference method on its judged samples (rms-normalized), "
           "pooled over channels")
@@ -67,6 +67,7 @@ class ModalMeasurement:
     level: float | None = None
     path: str | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
+    _cache: dict = field(default_factory=dict, repr=False)
 
     @property
     def frequency_hz(self) -> float | None:
@@ -79,8 +80,56 @@ class ModalMeasurement:
         return {"frequency_hz": self.frequency_hz, "level": self.level,
                 "judged_s": (self.judged.stop - self.judged.start) / self.drive.fs}
 
+    def drive_at(self, vals: Mapping[str, Any]) -> Drive:
+        """The drive through the shaker path's high-pass (``shaker.highpass_hz``; none if absent)."""
+        fc = float(vals.get("shaker.highpass_hz", 0.0) or 0.0)
+        fc = float(getattr(fc, "value", fc))
+        if fc <= 0:
+            return self.drive
+        key = ("drive", fc)
+        if key not in self._cache:
+            self._trim()
+            self._cache[key] = self.drive.highpassed(fc)
+        return self._cache[key]
+
+    def _trim(self) -> None:
+        if len(self._cache) > 64:
+            self._cache.clear()
+
     def states(self, model: Model, params: Parameters | dict) -> np.ndarray:
-        return mode_states(model, params, self.drive)
+        vals = {k: float(v.value if hasattr(v, "value") else v) for k, v in params.items()}
+        return mode_states(model, vals, self.drive_at(vals))
+
+    def linear(self, vals: Mapping[str, float]) -> tuple[np.ndarray, ...]:
+        """The linear modes' unit-gain states at ``modal.f<j>``, ``modal.zeta<j>`` when given
+        (fitted), else at the measured ones."""
+        out = []
+        fc = float(vals.get("shaker.highpass_hz", 0.0) or 0.0)
+        for j, mode in enumerate(self.basis.linear):
+            f = float(vals.get(f"modal.f{j + 2}", mode.frequency_hz))
+            z = float(vals.get(f"modal.zeta{j + 2}", mode.damping_ratio))
+            if (j, f, z, fc) not in self._cache:
+                self._trim()
+                self._cache[(j, f, z, fc)] = linear_states(MeasuredMode(f, z, mode.shape),
+                                                           self.drive_at(vals))
+            out.append(self._cache[(j, f, z, fc)])
+        return tuple(out)
+
+    def residual_input(self, quantity: str, vals: Mapping[str, Any] | None = None) -> np.ndarray:
+        """The (high-passed) drive's derivative of the sensor's order (V, dV/dt, d2V/dt2) at
+        the segment's samples: the out-of-band modes' quasi-static response per unit
+        ``modal.r.<s>`` (a residual flexibility; the measured drive is differentiated,
+        never a response)."""
+        dr = self.drive_at(vals or {})
+        key = ("residual", quantity, float((vals or {}).get("shaker.highpass_hz", 0.0) or 0.0))
+        if key not in self._cache:
+            self._trim()
+            d = QUANTITY_ORDER[quantity]
+            x, dt = dr.fine, 1.0 / (dr.fs * 2 * dr.substeps)
+            for _ in range(d):
+                x = np.gradient(x, dt)
+            self._cache[key] = x[::2 * dr.substeps][:dr.n]
+        return self._cache[key]
 
     def displacement_amplitude(self, model: Model, params: Parameters | dict) -> float:
         """The largest |q| on the judged samples (m at the reference sensor, mode 1)."""
@@ -96,7 +145,8 @@ class ModalMeasurement:
         for ch, qty in zip(self.channels, self.quantities):
             phi = 1.0 if ch == self.basis.reference else vals[f"modal.phi1.{ch}"]
             gains = [vals[f"modal.g{j + 2}.{ch}"] for j in range(len(self.lin))]
-            out[ch] = response(q, self.lin, qty, phi, gains)
+            out[ch] = response(q, self.linear(vals), qty, phi, gains) \
+                + vals.get(f"modal.r.{ch}", 0.0) * self.residual_input(qty, vals)
         return out
 
     def normalized(self, series: dict[str, np.ndarray]) -> np.ndarray:

@@ -2,10 +2,13 @@
 several levels together (issue 29 item 5).
 
 Varied by least squares (scipy's trust-region reflective, bounded): the joint model's
-parameters on mode 1 and the modal force per volt ``modal.drive``. The sensors'
+parameters on mode 1, the modal force per volt ``modal.drive`` and the linear modes'
+frequency and damping (``modal.f<j>``, ``modal.zeta<j>``, from the measured ones within
+``LINEAR_F_RANGE`` and ``LINEAR_ZETA_RANGE``). The sensors'
 participations (``modal.phi1.<s>`` and the linear modes' ``modal.g<j>.<s>``) enter the
 responses linearly (nlmode eq. 3) and are solved by linear least squares at every trial
-(variable projection), pooled over the fit records; their standard errors are those of
+(variable projection), pooled over the fit records, with each sensor's residual term
+``modal.r.<s>`` (the modes above the band, quasi-static: nlmode's eq. 3 plus r_s V^(d)); their standard errors are those of
 that linear solve at the optimum (conditional on the varied parameters).
 
 Start: from ``init`` (a fitted smaller model: the diagnosis and the ladder pass the
@@ -34,7 +37,11 @@ from labjoint.models.scores import nrmse_from_sums, pooled_nrmse
 from labjoint.structure.nlmode import QUANTITY_ORDER, check_modal_model
 
 PENALTY = 1e3
-MAX_STARTS = 16
+LINEAR_F_RANGE = (0.95, 1.05)       # the linear modes' frequency and damping, fitted within
+LINEAR_ZETA_RANGE = (0.2, 5.0)      # these factors of the measured ones
+HIGHPASS_RANGE = (0.0, 10.0)        # Hz: the shaker path's high-pass corner (nlmode eq. 4)
+HIGHPASS_STARTS = (0.0, 1.0, 3.0)
+MAX_STARTS = 24
 
 
 def _gain_names(m: ModalMeasurement) -> list[str]:
@@ -42,11 +49,12 @@ def _gain_names(m: ModalMeasurement) -> list[str]:
     for ch in m.channels:
         if ch != m.basis.reference:
             out.append(f"modal.phi1.{ch}")
-        out += [f"modal.g{j + 2}.{ch}" for j in range(len(m.lin))]
+        out += [f"modal.g{j + 2}.{ch}" for j in range(len(m.lin))] + [f"modal.r.{ch}"]
     return out
 
 
-def project(ms: Sequence[ModalMeasurement], qs: Sequence[np.ndarray]
+def project(ms: Sequence[ModalMeasurement], qs: Sequence[np.ndarray],
+            vals: Mapping[str, float] | None = None
             ) -> tuple[dict[str, float], dict[str, float], np.ndarray]:
     """Participations by linear least squares over the records (module docstring), their
     conditional standard errors, and the residual vector."""
@@ -60,7 +68,8 @@ def project(ms: Sequence[ModalMeasurement], qs: Sequence[np.ndarray]
             i = m.channels.index(ch)
             j, s = m.judged, m.scales[i]
             d = QUANTITY_ORDER[m.quantities[i]]
-            cols = [q[j, d]] + [p[j, d] for p in m.lin]
+            cols = [q[j, d]] + [p[j, d] for p in m.linear(vals or {})] \
+                + [m.residual_input(m.quantities[i], vals)[j]]
             cols = [(c - c.mean()) / s for c in cols]
             n = j.stop - j.start
             y = m.data.force[i * n:(i + 1) * n]
@@ -71,7 +80,7 @@ def project(ms: Sequence[ModalMeasurement], qs: Sequence[np.ndarray]
             target.append(y)
         A, y = np.vstack(rows), np.concatenate(target)
         names = ([] if ch == ref else [f"modal.phi1.{ch}"]) + \
-            [f"modal.g{j + 2}.{ch}" for j in range(len(ms[0].lin))]
+            [f"modal.g{j + 2}.{ch}" for j in range(len(ms[0].lin))] + [f"modal.r.{ch}"]
         if A.shape[1]:
             coef, *_ = np.linalg.lstsq(A, y, rcond=None)
             r = y - A @ coef
@@ -104,9 +113,9 @@ def _starts(model: Model, known: Mapping[str, float], amp: float) -> list[dict[s
         "asymmetric_slip.asym": [0.3, -0.3, 0.1, -0.1],
         "bouc_wen.k0": [0.05 * k, 0.2 * k], "bouc_wen.n": [1.0],
         "bouc_wen.alpha": [10 / a, 1 / a], "bouc_wen.beta": [10 / a, 1 / a],
-        "offset.F0": [0.0],
+        "offset.F0": [0.0], "shaker.highpass_hz": list(HIGHPASS_STARTS),
     }
-    new = [n for n in model.param_names if n not in known]
+    new = [n for n in (*model.param_names, "shaker.highpass_hz") if n not in known]
     grids = [opts.get(n, [0.0]) for n in new]
     out = []
     for combo in itertools.product(*grids):
@@ -145,7 +154,8 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     known: dict[str, float] = {}
     if init is not None:
         prev = init.params_.valuesdict() if hasattr(init, "params_") else dict(init)
-        known = {k: v for k, v in prev.items() if k in model.param_names or k == "modal.drive"}
+        known = {k: v for k, v in prev.items() if k in model.param_names or k == "modal.drive"
+                 or k.startswith(("modal.f", "modal.zeta", "shaker."))}
     if "linear_stiffness.k" in model.param_names:
         known.setdefault("linear_stiffness.k", w1 * w1)
     if "viscous.c" in model.param_names:
@@ -172,7 +182,15 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
         y = np.concatenate([m.data.force[:m.judged.stop - m.judged.start] for m in fit_ms])
         known["modal.drive"] = max(float(A @ y / (A @ A)), 1e-12)
         del g, ref
-    names = [*model.param_names, "modal.drive"]
+    lin_names = [f"modal.{p}{j + 2}" for j in range(len(basis.linear)) for p in ("f", "zeta")]
+    for j, mode in enumerate(basis.linear):
+        known.setdefault(f"modal.f{j + 2}", mode.frequency_hz)
+        known.setdefault(f"modal.zeta{j + 2}", mode.damping_ratio)
+        f0, z0 = mode.frequency_hz, mode.damping_ratio
+        bnd.setdefault(f"modal.f{j + 2}", (LINEAR_F_RANGE[0] * f0, LINEAR_F_RANGE[1] * f0))
+        bnd.setdefault(f"modal.zeta{j + 2}", (LINEAR_ZETA_RANGE[0] * z0, LINEAR_ZETA_RANGE[1] * z0))
+    bnd.setdefault("shaker.highpass_hz", HIGHPASS_RANGE)
+    names = [*model.param_names, "modal.drive", *lin_names, "shaker.highpass_hz"]
 
     def residual_of(vals: Mapping[str, float]) -> np.ndarray | None:
         try:
@@ -181,7 +199,7 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
             return None
         if not all(np.all(np.isfinite(q)) for q in qs):
             return None
-        return project(fit_ms, qs)[2]
+        return project(fit_ms, qs, vals)[2]
 
     sub = [e for e in model.names if all(p in known for p in Model.parse(e).param_names)]
     amp = 1e-3
@@ -219,7 +237,7 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     qs = [m.states(model, vals) for m in fit_ms]
     if not all(np.all(np.isfinite(q)) for q in qs):
         raise InputError(f"the fitted model diverges on the records ({vals})", field="model")
-    gains, gse, r = project(fit_ms, qs)
+    gains, gse, r = project(fit_ms, qs, vals)
     J = sol.jac / scale[None, :] if sol.jac.shape[0] == r.size else None
     dof = max(1, r.size - len(names) - len(gains))
     stderr: dict[str, float] = {}
@@ -235,8 +253,13 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     stderr.update(gse)
     params = model.make_params(values={n: vals[n] for n in model.param_names})
     params.add("modal.drive", vals["modal.drive"], lower=0.0, unit="m/s^2 per V")
+    params.add("shaker.highpass_hz", vals["shaker.highpass_hz"], lower=0.0, upper=HIGHPASS_RANGE[1],
+               unit="Hz")
+    for k in lin_names:
+        params.add(k, vals[k], lower=bnd[k][0], upper=bnd[k][1], unit="Hz" if ".f" in k else "1")
     for k, v in gains.items():
-        params.add(k, v, unit="1" if k.startswith("modal.phi1.") else "per V")
+        params.add(k, v, unit="1" if k.startswith("modal.phi1.") else
+                   "m/V (residual flexibility)" if k.startswith("modal.r.") else "per V")
     for k, e in stderr.items():
         params[k].stderr = e
     for m in fit_ms:
