@@ -8,7 +8,7 @@
   :func:`labjoint.compare.kinds.frf.prepare_frfsets`);
 - ``modal``: records of a structure nobody can describe, inside a modal model of its
   measured modes with the joint on mode 1, judged on the measured responses
-  (:mod:`.modal`, :mod:`.modal_fit`; prepared with :func:`.modal.prepare_modal`).
+  (:mod:`.modal`, :mod:`.modal_fit`, :mod:`.modal_maps`; prepared with :func:`.modal.prepare_modal`).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from typing import Any
 
 from labjoint.compare.kinds.frf import FrfMeasurement
 from labjoint.compare.kinds.frf_maps import FRF
-from labjoint.compare.kinds.modal_fit import MODAL
+from labjoint.compare.kinds.modal_maps import MODAL
 from labjoint.compare.kinds.record import RECORD, RecordMeasurement, prepare_record
 from labjoint.compare.kinds.sine import SINE
 from labjoint.compare.measurement import Kind, Measurement
