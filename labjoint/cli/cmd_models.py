@@ -41,7 +41,17 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="FRF sets: Craig-Bampton kept modes (default 10)")
     p.add_argument("--harmonics", type=int, default=None, metavar="H",
                    help="FRF sets: response harmonics compared (default the set's, at most 3)")
-    p.add_argument("--kind", choices=("auto", "sine", "record", "frf"), default="auto",
+    p.add_argument("--modal", default=None, metavar="MODES.json",
+                   help="records of a structure nobody can describe: the measured modes (the "
+                        "output of `labjoint modes RUN --json`); the model acts on mode 1's "
+                        "coordinate, judged by simulation error of the measured responses")
+    p.add_argument("--responses", default=None, metavar="A,B,...",
+                   help="with --modal: the response channels compared (default every motion channel)")
+    p.add_argument("--shaker-fit", default=None, metavar="A,B,...",
+                   help="with --modal: shaker parameters (labjoint.structure.shaker.Shaker fields) "
+                        "to identify; each is refused by name with what the voltage-driven "
+                        "records see of it instead")
+    p.add_argument("--kind", choices=("auto", "sine", "record", "frf", "modal"), default="auto",
                    help="judge steady-sine cycles (sine) or the record along its history under "
                         "any excitation (record); auto: sine when every run is a steady sine")
     p.add_argument("--warmup", default="auto", metavar="S",
@@ -137,11 +147,23 @@ def _prime(v: str) -> int | str:
     return v if v == "auto" else int(v)
 
 
+def _shaker(args: argparse.Namespace) -> None:
+    """Refuse shaker parameters the records cannot identify (nlmode.shaker_identifiable)."""
+    if args.shaker_fit:
+        from labjoint.structure.nlmode import shaker_identifiable
+
+        if not args.modal:
+            raise InputError("--shaker-fit goes with --modal", field="shaker_fit")
+        shaker_identifiable([n.strip() for n in args.shaker_fit.split(",") if n.strip()])
+
+
 def _options(args: argparse.Namespace, judging: bool) -> dict[str, Any]:
+    _shaker(args)
     o: dict[str, Any] = {"validate": args.validate, "prime_cycles": _prime(args.prime_cycles),
                          "seed": args.seed, "kind": args.kind, "warmup": args.warmup,
                          "structure": args.structure, "modes": args.modes,
-                         "harmonics": args.harmonics}
+                         "harmonics": args.harmonics, "modal": args.modal,
+                         "responses": args.responses}
     if judging:
         o.update(factor=args.factor, alpha=args.alpha, n_jobs=args.jobs,
                  candidates=args.candidates)
@@ -158,9 +180,11 @@ def fit(args: argparse.Namespace) -> int:
 
     if args.error == "simulation":
         return _fit_simulation(args)
-    if args.out:
-        raise InputError("--out goes with --error simulation", field="error")
+    if args.out and not args.modal:
+        raise InputError("--out goes with --error simulation or --modal", field="error")
     _simulation_only(args)
+    if args.modal:
+        return _fit_modal(args)
     res = fit_runs(args.runs, args.model, **_options(args, False))
     if args.json:
         emit_json(res)
@@ -174,6 +198,30 @@ def fit(args: argparse.Namespace) -> int:
     return 0
 
 
+def _fit_modal(args: argparse.Namespace) -> int:
+    """A modal fit (simulation error of the responses), saved with --out when finite."""
+    from labjoint.compare.api import _measured, fit_report
+    from labjoint.compare.jsonsafe import clean
+    from labjoint.compare.modal_api import save_modal
+
+    report = fit_report(args.runs, args.model, **_options(args, False))
+    if args.out:
+        save_modal(report.fit, report.evaluation.runs_measured(), args.out)
+    res = clean(_measured(report.to_dict(), report.evaluation.runs_measured()))
+    res["saved"] = args.out
+    if args.json:
+        emit_json(res)
+        return 0
+    print(f"model {res['model']} on mode 1: NRMSE {_pct(res['nrmse'])}, noise floor "
+          f"{_pct(res['noise_floor'])}")
+    _print_parameters(res)
+    print()
+    print(table(["run", "NRMSE %"], [[r["run"], _x100(r["nrmse"])] for r in res["runs"]]))
+    if args.out:
+        print(f"saved to {args.out}")
+    return 0
+
+
 def _print_parameters(res: dict[str, Any]) -> None:
     """The parameter table, then each flagged parameter and each even effect's asymmetry."""
     print(table(["parameter", "value", "stderr", "unit"],
@@ -184,9 +232,17 @@ def _print_parameters(res: dict[str, Any]) -> None:
         print(f"asymmetry: {a['text']}")
 
 
+def _not_modal(args: argparse.Namespace) -> None:
+    _shaker(args)
+    if args.modal:
+        raise InputError("--modal is judged by simulation error of the responses already; leave "
+                         "out --error simulation", field="error")
+
+
 def _fit_simulation(args: argparse.Namespace) -> int:
     from labjoint.compare.output_error import fit_simulation, save_model
 
+    _not_modal(args)
     if args.structure:
         raise InputError("--error simulation judges records; FRF sets with --structure are "
                          "judged on their FRF residual", field="structure")
@@ -214,6 +270,7 @@ def _simulation_job(args: argparse.Namespace, operation: str, steps: int) -> dic
     """Diagnose or ladder by simulation error through the one option mapping REST uses."""
     from labjoint.compare.simulation_api import simulation_job
 
+    _not_modal(args)
     if args.kind == "sine" or args.structure:
         raise InputError("--error simulation judges records (--kind record or auto; FRF sets "
                          "with --structure are judged on their FRF residual)", field="kind")

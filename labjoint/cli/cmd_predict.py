@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from labjoint.cli.output import emit_json
+from labjoint.errors import InputError
 
 
 def add_predict_arguments(p: argparse.ArgumentParser) -> None:
@@ -24,12 +25,49 @@ def add_predict_arguments(p: argparse.ArgumentParser) -> None:
                         "the displacement has reached both its extremes, or none when the "
                         "record starts at rest)")
     p.add_argument("--out", default=None, metavar="PRED.csv",
-                   help="write time_s, displacement_m (measured), predicted_m")
+                   help="write time_s, displacement_m (measured), predicted_m (a modal model: "
+                        "each channel measured and model)")
+    p.add_argument("--full", action="store_true",
+                   help="a modal model with --json: the measured and model series too")
+
+
+def _modal(args: argparse.Namespace) -> int:
+    """A saved modal model on a record: the responses in their measured quantities."""
+    from labjoint.compare.modal_api import predict_modal
+
+    if args.periodic:
+        raise InputError("--periodic goes with a joint model, not a modal one", field="periodic")
+    res = predict_modal(args.model, args.record)
+    if args.out:
+        out = Path(args.out)
+        tmp = out.with_name(out.name + ".tmp")
+        chans = res["channels"]
+        cols = [np.asarray(v[k]) for v in chans.values() for k in ("measured", "model")]
+        n = cols[0].size
+        head = ",".join(["time_s"] + [f"{c}_{k}" for c in chans for k in ("measured", "model")])
+        np.savetxt(tmp, np.column_stack([np.arange(n) / res["sample_rate_hz"], *cols]), delimiter=",",
+                   header=head, comments="", fmt="%.9g")
+        tmp.replace(out)
+    full = getattr(args, "json", False) and getattr(args, "full", False)
+    res["saved"] = args.out
+    if not full:
+        for v in res["channels"].values():
+            v.pop("measured"), v.pop("model")
+    if args.json:
+        emit_json(res)
+        return 0
+    for ch, v in res["channels"].items():
+        print(f"{ch} ({v['quantity']}): NRMSE {100 * v['nrmse']:.3g} %")
+    print(f"pooled NRMSE {100 * res['nrmse']:.3g} %")
+    return 0
 
 
 def run(args: argparse.Namespace) -> int:
+    from labjoint.compare.modal_api import is_modal_model
     from labjoint.compare.output_error import predict_file
 
+    if is_modal_model(args.model):
+        return _modal(args)
     pred = predict_file(args.model, args.record, periodic=args.periodic, warmup=args.warmup)
     if args.out:
         out = Path(args.out)

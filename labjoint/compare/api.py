@@ -32,6 +32,7 @@ from labjoint.compare.jsonsafe import clean
 from labjoint.compare.ladders import Ladder, build_ladder
 from labjoint.compare.metrics import Evaluation, evaluate
 from labjoint.compare.measurement import Measurement, NoiseFloor, noise_floor
+from labjoint.compare.modal_api import MODAL_OPTIONS, load_modal
 from labjoint.compare.kinds import kind_of, prepare
 from labjoint.compare.runs import split_by_names
 from labjoint.compare.significance import SignificanceSettings
@@ -55,6 +56,9 @@ def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | s
     if not items:
         raise InputError("no runs given", field="runs")
     frf = {k: v for k, v in (frf or {}).items() if v is not None}
+    if frf.get("modal") is not None or kind == "modal":
+        return load_modal(items, validate, frf)
+    frf.pop("responses", None)
     if any(is_frfset(x) for x in items) or (frf.get("structure") is not None and kind in ("auto", "frf")):
         if kind not in ("auto", "frf"):
             raise InputError(f"FRF sets are the frf kind, not {kind}", field="kind")
@@ -77,7 +81,7 @@ def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | s
 def _load(runs: Any, options: dict[str, Any]) -> tuple[list[Measurement], list[str] | None]:
     return load(runs, options.get("validate"), options.get("prime_cycles", "auto"),
                 options.get("kind", "auto"), options.get("warmup", "auto"),
-                {k: options.get(k) for k in FRF_OPTIONS})
+                {k: options.get(k) for k in (*FRF_OPTIONS, *MODAL_OPTIONS)})
 
 
 def _measured(d: dict[str, Any], ms: Sequence[Measurement]) -> dict[str, Any]:
@@ -85,6 +89,12 @@ def _measured(d: dict[str, Any], ms: Sequence[Measurement]) -> dict[str, Any]:
     if ms and ms[0].kind == "frf":
         d["measurement"] = "frf"
         d["error"] = "response phasors (harmonics 1..H) whitened by the FRF set's response_std"
+    if ms and ms[0].kind == "modal":
+        d["measurement"] = "modal"
+        d["error"] = ("simulation error of the measured responses (each channel in its quantity, "
+                      "over its rms), the joint on mode 1 of the measured modes")
+        d["parameters_per"] = ("unit modal mass: the joint's parameters act on q, mode 1's "
+                               "displacement at the reference sensor (m); N reads N/kg")
     return d
 
 
@@ -125,7 +135,7 @@ def _check(options: dict[str, Any], allowed: Iterable[str]) -> None:
 
 
 COMMON = ("validate", "prime_cycles", "multistart", "seed", "full", "progress", "kind",
-          "warmup") + FRF_OPTIONS
+          "warmup") + FRF_OPTIONS + MODAL_OPTIONS
 DIAG = COMMON + SIG_KEYS + ("factor", "n_jobs", "candidates", "warm", "executor")
 
 

@@ -125,6 +125,9 @@ def fit_asymmetry(fit: FitResult, runs: Sequence[Measurement]) -> list[dict[str,
     displacement amplitude of the runs (none for FRF sets: their data are phasors)."""
     if not any(n in EVEN for n in fit.model.names) or not runs or runs[0].kind == "frf":
         return []
+    if hasattr(runs[0], "displacement_amplitude"):     # modal records: the model's modal amplitude
+        u = max(r.displacement_amplitude(fit.model, fit.params_) for r in runs)
+        return asymmetry(fit.model, fit.params_.valuesdict(), u)
     return asymmetry(fit.model, fit.params_.valuesdict(), amplitude([r.data for r in runs]))
 
 

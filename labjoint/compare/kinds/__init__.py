@@ -8,7 +8,10 @@
   :func:`labjoint.compare.kinds.frf.prepare_frfsets`);
 - ``backbone``: a mode's frequency and damping against amplitude, the model's by EPMC
   inside the structure (:mod:`.backbone`, :mod:`.backbone_maps`; prepared with
-  :func:`labjoint.compare.kinds.backbone.prepare_backbones`).
+  :func:`labjoint.compare.kinds.backbone.prepare_backbones`);
+- ``modal``: records of a structure nobody can describe, inside a modal model of its
+  measured modes with the joint on mode 1, judged on the measured responses
+  (:mod:`.modal`, :mod:`.modal_fit`, :mod:`.modal_maps`; prepared with :func:`.modal.prepare_modal`).
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from typing import Any
 from labjoint.compare.kinds.backbone_maps import BACKBONE
 from labjoint.compare.kinds.frf import FrfMeasurement
 from labjoint.compare.kinds.frf_maps import FRF
+from labjoint.compare.kinds.modal_maps import MODAL
 from labjoint.compare.kinds.record import RECORD, RecordMeasurement, prepare_record
 from labjoint.compare.kinds.sine import SINE
 from labjoint.compare.measurement import Kind, Measurement
@@ -30,7 +34,8 @@ from labjoint.signal.excitation import detect_excitation
 from labjoint.storage import Run, read_any
 from labjoint.storage.roles import channel_roles
 
-KINDS: dict[str, Kind] = {SINE.name: SINE, RECORD.name: RECORD, FRF.name: FRF, BACKBONE.name: BACKBONE}
+KINDS: dict[str, Kind] = {SINE.name: SINE, RECORD.name: RECORD, FRF.name: FRF, BACKBONE.name: BACKBONE,
+                        MODAL.name: MODAL}
 
 
 def kind_of(ms: Sequence[Measurement]) -> Kind:
@@ -81,6 +86,9 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
     """
     if kind not in ("auto", *KINDS):
         raise InputError(f"unknown kind {kind!r}; known: auto, {', '.join(KINDS)}", field="kind")
+    if kind == "modal":
+        raise InputError("the modal kind takes records with the measured modes (prepare_modal, or "
+                         "the modal option: --modal MODES.json)", field="kind")
     if kind in ("frf", "backbone"):
         raise InputError(f"the {kind} kind takes {'FRF sets' if kind == 'frf' else 'backbones'} inside "
                          f"a structure (prepare_{'frfsets' if kind == 'frf' else 'backbones'}, or the "
@@ -129,4 +137,4 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
     return out
 
 
-__all__ = ["KINDS", "kind_of", "prepare", "SINE", "RECORD", "FRF"]
+__all__ = ["KINDS", "kind_of", "prepare", "SINE", "RECORD", "FRF", "MODAL"]

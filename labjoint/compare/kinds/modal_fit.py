@@ -1,0 +1,278 @@
+"""Simulation-error fit of the modal model (:mod:`labjoint.structure.nlmode`) on records at
+several levels together (issue 29 item 5).
+
+Varied by least squares (scipy's trust-region reflective, bounded): the joint model's
+parameters on mode 1, the modal force per volt ``modal.drive`` and the linear modes'
+frequency and damping (``modal.f<j>``, ``modal.zeta<j>``, from the measured ones within
+``LINEAR_F_RANGE`` and ``LINEAR_ZETA_RANGE``). The sensors'
+participations (``modal.phi1.<s>`` and the linear modes' ``modal.g<j>.<s>``) enter the
+responses linearly (nlmode eq. 3) and are solved by linear least squares at every trial
+(variable projection), pooled over the fit records, with each sensor's residual term
+``modal.r.<s>`` (the modes above the band, quasi-static: nlmode's eq. 3 plus r_s V^(d)); their standard errors are those of
+that linear solve at the optimum (conditional on the varied parameters).
+
+Start: from ``init`` (a fitted smaller model: the diagnosis and the ladder pass the
+baseline), else k = w_1^2, c = 2 zeta_1 w_1 of the measured mode 1 and ``modal.drive``
+from the linear model's projection; an added effect's parameters from a short list of
+physical starts (1 to 30 % of the linear force at the records' largest modal
+displacement, either sign; at most ``MAX_STARTS``), the one that simulates the records
+best. A trial whose
+simulation diverges is rejected (its residual made large); a fit that ends diverged or
+non-finite is refused naming the parameters.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from labjoint.compare.kinds.modal import ModalMeasurement
+from labjoint.errors import InputError
+from labjoint.models import FitResult, Model
+from labjoint.models.scores import nrmse_from_sums, pooled_nrmse
+from labjoint.structure.nlmode import QUANTITY_ORDER, check_modal_model
+
+PENALTY = 1e3
+LINEAR_F_RANGE = (0.95, 1.05)       # the linear modes' frequency and damping, fitted within
+LINEAR_ZETA_RANGE = (0.2, 5.0)      # these factors of the measured ones
+HIGHPASS_RANGE = (0.0, 10.0)        # Hz: the shaker path's high-pass corner (nlmode eq. 4)
+HIGHPASS_STARTS = (0.0, 1.0, 3.0)
+MAX_STARTS = 24
+
+
+def _gain_names(m: ModalMeasurement) -> list[str]:
+    out = []
+    for ch in m.channels:
+        if ch != m.basis.reference:
+            out.append(f"modal.phi1.{ch}")
+        out += [f"modal.g{j + 2}.{ch}" for j in range(len(m.lin))] + [f"modal.r.{ch}"]
+    return out
+
+
+def project(ms: Sequence[ModalMeasurement], qs: Sequence[np.ndarray],
+            vals: Mapping[str, float] | None = None
+            ) -> tuple[dict[str, float], dict[str, float], np.ndarray]:
+    """Participations by linear least squares over the records (module docstring), their
+    conditional standard errors, and the residual vector."""
+    ref = ms[0].basis.reference
+    gains: dict[str, float] = {}
+    stderr: dict[str, float] = {}
+    res = []
+    for ch in ms[0].channels:
+        rows, target = [], []
+        for m, q in zip(ms, qs):
+            i = m.channels.index(ch)
+            j, s = m.judged, m.scales[i]
+            d = QUANTITY_ORDER[m.quantities[i]]
+            cols = [q[j, d]] + [p[j, d] for p in m.linear(vals or {})] \
+                + [m.residual_input(m.quantities[i], vals)[j]]
+            cols = [(c - c.mean()) / s for c in cols]
+            n = j.stop - j.start
+            y = m.data.force[i * n:(i + 1) * n]
+            if ch == ref:
+                y = y - cols[0]
+                cols = cols[1:]
+            rows.append(np.column_stack(cols) if cols else np.zeros((n, 0)))
+            target.append(y)
+        A, y = np.vstack(rows), np.concatenate(target)
+        names = ([] if ch == ref else [f"modal.phi1.{ch}"]) + \
+            [f"modal.g{j + 2}.{ch}" for j in range(len(ms[0].lin))] + [f"modal.r.{ch}"]
+        if A.shape[1]:
+            coef, *_ = np.linalg.lstsq(A, y, rcond=None)
+            r = y - A @ coef
+            dof = max(1, y.size - A.shape[1])
+            try:
+                cov = np.linalg.inv(A.T @ A) * float(r @ r) / dof
+                se = np.sqrt(np.clip(np.diag(cov), 0, None))
+            except np.linalg.LinAlgError:
+                se = np.full(A.shape[1], np.nan)
+            for k, c, e in zip(names, coef, se):
+                gains[k], stderr[k] = float(c), float(e)
+        else:
+            r = y
+        res.append(r)
+    return gains, stderr, np.concatenate(res)
+
+
+def _starts(model: Model, known: Mapping[str, float], amp: float) -> list[dict[str, float]]:
+    """Physical starts of the parameters not in ``known`` (module docstring)."""
+    k = abs(known.get("linear_stiffness.k", 1.0))
+    a = max(amp, 1e-12)
+    sym = lambda base, *f: [s * x * base for x in f for s in (1, -1)]  # noqa: E731
+    opts: dict[str, list[float]] = {
+        "linear_stiffness.k": [k], "viscous.c": [known.get("viscous.c", 0.0)],
+        "quadratic_stiffness.k2": sym(k / a, 0.01, 0.03, 0.1, 0.3),
+        "cubic_stiffness.k3": sym(k / a**2, 0.01, 0.03, 0.1, 0.3),
+        "bilinear_stiffness.dk": sym(k, 0.01, 0.03, 0.1, 0.3),
+        "contact.k_c": sym(k, 0.03, 0.1, 0.3), "contact.gap": [0.1 * a, 0.5 * a],
+        "coulomb.k": [0.05 * k, 0.2 * k], "coulomb.f_s": [0.01 * k * a, 0.05 * k * a, 0.2 * k * a],
+        "asymmetric_slip.asym": [0.3, -0.3, 0.1, -0.1],
+        "bouc_wen.k0": [0.05 * k, 0.2 * k], "bouc_wen.n": [1.0],
+        "bouc_wen.alpha": [10 / a, 1 / a], "bouc_wen.beta": [10 / a, 1 / a],
+        "offset.F0": [0.0], "shaker.highpass_hz": list(HIGHPASS_STARTS),
+    }
+    new = [n for n in (*model.param_names, "shaker.highpass_hz") if n not in known]
+    grids = [opts.get(n, [0.0]) for n in new]
+    out = []
+    for combo in itertools.product(*grids):
+        d = dict(known)
+        d.update(zip(new, combo))
+        if "coulomb.k" in new and "linear_stiffness.k" in d:
+            d["linear_stiffness.k"] = known.get("linear_stiffness.k", k) - d["coulomb.k"]
+        out.append(d)
+    return out[:MAX_STARTS]
+
+
+def _bounds(model: Model, bounds: Mapping[str, tuple[float, float]] | None
+            ) -> dict[str, tuple[float, float]]:
+    p = model.make_params()
+    out = {n: (p[n].lower, p[n].upper) for n in model.param_names}
+    out["modal.drive"] = (0.0, np.inf)
+    for n, (lo, hi) in (bounds or {}).items():
+        if n not in out:
+            raise InputError(f"unknown parameter; the model has {sorted(out)}", field=f"bound.{n}")
+        out[n] = (lo, hi)
+    return out
+
+
+def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
+              val_ms: Sequence[ModalMeasurement] = (), init: Any = None,
+              start: Mapping[str, float] | None = None,
+              bounds: Mapping[str, tuple[float, float]] | None = None,
+              max_nfev: int | None = None) -> FitResult:
+    """Fit ``model`` on mode 1 of the records (module docstring)."""
+    model = Model.parse(model)
+    check_modal_model(model)
+    if not fit_ms:
+        raise InputError("no records to fit", field="runs")
+    basis = fit_ms[0].basis
+    w1 = 2 * np.pi * basis.modes[0].frequency_hz
+    known: dict[str, float] = {}
+    if init is not None:
+        prev = init.params_.valuesdict() if hasattr(init, "params_") else dict(init)
+        known = {k: v for k, v in prev.items() if k in model.param_names or k == "modal.drive"
+                 or k.startswith(("modal.f", "modal.zeta", "shaker."))}
+    if "linear_stiffness.k" in model.param_names:
+        known.setdefault("linear_stiffness.k", w1 * w1)
+    if "viscous.c" in model.param_names:
+        known.setdefault("viscous.c", 2 * basis.modes[0].damping_ratio * w1)
+    bnd = _bounds(model, bounds)
+    for n, v in (start or {}).items():
+        if n not in bnd:
+            raise InputError(f"unknown parameter; the model has {sorted(bnd)}", field=f"start.{n}")
+        if not bnd[n][0] <= v <= bnd[n][1]:
+            raise InputError(f"start {v:g} is outside the bounds {bnd[n]}", field=f"start.{n}")
+        known[n] = float(v)
+    if "modal.drive" not in known:
+        q1 = [m.states(model, {**{n: known.get(n, 0.0) for n in model.param_names}, "modal.drive": 1.0})
+              for m in fit_ms]
+        if not all(np.all(np.isfinite(q)) for q in q1):
+            raise InputError("the linear start diverges: the mode needs a positive stiffness and "
+                             "damping (check the modes file)", field="modal")
+        # the reference's own participation is 1: its mode-1 term scales with modal.drive
+        A = np.concatenate([((q[m.judged, QUANTITY_ORDER[m.quantities[0]]]
+                              - q[m.judged, QUANTITY_ORDER[m.quantities[0]]].mean()) / m.scales[0])
+                            for m, q in zip(fit_ms, q1)])
+        y = np.concatenate([m.data.force[:m.judged.stop - m.judged.start] for m in fit_ms])
+        known["modal.drive"] = max(float(A @ y / (A @ A)), 1e-12)
+    lin_names = [f"modal.{p}{j + 2}" for j in range(len(basis.linear)) for p in ("f", "zeta")]
+    for j, mode in enumerate(basis.linear):
+        known.setdefault(f"modal.f{j + 2}", mode.frequency_hz)
+        known.setdefault(f"modal.zeta{j + 2}", mode.damping_ratio)
+        f0, z0 = mode.frequency_hz, mode.damping_ratio
+        bnd.setdefault(f"modal.f{j + 2}", (LINEAR_F_RANGE[0] * f0, LINEAR_F_RANGE[1] * f0))
+        bnd.setdefault(f"modal.zeta{j + 2}", (LINEAR_ZETA_RANGE[0] * z0, LINEAR_ZETA_RANGE[1] * z0))
+    bnd.setdefault("shaker.highpass_hz", HIGHPASS_RANGE)
+    names = [*model.param_names, "modal.drive", *lin_names, "shaker.highpass_hz"]
+
+    def residual_of(vals: Mapping[str, float]) -> np.ndarray | None:
+        try:
+            qs = [m.states(model, vals) for m in fit_ms]
+        except InputError:
+            return None
+        if not all(np.all(np.isfinite(q)) for q in qs):
+            return None
+        return project(fit_ms, qs, vals)[2]
+
+    sub = [e for e in model.names if all(p in known for p in Model.parse(e).param_names)]
+    amp = 1e-3
+    if sub:     # the records' largest modal displacement under the effects already known
+        q0 = [m.states(Model.parse("+".join(sub)), known) for m in fit_ms]
+        amp = max(float(np.nanmax(np.abs(q[:, 0]))) for q in q0)
+    best, best_cost = None, np.inf
+    for cand in _starts(model, known, amp):
+        lo_hi = [bnd[n] for n in names]
+        x = np.array([np.clip(cand[n], lo, hi) for n, (lo, hi) in zip(names, lo_hi)])
+        r = residual_of(dict(zip(names, x)))
+        if r is not None and float(r @ r) < best_cost:
+            best, best_cost = x, float(r @ r)
+    if best is None:
+        raise InputError(f"every start of {model.expr} diverges on the records", field="model")
+    size = best_cost ** 0.5
+    last = [np.zeros(0)]
+
+    def fun(x: np.ndarray) -> np.ndarray:
+        r = residual_of(dict(zip(names, x)))
+        if r is None:
+            return np.full(last[0].size, PENALTY * size / max(1, last[0].size) ** 0.5) \
+                if last[0].size else np.full(1, PENALTY * size)
+        last[0] = r
+        return r
+
+    fun(best)
+    lo = np.array([bnd[n][0] for n in names])
+    hi = np.array([bnd[n][1] for n in names])
+    scale = np.maximum(np.abs(best), 1e-12)
+    sol = least_squares(lambda z: fun(z * scale), best / scale, bounds=(lo / scale, hi / scale),
+                        max_nfev=max_nfev or 40 * len(names), x_scale=1.0, diff_step=1e-4)
+    x = sol.x * scale
+    vals = dict(zip(names, x))
+    qs = [m.states(model, vals) for m in fit_ms]
+    if not all(np.all(np.isfinite(q)) for q in qs):
+        raise InputError(f"the fitted model diverges on the records ({vals})", field="model")
+    gains, gse, r = project(fit_ms, qs, vals)
+    J = sol.jac / scale[None, :] if sol.jac.shape[0] == r.size else None
+    dof = max(1, r.size - len(names) - len(gains))
+    stderr: dict[str, float] = {}
+    corr = np.eye(len(names))
+    if J is not None:
+        try:
+            cov = np.linalg.inv(J.T @ J) * float(r @ r) / dof
+            d = np.sqrt(np.clip(np.diag(cov), 0, None))
+            stderr = {n: float(e) for n, e in zip(names, d)}
+            corr = cov / np.outer(np.where(d > 0, d, 1), np.where(d > 0, d, 1))
+        except np.linalg.LinAlgError:
+            stderr = {n: float("nan") for n in names}
+    stderr.update(gse)
+    params = model.make_params(values={n: vals[n] for n in model.param_names})
+    params.add("modal.drive", vals["modal.drive"], lower=0.0, unit="m/s^2 per V")
+    params.add("shaker.highpass_hz", vals["shaker.highpass_hz"], lower=0.0, upper=HIGHPASS_RANGE[1],
+               unit="Hz")
+    for k in lin_names:
+        params.add(k, vals[k], lower=bnd[k][0], upper=bnd[k][1], unit="Hz" if ".f" in k else "1")
+    for k, v in gains.items():
+        params.add(k, v, unit="1" if k.startswith("modal.phi1.") else
+                   "m/V (residual flexibility)" if k.startswith("modal.r.") else "per V")
+    for k, e in stderr.items():
+        params[k].stderr = e
+    for k in _gain_names(fit_ms[0]):
+        if k not in params:
+            params.add(k, 0.0)
+    sse, ssf = {}, {}
+    for m in (*fit_ms, *val_ms):
+        p = m.predict(model, params)
+        e = p - m.data.force
+        sse[m.name] = float(e @ e) if np.all(np.isfinite(e)) else float("inf")
+        ssf[m.name] = float(m.data.force @ m.data.force)
+    fn, vn = [m.name for m in fit_ms], [m.name for m in val_ms]
+    return FitResult(model, params, tuple(names), stderr, corr,
+                     pooled_nrmse([sse[n] for n in fn], [ssf[n] for n in fn]),
+                     {n: nrmse_from_sums(sse[n], ssf[n]) for n in fn},
+                     pooled_nrmse([sse[n] for n in vn], [ssf[n] for n in vn]) if vn else None,
+                     {n: nrmse_from_sums(sse[n], ssf[n]) for n in vn}, int(sol.nfev), bool(sol.success),
+                     str(sol.message), int(r.size), float(r @ r), (), tuple(fn), tuple(vn))
+

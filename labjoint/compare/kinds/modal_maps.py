@@ -1,0 +1,117 @@
+"""Set-level operations of the ``modal`` kind (:mod:`.modal`): split, residual maps per
+record and channel (NRMSE and residual over the channel's noise), where the model
+fails, what a candidate changes, the candidates (the effects that can act on a mode's
+coordinate) and the fitter (:mod:`.modal_fit`)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from labjoint.compare.kinds.modal import ModalMeasurement
+from labjoint.compare.kinds.modal_fit import fit_modal
+from labjoint.errors import InputError
+from labjoint.models import FitResult, Model
+from labjoint.structure.nlmode import MODAL_EFFECTS
+from labjoint.vocabulary import EFFECTS
+
+
+class ModalKind:
+    """Set-level operations of modal records (:class:`labjoint.compare.measurement.Kind`).
+
+    Split: random/burst records (no frequency) are fitted; of the steady sines, ordered by
+    frequency, every third (from the second) validates, the others are fitted (with fewer
+    than three sines the records alternate)."""
+
+    name = "modal"
+
+    def split(self, ms: Sequence[ModalMeasurement]) -> tuple[list, list, str]:
+        sines = sorted([m for m in ms if m.frequency_hz], key=lambda m: m.frequency_hz)
+        if len(sines) < 3:
+            if len(ms) < 2:
+                return list(ms), [], "one record: fitted, not validated"
+            return list(ms[::2]), list(ms[1::2]), "records alternate between fit and validation"
+        val = sines[1::3]
+        keep = {m.name for m in val}
+        return [m for m in ms if m.name not in keep], val, \
+            "sines ordered by frequency: every third (from the second) validates; the rest and every record fit"
+
+    def maps(self, evals: Sequence[Any], noise: dict[str, float]) -> ModalMaps:
+        cells = []
+        for ev in evals:
+            m: ModalMeasurement = ev.run
+            n = m.judged.stop - m.judged.start
+            sd = m.channel_noise()
+            for i, ch in enumerate(m.channels):
+                e = ev.model_force[i * n:(i + 1) * n] - m.data.force[i * n:(i + 1) * n]
+                r = float(np.sqrt(np.mean(e * e))) if np.all(np.isfinite(e)) else float("inf")
+                cells.append({"run": m.name, "channel": ch, "quantity": m.quantities[i],
+                              "frequency_hz": m.frequency_hz, "level": m.level,
+                              "nrmse": r, "residual_over_noise": r / sd[i] if sd[i] > 0 else None})
+        return ModalMaps(cells)
+
+    def curves(self, evals: Sequence[Any]) -> ModalMaps:
+        return ModalMaps([])
+
+    def loops(self, evals: Sequence[Any]) -> dict[str, dict[str, Any]]:
+        return {}
+
+    def failures(self, ev: Any, maps: ModalMaps, curves: Any, floor: float,
+                 factor: float) -> list[dict[str, Any]]:
+        out = []
+        for c in maps.cells:
+            ron = c["residual_over_noise"]
+            if ron is not None and ron > factor:
+                at = f"{c['frequency_hz']:.4g} Hz sine" if c["frequency_hz"] else "record"
+                out.append({"where": f"{c['run']} {c['channel']}", "score": float(ron),
+                            "text": f"{c['channel']} ({c['quantity']}) on the {at}: NRMSE "
+                                    f"{100 * c['nrmse']:.3g} %, {ron:.3g}x its noise"})
+        out.sort(key=lambda d: -d["score"])
+        return out
+
+    def evidence(self, effect: str, base: Any, cand: Any, base_maps: ModalMaps,
+                 cand_maps: ModalMaps, fit: FitResult, validation: str) -> str:
+        b = base.nrmse() if hasattr(base, "nrmse") else float("nan")
+        return (f"adding {effect} on mode 1: NRMSE {100 * b:.3g} % -> {100 * cand.nrmse():.3g} % "
+                f"of the responses; {validation}")
+
+    def candidates(self, model: Model, only: Sequence[str] | None) -> tuple[list[str], dict[str, str]]:
+        if only is not None:
+            unknown = [n for n in only if n not in EFFECTS]
+            if unknown:
+                raise InputError(f"unknown effect(s) {unknown}", field="candidates")
+        have = set(model.names)
+        out, skipped = [], {}
+        for n in EFFECTS:
+            if n in have or (only is not None and n not in only):
+                continue
+            if n not in MODAL_EFFECTS:
+                skipped[n] = "cannot act on a mode's coordinate in the modal simulation"
+            elif n == "asymmetric_slip" and "coulomb" not in have:
+                skipped[n] = "acts on coulomb's slider, which the model lacks"
+            elif n == "offset":
+                skipped[n] = "a constant modal force moves no velocity or acceleration"
+            else:
+                out.append(n)
+        return out, skipped
+
+    def fit(self, model: Model | str, fit_ms: Sequence[ModalMeasurement],
+            val_ms: Sequence[ModalMeasurement] = (), init: Any = None) -> FitResult:
+        return fit_modal(model, fit_ms, val_ms, init, max_nfev=self.max_nfev)
+
+    max_nfev: int | None = None
+
+
+class ModalMaps:
+    """Per record and channel: NRMSE and residual over its noise."""
+
+    def __init__(self, cells: list[dict[str, Any]]) -> None:
+        self.cells = cells
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"axes": ["run", "channel"], "cells": self.cells}
+
+
+MODAL = ModalKind()

@@ -1,0 +1,113 @@
+"""Modal records through fit, diagnose, ladder and predict (issue 29 item 5).
+
+Options: ``modal`` (the measured modes: a file of ``labjoint modes --json``, or a
+:class:`~labjoint.structure.nlmode.ModalBasis`) and ``responses`` (channels compared,
+comma-separated; default every motion channel of the records). A fitted modal model is
+saved as JSON (format ``labjoint.modalmodel/1``: the joint model, every parameter, the
+modes, the channels) and predicted on any record of the same structure by
+:func:`predict_modal` (``labjoint predict MODEL.json RECORD``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from labjoint.compare.kinds.modal import ModalMeasurement, prepare_modal
+from labjoint.compare.runs import split_by_names
+from labjoint.errors import InputError
+from labjoint.models import FitResult, Model, Parameters
+from labjoint.structure.nlmode import ModalBasis, load_basis
+
+MODAL_OPTIONS = ("modal", "responses")
+FORMAT = "labjoint.modalmodel/1"
+
+
+def _basis(modal: Any) -> ModalBasis:
+    return modal if isinstance(modal, ModalBasis) else load_basis(str(modal))
+
+
+def _responses(responses: Any) -> list[str] | None:
+    if responses is None or isinstance(responses, (list, tuple)):
+        return list(responses) if responses else None
+    return [c.strip() for c in str(responses).split(",") if c.strip()]
+
+
+def load_modal(items: Sequence[Any], validate: Sequence[Any] | None, options: dict[str, Any]
+               ) -> tuple[list[ModalMeasurement], list[str] | None]:
+    """Modal measurements of run files and the validation run names."""
+    if options.get("modal") is None:
+        raise InputError("the modal kind needs the measured modes: --modal MODES.json (the output "
+                         "of `labjoint modes RUN --json`)", field="modal")
+    other = [k for k in ("structure", "modes", "harmonics") if options.get(k) is not None]
+    if other:
+        raise InputError(f"{other[0]} goes with FRF sets, not with --modal", field=other[0])
+    basis = _basis(options["modal"])
+    resp = _responses(options.get("responses"))
+    paths = [str(x) for x in items]
+    extra = [str(v) for v in (validate or []) if str(v) not in paths]
+    ms = [prepare_modal(p, basis, resp) for p in paths + extra]
+    seen: dict[str, int] = {}
+    for i, m in enumerate(ms):
+        seen[m.name] = seen.get(m.name, 0) + 1
+        if seen[m.name] > 1:
+            ms[i] = m.renamed(f"{m.name}#{seen[m.name]}")
+    if not validate:
+        return ms, None
+    _, val, _ = split_by_names(ms, [str(v) for v in validate])
+    return ms, [m.name for m in val]
+
+
+def save_modal(fit: FitResult, ms: Sequence[ModalMeasurement], path: str | Path) -> None:
+    """The fitted modal model as JSON, written whole or not at all."""
+    vals = fit.params_.valuesdict()
+    bad = [k for k, v in vals.items() if not np.isfinite(v)]
+    if bad or not np.isfinite(fit.nrmse_):
+        raise InputError(f"the fit is not finite ({', '.join(bad) or 'nrmse'}); nothing saved",
+                         field="model")
+    d = {"format": FORMAT, "model": fit.model.expr, "parameters": fit.params_.to_dict(),
+         "basis": ms[0].basis.to_dict(), "channels": list(ms[0].channels),
+         "nrmse": fit.nrmse_, "fit_runs": list(fit.fit_runs_)}
+    p = Path(path)
+    tmp = p.with_name(p.name + ".tmp")
+    tmp.write_text(json.dumps(d, indent=1), encoding="utf-8")
+    os.replace(tmp, p)
+
+
+def is_modal_model(path: str | Path) -> bool:
+    try:
+        with open(path, encoding="utf-8") as fh:
+            return FORMAT in fh.read(200)
+    except OSError:
+        return False
+
+
+def predict_modal(model_path: str | Path, record: str | Path) -> dict[str, Any]:
+    """The saved modal model on a record: per channel the NRMSE of its response over the
+    judged samples, pooled NRMSE, and the measured and model series (SI, judged samples)."""
+    try:
+        d = json.loads(Path(model_path).read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise InputError(f"cannot read the model: {exc}", file=str(model_path)) from None
+    model = Model.parse(d["model"])
+    params = Parameters.from_dict(d["parameters"])
+    basis = ModalBasis.from_dict(d["basis"])
+    m = prepare_modal(str(record), basis, d["channels"])
+    pred = m.predict(model, params)
+    if not np.all(np.isfinite(pred)):
+        raise InputError("the model diverges on this record", file=str(record), field="model")
+    n = m.judged.stop - m.judged.start
+    e = pred - m.data.force
+    chans = {}
+    for i, ch in enumerate(m.channels):
+        ei, yi = e[i * n:(i + 1) * n], m.data.force[i * n:(i + 1) * n]
+        chans[ch] = {"quantity": m.quantities[i], "nrmse": float(np.sqrt(np.mean(ei**2) / np.mean(yi**2))),
+                     "measured": (yi * m.scales[i]).tolist(), "model": (pred[i * n:(i + 1) * n] * m.scales[i]).tolist()}
+    return {"model": d["model"], "record": str(record), "kind": "modal",
+            "nrmse": float(np.sqrt(np.mean(e**2) / np.mean(m.data.force**2))),
+            "sample_rate_hz": m.drive.fs, "channels": chans}

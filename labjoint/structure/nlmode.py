@@ -1,0 +1,292 @@
+"""A structure nobody can describe: a modal model from measured modes with one nonlinear
+mode (issue 29 item 5), its responses in the measured quantities (item 2).
+
+The structure is its measured linear modes (natural frequency f_j, damping ratio zeta_j,
+from ``labjoint modes``) driven through the shaker by the amplifier voltage V(t). Mode 1
+carries the joint: its coordinate q (unit modal mass; q is the mode-1 displacement at
+the reference sensor, so the mode-1 participation of the reference sensor is 1) obeys
+
+    q'' + F_joint(q, q', history) = b V(t)                                     (1)
+
+where F_joint is the joint model (any effects the forward simulator integrates:
+linear_stiffness k = w_1^2, viscous c = 2 zeta_1 w_1, quadratic_stiffness, cubic_stiffness,
+bilinear_stiffness, contact, coulomb (+ asymmetric_slip), bouc_wen, offset; per unit
+modal mass, so k2 is in N/m^2 per kg, and so on) and b (``modal.drive``, m/s^2 per volt)
+the modal force per volt. The other modes are linear and each driven by V:
+
+    p_j'' + 2 zeta_j w_j p_j' + w_j^2 p_j = V(t)                               (2)
+
+A sensor s measuring displacement, velocity or acceleration reads, from the states,
+
+    y_s = phi_s q^(d) + sum_j g_sj p_j^(d),   d = 0, 1, 2 by the sensor's quantity  (3)
+
+(phi_s: ``modal.phi1.<s>``, mode-1 participation relative to the reference; g_sj:
+``modal.g<j>.<s>``, mode j's drive x sensor participation per volt). The acceleration is
+the rate of the velocity at the sample, exact for the integrated states; nothing
+measured is ever integrated or differentiated.
+
+The shaker path's low-frequency roll-off (an AC-coupled amplifier, the armature's
+suspension taking the force at low frequency): a first-order high-pass of corner f_hp
+(``shaker.highpass_hz``, fitted; 0 = none) between the voltage and every mode's force,
+
+    V_hp' = V' - 2 pi f_hp V_hp                                                 (4)
+
+(BERT: the velocity per volt leads the modal model by 18 deg at 5 Hz, 11 at 9 Hz, 5 at
+17 Hz, as tan(phi) = f_hp / f with f_hp ~ 1.6 Hz).
+
+The shaker: with the force not measured, the shaker between voltage and structure
+(:class:`labjoint.structure.shaker.Shaker`: coil R, L, force factor Bl, armature m_a, k_s,
+c_s) enters the modes as products only: Bl G / R times the drive-point participation
+(b, g_sj), the back-EMF Bl^2 / R and the suspension c_s as viscous damping of each mode,
+m_a and k_s as modal mass and stiffness at the drive point (merged with f_j, zeta_j).
+The coil's L / R is a first-order lag whose corner (R / (2 pi L), kHz for a modal shaker)
+lies far above the modes; the model takes it as zero. :func:`shaker_identifiable` states
+which shaker parameters a voltage-driven record can see (none on its own: each is
+refused by name). The model is per volt; a per-newton one needs the force or the
+drive-point participation, which these records do not hold.
+
+Integrator (stated): classical 4th-order Runge-Kutta with ``substeps`` steps per sample
+(at least 4, and w h <= 0.1 at 1.5 x the highest measured mode)
+on (q, q', z_bouc_wen, z_jenkins) by the forward simulator's own rates
+(:mod:`labjoint.models.simulate`, the same laws), the voltage between samples
+band-limited (its ``fine_force``). A segment starts from the linear steady state of its
+drive's fundamental (a steady sine) or from rest (a record that starts at rest).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numba import njit
+from scipy.signal import lfilter
+
+from labjoint.errors import InputError
+from labjoint.models import Model
+from labjoint.models.simulate import SUPPORTED, _coefficients, _rates, fine_force
+
+SUBSTEPS = 4
+MAX_WH = 0.1            # RK4 step: w h at most this at 1.5x the highest mode (phase error ~1e-7 a step)
+#: effects that can act on a mode's coordinate (the forward simulator's laws; the modal
+#: mass is the model's own, so ``inertia`` is not one of them)
+MODAL_EFFECTS = tuple(n for n in SUPPORTED if n != "inertia")
+QUANTITY_ORDER = {"displacement": 0, "velocity": 1, "acceleration": 2}
+DIVERGED = 1e6          # |q| above this many metres: the simulation has diverged
+
+
+@dataclass(frozen=True)
+class MeasuredMode:
+    frequency_hz: float
+    damping_ratio: float
+    shape: dict[str, float]
+
+
+@dataclass(frozen=True)
+class ModalBasis:
+    """The measured linear modes (the first carries the joint) and the reference sensor."""
+
+    modes: tuple[MeasuredMode, ...]
+    reference: str
+    source: str = ""
+
+    @property
+    def linear(self) -> tuple[MeasuredMode, ...]:
+        return self.modes[1:]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"reference": self.reference, "source": self.source,
+                "modes": [{"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio,
+                           "shape": m.shape} for m in self.modes]}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any], source: str = "") -> ModalBasis:
+        modes = tuple(MeasuredMode(float(m["frequency_hz"]), float(m["damping_ratio"]),
+                                   {k: float(v[0] if isinstance(v, (list, tuple)) else v)
+                                    for k, v in (m.get("shape") or {}).items()})
+                      for m in d["modes"])
+        return cls(modes, str(d["reference"]), source or str(d.get("source", "")))
+
+
+def load_basis(path: str | Path, reference: str | None = None) -> ModalBasis:
+    """The modes of ``labjoint modes --json`` saved to a file (its first level: the
+    lowest-level test), mode 1 the lowest in the file; ``reference``: the sensor whose
+    mode-1 participation is 1 (default: the mode's own reference sensor)."""
+    p = Path(path)
+    try:
+        d = json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise InputError(f"cannot read the modes file: {exc}", file=str(p), field="modal") from None
+    if "modes" in d and "reference" in d:
+        basis = ModalBasis.from_dict(d, str(p))
+    else:
+        levels = d.get("levels") if isinstance(d, dict) else None
+        if not levels or not levels[0].get("modes"):
+            raise InputError("not a modes file: expected the JSON of `labjoint modes --json` "
+                             "(levels[0].modes)", file=str(p), field="modal")
+        lv = min(levels, key=lambda x: float(x.get("level") or 0.0))
+        ms = sorted(lv["modes"], key=lambda m: m["frequency_hz"])
+        for m in ms:
+            if not (m["frequency_hz"] > 0 and m["damping_ratio"] > 0):
+                raise InputError(f"mode at {m['frequency_hz']} Hz has damping {m['damping_ratio']}: "
+                                 "a modal model needs positive frequencies and damping",
+                                 file=str(p), field="modal")
+        ref = ms[0].get("reference_sensor") or next(iter(ms[0]["shape"]))
+        basis = ModalBasis.from_dict({"reference": ref, "modes": ms}, str(p))
+    if reference is not None:
+        if reference not in basis.modes[0].shape:
+            raise InputError(f"no sensor {reference!r} in the modes; sensors: "
+                             f"{sorted(basis.modes[0].shape)}", file=str(p), field="reference")
+        basis = ModalBasis(basis.modes, reference, basis.source)
+    return basis
+
+
+def check_modal_model(model: Model) -> None:
+    """Refuse an effect that cannot act on a mode's coordinate, naming it."""
+    bad = [n for n in model.names if n not in MODAL_EFFECTS]
+    if bad:
+        raise InputError(f"{', '.join(bad)} cannot act on a mode's coordinate (the modal kind "
+                         f"takes {', '.join(MODAL_EFFECTS)}; the modal mass is built in)",
+                         field="model")
+    if "asymmetric_slip" in model.names and "coulomb" not in model.names:
+        raise InputError("asymmetric_slip acts on coulomb's slider; add coulomb", field="model")
+
+
+@njit(cache=True)
+def _mode(drive_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, y0, v0):  # pragma: no cover
+    """(n, 3): q, q', q'' at every sample (eq. 1); NaN from where it diverges."""
+    n = (drive_fine.size - 1) // (2 * substeps) + 1
+    out = np.full((n, 3), np.nan)
+    y, v, zb, zj = y0, v0, 0.0, 0.0
+    for i in range(n):
+        r = _rates(drive_fine[2 * i * substeps], y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev)
+        out[i, 0], out[i, 1], out[i, 2] = y, v, r[1]
+        if i == n - 1 or not abs(y) < 1e6:
+            break
+        for s in range(substeps):
+            j = 2 * (i * substeps + s)
+            f0_, fm, f1 = drive_fine[j], drive_fine[j + 1], drive_fine[j + 2]
+            k1 = _rates(f0_, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev)
+            k2 = _rates(fm, y + 0.5 * h * k1[0], v + 0.5 * h * k1[1], zb + 0.5 * h * k1[2],
+                        zj + 0.5 * h * k1[3], m, c, k, k3, f0, bw, jk, ev)
+            k3_ = _rates(fm, y + 0.5 * h * k2[0], v + 0.5 * h * k2[1], zb + 0.5 * h * k2[2],
+                         zj + 0.5 * h * k2[3], m, c, k, k3, f0, bw, jk, ev)
+            k4 = _rates(f1, y + h * k3_[0], v + h * k3_[1], zb + h * k3_[2], zj + h * k3_[3],
+                        m, c, k, k3, f0, bw, jk, ev)
+            y += h * (k1[0] + 2.0 * k2[0] + 2.0 * k3_[0] + k4[0]) / 6.0
+            v += h * (k1[1] + 2.0 * k2[1] + 2.0 * k3_[1] + k4[1]) / 6.0
+            zb += h * (k1[2] + 2.0 * k2[2] + 2.0 * k3_[2] + k4[2]) / 6.0
+            zj += h * (k1[3] + 2.0 * k2[3] + 2.0 * k3_[3] + k4[3]) / 6.0
+            if jk[0] > 0.0:
+                zj = min(max(zj, -jk[1] * (1.0 - jk[2])), jk[1] * (1.0 + jk[2]))
+    return out
+
+
+@dataclass(frozen=True)
+class Drive:
+    """One segment's voltage at half substeps, its sample rate and how it starts: the drive's
+    fundamental phasor (V, at ``frequency_hz``, time from the segment's first sample) for a
+    steady sine, else None (from rest)."""
+
+    fine: np.ndarray
+    fs: float
+    n: int
+    frequency_hz: float | None = None
+    phasor: complex = 0j
+    substeps: int = SUBSTEPS
+
+    @classmethod
+    def of(cls, volts: np.ndarray, fs: float, frequency_hz: float | None = None,
+           highest_hz: float = 0.0) -> Drive:
+        """``highest_hz``: the highest mode; the substeps keep w h <= ``MAX_WH`` at 1.5x it."""
+        v = np.asarray(volts, float)
+        ph = 0j
+        if frequency_hz:
+            t = np.arange(v.size) / fs
+            A = np.column_stack([np.cos(2 * np.pi * frequency_hz * t), np.sin(2 * np.pi * frequency_hz * t),
+                                 np.ones_like(t)])
+            a, b, _ = np.linalg.lstsq(A, v, rcond=None)[0]
+            ph = complex(a, -b)                  # V ~ Re(ph e^{i w t})
+        sub = max(SUBSTEPS, int(np.ceil(1.5 * 2 * np.pi * highest_hz / (MAX_WH * fs))))
+        return cls(fine_force(v, sub, False), float(fs), v.size, frequency_hz, ph, sub)
+
+    def highpassed(self, corner_hz: float) -> Drive:
+        """The drive through the shaker path's first-order high-pass s / (s + a), a = 2 pi
+        ``corner_hz`` (eq. 4), on the fine grid (backward Euler, a dt < 1e-3 there); a
+        steady sine's filter starts in its steady state, a record's at rest."""
+        if not corner_hz > 0:
+            return self
+        a = 2 * np.pi * corner_hz
+        dt = 1.0 / (self.fs * 2 * self.substeps)
+        al = 1.0 / (1.0 + a * dt)
+        x = self.fine
+        ph = self.phasor
+        if self.frequency_hz:
+            w = 2 * np.pi * self.frequency_hz
+            ph = ph * (1j * w) / (1j * w + a)
+        y0 = float(ph.real) if self.frequency_hz else 0.0
+        y = lfilter([al, -al], [1.0, -al], x, zi=[y0 - al * x[0]])[0]
+        return replace(self, fine=y, phasor=ph)
+
+
+def _start(d: Drive, gain: float, k: float, c: float) -> tuple[float, float]:
+    """The linear steady state (q, q') at the first sample under the drive's fundamental."""
+    if not d.frequency_hz:
+        return 0.0, 0.0
+    w = 2 * np.pi * d.frequency_hz
+    q = gain * d.phasor / (k - w * w + 1j * c * w)
+    return float(q.real), float((1j * w * q).real)
+
+
+def mode_states(model: Model, params: Mapping[str, Any], drive: Drive) -> np.ndarray:
+    """(n, 3) q, q', q'' of the nonlinear mode (eq. 1) under the segment's drive."""
+    vals = {k: float(v.value if hasattr(v, "value") else v) for k, v in params.items()}
+    vals["inertia.m"] = 1.0
+    full = Model.parse("+".join(("inertia", *model.names)))
+    m, c, k, k3, f0, bw, jk, ev = _coefficients(full, vals)
+    b = vals["modal.drive"]
+    y0, v0 = _start(drive, b, k, c)
+    return _mode(b * drive.fine, 1.0 / (drive.fs * drive.substeps), m, c, k, k3, f0, bw, jk, ev,
+                 drive.substeps, y0, v0)
+
+
+def linear_states(mode: MeasuredMode, drive: Drive) -> np.ndarray:
+    """(n, 3) p, p', p'' of a linear mode under unit gain (eq. 2)."""
+    w = 2 * np.pi * mode.frequency_hz
+    c, k = 2 * mode.damping_ratio * w, w * w
+    y0, v0 = _start(drive, 1.0, k, c)
+    z3 = np.zeros(3)
+    return _mode(drive.fine, 1.0 / (drive.fs * drive.substeps), 1.0, c, k, 0.0, 0.0, np.zeros(4), z3,
+                 np.zeros(4), drive.substeps, y0, v0)
+
+
+def response(q: np.ndarray, lin: Sequence[np.ndarray], quantity: str, phi: float,
+             gains: Sequence[float]) -> np.ndarray:
+    """A sensor's reading from the states (eq. 3)."""
+    d = QUANTITY_ORDER[quantity]
+    y = phi * q[:, d]
+    for g, p in zip(gains, lin):
+        y = y + g * p[:, d]
+    return y
+
+
+def shaker_identifiable(names: Sequence[str]) -> None:
+    """Refuse shaker parameters a voltage-driven record cannot see (module docstring)."""
+    why = {"force_factor_n_per_a": "seen only as Bl G / R times the drive-point participation "
+                                   "(modal.drive)",
+           "coil_resistance_ohm": "seen only in Bl G / R (modal.drive) and Bl^2 / R (damping)",
+           "amplifier_gain_v_per_v": "seen only in Bl G / R (modal.drive)",
+           "armature_mass_kg": "merged with the modal mass at the drive point (the mode's frequency)",
+           "suspension_stiffness_n_per_m": "merged with the modal stiffness (the mode's frequency)",
+           "suspension_damping_ns_per_m": "merged with the mode's viscous damping",
+           "coil_inductance_h": "its corner R / (2 pi L) lies far above the modes: no phase the "
+                                "record resolves"}
+    for n in names:
+        if n not in why:
+            raise InputError(f"unknown shaker parameter; known: {sorted(why)}", field=f"shaker.{n}")
+        raise InputError(f"not identifiable from a voltage-driven record without a force: {why[n]}",
+                         field=f"shaker.{n}")
+
