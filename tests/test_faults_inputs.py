@@ -103,7 +103,7 @@ def _model_file(tmp_path, **change):
 
 
 def test_bad_model_files_are_one_line_naming_the_field(tmp_path, capsys):
-    from labjoint.compare.output_error import FORMAT, load_model
+    from labjoint.compare.model_file import FORMAT, load_model
 
     assert FORMAT == "labjoint-model/1"
     load_model(_model_file(tmp_path))                       # the good one loads

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from labjoint.cli.main import main
-from labjoint.compare.output_error import fit_simulation, load_model
+from labjoint.compare.model_file import load_model
+from labjoint.compare.output_error import fit_simulation
 from labjoint.errors import InputError
 from labjoint.models import Model, ModelInputs
 from labjoint.models.simulate import simulate

@@ -240,7 +240,8 @@ def _not_modal(args: argparse.Namespace) -> None:
 
 
 def _fit_simulation(args: argparse.Namespace) -> int:
-    from labjoint.compare.output_error import fit_simulation, save_model
+    from labjoint.compare.model_file import save_model
+    from labjoint.compare.output_error import fit_simulation
 
     _not_modal(args)
     if args.structure:

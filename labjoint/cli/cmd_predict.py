@@ -64,7 +64,7 @@ def _modal(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     from labjoint.compare.modal_api import is_modal_model
-    from labjoint.compare.output_error import predict_file
+    from labjoint.compare.model_file import predict_file
 
     if is_modal_model(args.model):
         return _modal(args)
