@@ -12,6 +12,9 @@ at an hour), so on a corrupt file whose writer is gone it sleeps for hours. The
 ``labjoint-swmr`` driver (the sec2 driver with ``H5Pset_metadata_read_attempts``,
 registered through h5py's :func:`h5py.register_driver`) bounds it to
 :data:`SWMR_READ_ATTEMPTS` attempts, about 17 ms of waiting per metadata block.
+
+:func:`open_handle` opens a run file for the reader (:mod:`labjoint.storage.reader`)
+through both: normally when finished, the SWMR way when a writer holds it.
 """
 
 from __future__ import annotations
@@ -22,6 +25,8 @@ import os
 from pathlib import Path
 
 import h5py
+
+from labjoint.errors import InputError
 
 #: What h5py raises on a damaged or foreign file.
 H5_FILE_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError)
@@ -84,3 +89,44 @@ def run_identity(path: str | Path) -> tuple[str, str]:
         raise InputError(f"not a readable run file: {exc}", file=str(p)) from None
     return tuple(v.decode().rstrip("\x00") if isinstance(v, bytes) else str(v)
                  for v in (name, uid))  # type: ignore[return-value]
+
+
+class Handle:
+    """The process's one open HDF5 file for a run path, with its datasets."""
+
+    def __init__(self, f: h5py.File, swmr: bool) -> None:
+        self.f, self.swmr, self.users = f, swmr, 0
+        self.static: tuple | None = None
+        self.entry = f["entry"]
+        self.data = self.entry["data"]
+        self.ds = {k: v for k, v in self.data.items() if isinstance(v, h5py.Dataset)}
+
+
+def open_handle(p: Path) -> Handle:
+    """A finished run file opened normally, one a writer holds (or held, and died) the SWMR
+    way; anything that is not a labjoint run file, or is damaged, an InputError naming it."""
+    swmr = False
+    try:
+        f = h5py.File(p, "r")
+    except H5_FILE_ERRORS as exc:
+        if "already open for write" not in str(exc):
+            raise InputError(f"not a readable HDF5 file: {exc}", file=str(p)) from None
+        try:  # a writer has it (or had it, and died): read it the SWMR way
+            f = open_swmr_reader(p)
+            swmr = True
+        except H5_FILE_ERRORS as exc2:
+            hint = ("; its writer died with it open: `labjoint recover` clears the flags"
+                    if "not already open for SWMR writing" in str(exc2) else "")
+            raise InputError(f"not a readable HDF5 file: {exc2}{hint}", file=str(p)) from None
+    try:
+        e = f.get("entry")
+        if not isinstance(e, h5py.Group) or "labjoint_format" not in e.attrs or "data" not in e:
+            raise InputError("not a labjoint run file (no /entry with @labjoint_format)",
+                             file=str(p))
+        return Handle(f, swmr)
+    except InputError:
+        f.close()
+        raise
+    except H5_FILE_ERRORS as exc:
+        f.close()
+        raise InputError(f"damaged run file: {exc}", file=str(p)) from None

@@ -5,7 +5,7 @@ run still being written can be read;
 :meth:`RunFile.refresh` picks up what the writer has flushed since.
 
 Thread safety: a process holds one HDF5 handle per run file, shared by every
-:class:`RunFile` opened on it and reference-counted (``_Handle``), and every HDF5 call
+:class:`RunFile` opened on it and reference-counted (``Handle``), and every HDF5 call
 goes through :data:`labjoint.storage.layout.H5_LOCK`. Two handles on one file in one
 process share HDF5's file state, and refreshing one while the other reads made
 concurrent readers get another window's samples (chunk 10 read as chunk 0).
@@ -30,7 +30,7 @@ from labjoint.hardware.interfaces import ChannelSpec
 from labjoint.storage import layout
 from labjoint.storage.channels import ChannelRecord, make_record, spec_quantity
 from labjoint.storage.csv_parse import parse_csv
-from labjoint.storage.h5open import H5_FILE_ERRORS, open_swmr_reader
+from labjoint.storage.h5open import H5_FILE_ERRORS, Handle, open_handle
 from labjoint.storage.roles import channel_roles
 from labjoint.storage.run import Run
 
@@ -53,23 +53,12 @@ class DataBlock:
     data: dict[str, np.ndarray]
 
 
-class _Handle:
-    """The process's one open HDF5 file for a run path, with its datasets."""
-
-    def __init__(self, f: h5py.File, swmr: bool) -> None:
-        self.f, self.swmr, self.users = f, swmr, 0
-        self.static: tuple | None = None
-        self.entry = f["entry"]
-        self.data = self.entry["data"]
-        self.ds = {k: v for k, v in self.data.items() if isinstance(v, h5py.Dataset)}
-
-
 #: Samples per channel :meth:`RunFile.to_run` reads whole (2000 s at 50 kS/s; 800 MB a
 #: channel): a file declaring 1e9 was read until memory ran out.
 MAX_WHOLE_RUN_SAMPLES = 100_000_000
 
 #: Open handles by resolved path (guarded by H5_LOCK).
-_HANDLES: dict[str, _Handle] = {}
+_HANDLES: dict[str, Handle] = {}
 #: The static part of recently read files by (path, inode, device): a run's channels,
 #: start metadata, title, identifier and source are written when it starts and never
 #: change, and parsing them is most of the cost of opening a file.
@@ -100,7 +89,7 @@ class RunFile:
     """An open run file (use :func:`open_run`). Close it, or use it as a context manager."""
 
     @layout.locked
-    def __init__(self, path: Path, handle: _Handle) -> None:
+    def __init__(self, path: Path, handle: Handle) -> None:
         self.path = path
         self._h = handle
         self._f = handle.f
@@ -338,38 +327,10 @@ def open_run(path: str | Path) -> RunFile:
         del _HANDLES[key]
         handle = None
     if handle is None:
-        handle = _open_handle(p)
+        handle = open_handle(p)
         _HANDLES[key] = handle
     handle.users += 1
     return RunFile(p, handle)
-
-
-def _open_handle(p: Path) -> _Handle:
-    swmr = False
-    try:
-        f = h5py.File(p, "r")
-    except H5_FILE_ERRORS as exc:
-        if "already open for write" not in str(exc):
-            raise InputError(f"not a readable HDF5 file: {exc}", file=str(p)) from None
-        try:  # a writer has it (or had it, and died): read it the SWMR way
-            f = open_swmr_reader(p)
-            swmr = True
-        except H5_FILE_ERRORS as exc2:
-            hint = ("; its writer died with it open: `labjoint recover` clears the flags"
-                    if "not already open for SWMR writing" in str(exc2) else "")
-            raise InputError(f"not a readable HDF5 file: {exc2}{hint}", file=str(p)) from None
-    try:
-        e = f.get("entry")
-        if not isinstance(e, h5py.Group) or "labjoint_format" not in e.attrs or "data" not in e:
-            raise InputError("not a labjoint run file (no /entry with @labjoint_format)",
-                             file=str(p))
-        return _Handle(f, swmr)
-    except InputError:
-        f.close()
-        raise
-    except H5_FILE_ERRORS as exc:
-        f.close()
-        raise InputError(f"damaged run file: {exc}", file=str(p)) from None
 
 
 def read_run(path: str | Path, force: str = "joint") -> Run:
