@@ -39,7 +39,8 @@ from labjoint.daemon.lock import DaemonLock
 from labjoint.daemon.monitor import (RunTracker, WatchedGenerator, expected_records, job_outcome,
                                     observe)
 from labjoint.daemon.queue import Job, JobQueue, utc_now
-from labjoint.daemon.setup import Calibrations, LeftOut, default_paths, open_rig_lazily
+from labjoint.daemon.setup import (Calibrations, LeftOut, default_paths, open_rig_lazily,
+                                   switch_output_off)
 from labjoint.daemon.watch import JobWatcher
 from labjoint.errors import HardwareError
 from labjoint.storage import Catalog, RunWriter, catalog_for, recover_all
@@ -348,19 +349,12 @@ class Daemon:
     # ---- generator and status ---------------------------------------------------------
     def _output_off(self, why: str) -> bool:
         """Switch the output off and confirm by read-back; False (and logged) if not."""
-        gen = self._gen
-        if gen is None:
+        if self._gen is None:
             return False
-        try:
-            gen.set_output(False)
-            if gen.read_settings().output:
-                raise HardwareError("the generator still reports its output ON")
-        except Exception as exc:
-            self.last_error = f"output off failed ({why}): {type(exc).__name__}: {exc}"
-            log.error(self.last_error)
-            return False
-        log.info("generator output OFF (%s)", why)
-        return True
+        failed = switch_output_off(self._gen, why)
+        if failed:
+            self.last_error = failed
+        return failed is None
 
     def _flush_interval(self) -> float:
         if self.flush_interval_s is not None:

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from labjoint.config import RigConfig
-from labjoint.errors import InputError
+from labjoint.errors import HardwareError, InputError
 
 log = logging.getLogger(__name__)
 
@@ -129,3 +129,18 @@ class LeftOut:
                 return
             del self.files[p]
             log.warning("catalog: indexed %s, left out by an outage", p.name)
+
+
+def switch_output_off(gen: Any, why: str) -> str | None:
+    """Switch the generator's output off and confirm it by read-back: None when it is off,
+    else what failed (logged)."""
+    try:
+        gen.set_output(False)
+        if gen.read_settings().output:
+            raise HardwareError("the generator still reports its output ON")
+    except Exception as exc:
+        failed = f"output off failed ({why}): {type(exc).__name__}: {exc}"
+        log.error(failed)
+        return failed
+    log.info("generator output OFF (%s)", why)
+    return None
