@@ -116,7 +116,7 @@ def test_runs_a_pipeline_does_not_handle_are_not_applicable_and_the_run_list_sho
     assert (rep["computed"], rep["not_applicable"], rep["failed"]) == (4, 1, 0), rep
     by = {x["run"]: x for x in rep["runs"]}
     assert by["accel_only"]["status"] == "not_applicable"
-    assert "has no channel 'disp_1'" in by["accel_only"]["error"]
+    assert "no displacement channel: the responses are accel (acceleration)" in by["accel_only"]["error"]
     listed = {r["name"]: r["result"] for r in http.get("/runs").json()["items"]}
     for name, (u, k, c, _) in CASES.items():
         res = listed[name]
