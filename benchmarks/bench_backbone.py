@@ -16,7 +16,6 @@ Run: ``python benchmarks/bench_backbone.py [--smoke]`` (smoke: 8 points).
 from __future__ import annotations
 
 import sys
-import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -25,6 +24,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from benchmarks.harness import Bench, parser  # noqa: E402
 from labjoint.structure import load_structure, modes  # noqa: E402
 from labjoint.structure.epmc import epmc_backbone  # noqa: E402
 from labjoint.structure.frf import system_of  # noqa: E402
@@ -35,35 +35,34 @@ SEED000 = ROOT / "configs" / "structure-seed000.toml"
 IWAN = {"linear_stiffness.k": 9.8e7, "iwan.K_T": 2.28e8, "iwan.F_S": 15000.0, "iwan.chi": 0.0, "iwan.beta": 0.0}
 
 
-def main(argv: list[str]) -> int:
-    smoke = "--smoke" in argv
-    n = 8 if smoke else 50
-    with open("/proc/loadavg") as fh:
-        load = fh.read().split()[:3]
+def main() -> int:
+    args = parser(__doc__).parse_args()
+    bench = Bench.from_args("backbone", args, repeats=1)
+    n = 8 if args.smoke else 50
     s = load_structure(SEED000)
-    modes(s, 2)                                                 # warm-up (imports, caches)
-    t = time.perf_counter()
-    modes(s, 2)
-    t_modal = time.perf_counter() - t
-    t = time.perf_counter()
-    sysm = system_of(s, 10)
-    t_reduce = time.perf_counter() - t
+    bench.warm_up(lambda: modes(s, 2), "one modal solve: imports, caches")
+    t_modal = bench.repeat(lambda: modes(s, 2), repeats=3).median
+    t_reduce = bench.repeat(lambda: system_of(s, 10), repeats=1)
+    sysm, t_reduce = t_reduce.result, t_reduce.median
     law = JointLaw("linear_stiffness+iwan", IWAN)
     iwan = replace(sysm, elements=tuple(JointElement(replace(e.joint, law=law)) for e in sysm.elements))
     A = np.geomspace(1e-5, 5e-3, n)
-    print(f"load {' '.join(load)}; one linear modal solve {t_modal * 1e3:.1f} ms; Craig-Bampton "
-          f"reduction {t_reduce * 1e3:.0f} ms")
+    print(f"one linear modal solve {t_modal * 1e3:.1f} ms; Craig-Bampton reduction "
+          f"{t_reduce * 1e3:.0f} ms")
     for name, system in (("richard_abbott (file)", sysm), ("linear_stiffness+iwan", iwan)):
-        epmc_backbone(system, A[:2], harmonics=3, samples=64, sensor="free_end")      # warm-up (numba)
-        t = time.perf_counter()
-        b = epmc_backbone(system, A, harmonics=3, samples=64, sensor="free_end")
-        dt = time.perf_counter() - t
+        bench.warm_up(lambda: epmc_backbone(system, A[:2], harmonics=3, samples=64, sensor="free_end"),
+                      "two EPMC points (numba)")
+        tm = bench.repeat(lambda: epmc_backbone(system, A, harmonics=3, samples=64, sensor="free_end"))
+        b, dt = tm.result, tm.median
         f, z = b.array("frequency_hz"), b.array("damping_ratio")
-        print(f"{name:24s} {n} points in {dt:.2f} s ({dt / n * 1e3:.0f} ms/point; {dt / t_modal:.2f}x a "
-              f"modal solve, {dt / t_reduce:.2f}x the reduction); f {f[0]:.4f} -> {f[-1]:.4f} Hz, "
-              f"zeta {z[0]:.4g} -> {z[-1]:.4g}; goal <= 2 s: {'met' if dt <= 2 else 'NOT met'}")
+        print(f"{name:24s} {n} points in {dt:.2f} s; f {f[0]:.4f} -> {f[-1]:.4f} Hz, "
+              f"zeta {z[0]:.4g} -> {z[-1]:.4g}")
+        bench.figure(f"EPMC backbone, {name}, {n} points / one linear modal solve", dt / t_modal,
+                     "one linear modal solve (2 modes) of the same assembly", value=dt, unit="s",
+                     target="<= 2 s for 50 points", timing=tm, per_reduction=dt / t_reduce)
+    bench.finish()
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main(sys.argv[1:]))
+    raise SystemExit(main())
