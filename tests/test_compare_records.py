@@ -115,6 +115,8 @@ def test_auto_kind_judges_a_set_one_way_and_sine_refuses_a_multisine():
     with pytest.raises(InputError, match="multisine"):
         prepare([record()], kind="sine")
     with pytest.raises(InputError, match="unknown kind"):
+        prepare([sine], kind="spectral")
+    with pytest.raises(InputError, match="measured modes"):
         prepare([sine], kind="modal")
     with pytest.raises(InputError, match="FRF sets inside a structure"):
         prepare([sine], kind="frf")
