@@ -11,12 +11,17 @@ harmonic-1 amplitude of x2 over the sweep (target <= 0.5 %) and the time per poi
 
 tmdsimpy is not a dependency of labjoint: pass its checkout (``git clone
 https://github.com/tmd-lab/tmdsimpy``) as ``--tmdsimpy PATH`` (its ``tmdsimpy`` package is
-imported from there). Run: ``python benchmarks/bench_structure_tmdsimpy.py --tmdsimpy PATH``.
+imported from there). Without ``--tmdsimpy`` (e.g. ``--smoke`` alone, as the smoke test runs
+it) the peer is not given: labjoint's sweep only, its time per point against one linear
+complex solve per point of the same system (the underlying linear FRF) in this process, and
+its lowest point (10 Hz, well below mode 1) against that linear FRF.
+
+Run: ``python benchmarks/bench_structure_tmdsimpy.py [--tmdsimpy PATH] [--smoke] [--repeats N]``
+(smoke: 16 points over the same band).
 """
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
@@ -26,6 +31,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from benchmarks.harness import Bench, parser  # noqa: E402
 from labjoint.structure.hbm import HarmonicBalance  # noqa: E402
 from labjoint.structure.law import JointLaw  # noqa: E402
 from labjoint.structure.system import LawElement, NonlinearSystem  # noqa: E402
@@ -75,20 +81,70 @@ def tmdsimpy_sweep(freqs: np.ndarray) -> tuple[np.ndarray, float]:
     return np.array(out), (time.perf_counter() - t) / freqs.size
 
 
-def main(path: str) -> None:
-    sys.path.insert(0, str(Path(path).resolve()))
-    freqs = np.linspace(10.0, 25.0, 61)
-    a, ta = labjoint_sweep(freqs)
-    b, tb = tmdsimpy_sweep(freqs)
+def linear_sweep(freqs: np.ndarray) -> tuple[np.ndarray, float]:
+    """|X2| of the linear system (no cubic spring): one complex solve per frequency."""
+    out = []
+    t = time.perf_counter()
+    for f in freqs:
+        w = 2 * np.pi * f
+        out.append(abs(np.linalg.solve(K - w ** 2 * M + 1j * w * C, np.array([0.0, F]))[1]))
+    return np.array(out), (time.perf_counter() - t) / freqs.size
+
+
+def main() -> int:
+    ap = parser(__doc__)
+    ap.add_argument("--tmdsimpy", default=None,
+                    help="path of a tmdsimpy checkout (without it: labjoint only)")
+    args = ap.parse_args()
+    bench = Bench.from_args("structure_tmdsimpy", args, repeats=3)
+    freqs = np.linspace(10.0, 25.0, 16 if args.smoke else 61)
+    f_lin = np.sqrt(np.linalg.eigvals(np.linalg.solve(M, K)).min()) / 2 / np.pi
+    bench.warm_up(lambda: labjoint_sweep(freqs[:2]), "two labjoint HBM points")
+    if args.tmdsimpy is None:
+        print("tmdsimpy not given (no --tmdsimpy): labjoint's sweep only, against one linear "
+              "complex solve per point")
+        ref = bench.repeat(lambda: linear_sweep(freqs))
+        tm = bench.repeat(lambda: labjoint_sweep(freqs))
+        a, lin = tm.result[0], ref.result[0]
+        ta = tm.median_of([r[1] for r in tm.results])
+        tl = ref.median_of([r[1] for r in ref.results])
+        print(f"{freqs.size} points, {freqs[0]:g}-{freqs[-1]:g} Hz; peak |X2| {a.max():.4g} m at "
+              f"{freqs[np.argmax(a)]:.3g} Hz (linear mode 1 {f_lin:.3g} Hz)")
+        print(f"time per point: labjoint {1e3 * ta:.2f} ms (tmdsimpy not run), linear solve "
+              f"{1e3 * tl:.4f} ms")
+        bench.figure("labjoint HBM time per point / one linear solve", ta / tl,
+                     "one complex linear solve per point (the linear FRF); tmdsimpy not given",
+                     value=1e3 * ta, unit="ms per point", timing=tm)
+        bench.figure("|X2| at 10 Hz, labjoint HBM / linear FRF", a[0] / lin[0],
+                     "the linear FRF (cubic spring off) well below mode 1 (~1: small hardening)",
+                     value=a[0], unit="m")
+        bench.finish(peer="tmdsimpy not given")
+        return 0
+    sys.path.insert(0, str(Path(args.tmdsimpy).resolve()))
+    bench.warm_up(lambda: (tmdsimpy_sweep(freqs[:2]), labjoint_sweep(freqs[:2])),
+                  "two HBM points by each")
+    per_a, per_b = [], []
+    for _ in range(bench.repeats):                # alternating: both see the same load
+        a, ta = labjoint_sweep(freqs)
+        b, tb = tmdsimpy_sweep(freqs)
+        per_a.append(ta)
+        per_b.append(tb)
+    ta, tb = float(np.median(per_a)), float(np.median(per_b))
     err = np.max(np.abs(a / b - 1))
-    print(f"load {Path('/proc/loadavg').read_text().split()[:3]}")
     print(f"{freqs.size} points, {freqs[0]:g}-{freqs[-1]:g} Hz; peak |X2| {a.max():.4g} m at "
-          f"{freqs[np.argmax(a)]:.3g} Hz (linear mode 1 {np.sqrt(np.linalg.eigvals(np.linalg.solve(M, K)).min()) / 2 / np.pi:.3g} Hz)")
+          f"{freqs[np.argmax(a)]:.3g} Hz (linear mode 1 {f_lin:.3g} Hz)")
     print(f"largest relative difference of |X2| (harmonic 1): {100 * err:.2g} %")
-    print(f"time per point: labjoint {1e3 * ta:.2f} ms, tmdsimpy {1e3 * tb:.2f} ms")
+    print(f"time per point: labjoint {1e3 * ta:.2f} ms, tmdsimpy {1e3 * tb:.2f} ms "
+          f"(medians of {bench.repeats}, alternating)")
+    bench.figure("largest |X2| difference / target", err / 5e-3,
+                 "the 0.5 % target; difference relative to tmdsimpy's |X2| (harmonic 1)",
+                 value=err, unit="relative", target="<= 1")
+    bench.figure("time per point, labjoint / tmdsimpy", ta / tb,
+                 "tmdsimpy's Newton on its own residual, same points (median, alternating)",
+                 value=1e3 * ta, unit="ms per point", reference_ms=1e3 * tb)
+    bench.finish(peer=str(args.tmdsimpy))
+    return 0
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--tmdsimpy", required=True, help="path of a tmdsimpy checkout")
-    main(ap.parse_args().tmdsimpy)
+    raise SystemExit(main())
