@@ -13,18 +13,19 @@ commands ("x real time"; Python's start-up and the imports, about 2 s of CPU, ar
 counted), median over repeats with best and worst, their CPU time, the peak RSS of the
 process and its RSS after the imports, and the load average before and after. The numerical core alone (the sums
 fed from blocks already in memory, single precision) is timed in-process beside it.
+Figures (benchmarks/README.md): the two commands as a multiple of real time (wall, and per
+CPU second), the peak RSS as a fraction of the record's size, the core alone as a multiple
+of real time; each a median of repeats after an untimed warm-up (a pipeline run, which also
+writes numba's cache, and a short core call). ``--smoke``: a 20 s record, same code path.
 
 Usage: ``python benchmarks/bench_frf.py [--minutes 10] [--repeats 3] [--smoke]``.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
-import resource
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -33,6 +34,10 @@ from pathlib import Path
 
 import numpy as np
 from scipy import signal as sps
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks.harness import Bench, parser  # noqa: E402
 
 FS = 51_200.0
 BLOCK = 1 << 20
@@ -145,39 +150,53 @@ def core(seconds: float) -> float:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--minutes", type=float, default=10.0)
-    ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--smoke", action="store_true", help="a 20 s record, one repeat (CI)")
     a = ap.parse_args()
+    bench = Bench.from_args("frf", a, repeats=3)
     seconds = 20.0 if a.smoke else a.minutes * 60
-    repeats = 1 if a.smoke else a.repeats
-    load0 = os.getloadavg()
     with tempfile.TemporaryDirectory() as d:
         run = Path(d) / "long_random.h5"
         t0 = time.perf_counter()
         write_run(run, seconds)
         written = time.perf_counter() - t0
         frf = str(Path(d) / "frf.json")
-        walls, cpus, rss, rss0, modes = [], [], 0, 0, []
-        for _ in range(repeats):
-            w, c, r, r0, modes = pipeline(run, frf)
-            walls.append(w)
-            cpus.append(c)
-            rss, rss0 = max(rss, r), max(rss0, r0)
+        bench.warm_up(lambda: (pipeline(run, frf), core(min(seconds, 20.0))),
+                      "one pipeline run in a subprocess and a 20 s core call")
+        timing = bench.repeat(lambda: pipeline(run, frf))
         size = run.stat().st_size
+    walls = [r[0] for r in timing.results]
+    cpus = [r[1] for r in timing.results]
+    rss = max(r[2] for r in timing.results)
+    rss0 = max(r[3] for r in timing.results)
+    modes = timing.result[4]
+    repeats = len(walls)
     ratios = sorted(seconds / t for t in walls)
-    core_s = core(seconds)
+    wall_med, cpu_med = timing.median_of(walls), timing.median_of(cpus)
+    core_t = bench.repeat(lambda: core(seconds))
+    core_s = timing.median_of(core_t.results)
     print(f"record: {seconds:g} s, 4 channels at {FS:g} S/s ({seconds * FS * 4 / 1e6:.1f} M samples), "
           f"run file {size / 2**20:.0f} MB (written in {written:.1f} s)")
     print(f"modes found (Hz): {modes}  (simulated {[m for m, _ in MODES_HZ]})")
-    print(f"`labjoint frf` + `labjoint modes` from the run file: {statistics.median(ratios):.0f}x real "
+    print(f"`labjoint frf` + `labjoint modes` from the run file: {seconds / wall_med:.0f}x real "
           f"time (median of {repeats}; best {ratios[-1]:.0f}x, worst {ratios[0]:.0f}x), "
-          f"{seconds / statistics.median(cpus):.0f}x on their CPU time")
+          f"{seconds / cpu_med:.0f}x on their CPU time")
     print(f"peak RSS of the process: {rss / 1024:.0f} MB, {rss0 / 1024:.0f} MB of it after the imports "
           f"(the record: {size / 2**20:.0f} MB)")
     print(f"numerical core alone (blocks in memory, float32): {seconds / core_s:.0f}x real time")
-    print(f"load average before {load0[0]:.2f}, after {os.getloadavg()[0]:.2f}")
+    bench.figure("`labjoint frf` + `labjoint modes` from the run file", seconds / wall_med,
+                 "real time (the record's duration; after the process's imports)",
+                 value=wall_med, unit="s", best=ratios[-1], worst=ratios[0], repeats=repeats)
+    bench.figure("`labjoint frf` + `labjoint modes`, CPU time", seconds / cpu_med,
+                 "real time, per CPU second of the two commands (less sensitive to load)",
+                 value=cpu_med, unit="s CPU")
+    bench.figure("peak RSS of the process / record size", rss * 1024 / size,
+                 "the run file's size on disk (memory bounded: < 1 for a long record)",
+                 value=rss / 1024, unit="MB", rss_after_imports_mb=rss0 / 1024)
+    bench.figure("numerical core alone (blocks in memory, float32)", seconds / core_s,
+                 "real time (the record's duration)", value=core_s, unit="s",
+                 repeats=len(core_t.results))
+    bench.finish(record_s=seconds, file_mb=size / 2**20, modes_hz=modes)
 
 
 if __name__ == "__main__":
