@@ -56,5 +56,6 @@ def base_url(tmp_path_factory):
           suppress_health_check=list(HealthCheck))
 def test_api_conforms_to_its_schema(case, base_url):
     response = case.call_and_validate(base_url=base_url, headers=AUTH,
-                                      excluded_checks=[positive_data_acceptance])
+                                      excluded_checks=[positive_data_acceptance],
+                                      timeout=patience.HTTP_TIMEOUT_S)   # requests' 10 s timed out under load
     assert response.status_code < 500

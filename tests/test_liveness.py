@@ -50,7 +50,8 @@ def test_status_follows_the_daemon_and_rig_hides_paths_from_anonymous_callers(tm
             jobs = json.loads(capsys.readouterr().out)["jobs"]
             assert [j["id"] for j in jobs] == [job["id"]] and jobs[0]["status"] == "done"
             daemon.stop()
-            gone = http.get("/rig", headers=AUTH).json()["daemon"]
+            gone = wait_for(lambda: http.get("/rig", headers=AUTH).json()["daemon"],
+                            lambda d: d["state"] != "idle")     # its stop is seen at the next poll
             assert gone["state"] == "not running" and gone["running"] is False
             assert gone["last_state"] is not None
         st = _status(capsys, cfg, data)
