@@ -127,4 +127,4 @@ def test_runs_a_pipeline_does_not_handle_are_not_applicable_and_the_run_list_sho
         assert res["energy_loss_j"] == pytest.approx(3.141592653589793 * c * 2 * 3.141592653589793
                                                      * 100.0 * u ** 2, rel=0.02)
     assert listed["accel_only"]["status"] == "not_applicable"
-    assert "has no channel 'disp_1'" in listed["accel_only"]["error"]
+    assert "no displacement channel: the responses are accel (acceleration)" in listed["accel_only"]["error"]
