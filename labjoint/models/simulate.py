@@ -66,6 +66,30 @@ def _rates(t_force, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev):  # pragma: no co
 
 
 @njit(cache=True)
+def rk4_sample(fine, i, substeps, h, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev):  # pragma: no cover
+    """The state after sample ``i``'s ``substeps`` classical RK4 steps of :func:`_rates`;
+    ``fine`` holds the drive at every half substep (shared by the joint-level simulator
+    and the modal model, :mod:`labjoint.structure.nlmode`)."""
+    for s in range(substeps):
+        j = 2 * (i * substeps + s)
+        f0_, fm, f1 = fine[j], fine[j + 1], fine[j + 2]
+        k1 = _rates(f0_, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev)
+        k2 = _rates(fm, y + 0.5 * h * k1[0], v + 0.5 * h * k1[1], zb + 0.5 * h * k1[2],
+                    zj + 0.5 * h * k1[3], m, c, k, k3, f0, bw, jk, ev)
+        k3_ = _rates(fm, y + 0.5 * h * k2[0], v + 0.5 * h * k2[1], zb + 0.5 * h * k2[2],
+                     zj + 0.5 * h * k2[3], m, c, k, k3, f0, bw, jk, ev)
+        k4 = _rates(f1, y + h * k3_[0], v + h * k3_[1], zb + h * k3_[2], zj + h * k3_[3],
+                    m, c, k, k3, f0, bw, jk, ev)
+        y += h * (k1[0] + 2.0 * k2[0] + 2.0 * k3_[0] + k4[0]) / 6.0
+        v += h * (k1[1] + 2.0 * k2[1] + 2.0 * k3_[1] + k4[1]) / 6.0
+        zb += h * (k1[2] + 2.0 * k2[2] + 2.0 * k3_[2] + k4[2]) / 6.0
+        zj += h * (k1[3] + 2.0 * k2[3] + 2.0 * k3_[3] + k4[3]) / 6.0
+        if jk[0] > 0.0:
+            zj = min(max(zj, -jk[1] * (1.0 - jk[2])), jk[1] * (1.0 + jk[2]))
+    return y, v, zb, zj
+
+
+@njit(cache=True)
 def _integrate(force_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, state):  # pragma: no cover
     """y at every sample; ``force_fine`` holds the force at every half substep."""
     n = (force_fine.size - 1) // (2 * substeps) + 1
@@ -73,22 +97,8 @@ def _integrate(force_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, state):  # 
     y, v, zb, zj = state[0], state[1], state[2], state[3]
     out[0] = y
     for i in range(n - 1):
-        for s in range(substeps):
-            j = 2 * (i * substeps + s)
-            f0_, fm, f1 = force_fine[j], force_fine[j + 1], force_fine[j + 2]
-            k1 = _rates(f0_, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev)
-            k2 = _rates(fm, y + 0.5 * h * k1[0], v + 0.5 * h * k1[1], zb + 0.5 * h * k1[2],
-                        zj + 0.5 * h * k1[3], m, c, k, k3, f0, bw, jk, ev)
-            k3_ = _rates(fm, y + 0.5 * h * k2[0], v + 0.5 * h * k2[1], zb + 0.5 * h * k2[2],
-                         zj + 0.5 * h * k2[3], m, c, k, k3, f0, bw, jk, ev)
-            k4 = _rates(f1, y + h * k3_[0], v + h * k3_[1], zb + h * k3_[2], zj + h * k3_[3],
-                        m, c, k, k3, f0, bw, jk, ev)
-            y += h * (k1[0] + 2.0 * k2[0] + 2.0 * k3_[0] + k4[0]) / 6.0
-            v += h * (k1[1] + 2.0 * k2[1] + 2.0 * k3_[1] + k4[1]) / 6.0
-            zb += h * (k1[2] + 2.0 * k2[2] + 2.0 * k3_[2] + k4[2]) / 6.0
-            zj += h * (k1[3] + 2.0 * k2[3] + 2.0 * k3_[3] + k4[3]) / 6.0
-            if jk[0] > 0.0:
-                zj = min(max(zj, -jk[1] * (1.0 - jk[2])), jk[1] * (1.0 + jk[2]))
+        y, v, zb, zj = rk4_sample(force_fine, i, substeps, h, y, v, zb, zj, m, c, k, k3, f0, bw,
+                                  jk, ev)
         out[i + 1] = y
     state[0], state[1], state[2], state[3] = y, v, zb, zj
     return out

@@ -67,7 +67,7 @@ from scipy.signal import lfilter
 
 from labjoint.errors import InputError
 from labjoint.models import Model
-from labjoint.models.simulate import SUPPORTED, _coefficients, _rates, fine_force
+from labjoint.models.simulate import SUPPORTED, _coefficients, _rates, fine_force, rk4_sample
 
 SUBSTEPS = 4
 MAX_WH = 0.1            # RK4 step: w h at most this at 1.5x the highest mode (phase error ~1e-7 a step)
@@ -166,22 +166,8 @@ def _mode(drive_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, y0, v0):  # prag
         out[i, 0], out[i, 1], out[i, 2] = y, v, r[1]
         if i == n - 1 or not abs(y) < 1e6:
             break
-        for s in range(substeps):
-            j = 2 * (i * substeps + s)
-            f0_, fm, f1 = drive_fine[j], drive_fine[j + 1], drive_fine[j + 2]
-            k1 = _rates(f0_, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev)
-            k2 = _rates(fm, y + 0.5 * h * k1[0], v + 0.5 * h * k1[1], zb + 0.5 * h * k1[2],
-                        zj + 0.5 * h * k1[3], m, c, k, k3, f0, bw, jk, ev)
-            k3_ = _rates(fm, y + 0.5 * h * k2[0], v + 0.5 * h * k2[1], zb + 0.5 * h * k2[2],
-                         zj + 0.5 * h * k2[3], m, c, k, k3, f0, bw, jk, ev)
-            k4 = _rates(f1, y + h * k3_[0], v + h * k3_[1], zb + h * k3_[2], zj + h * k3_[3],
-                        m, c, k, k3, f0, bw, jk, ev)
-            y += h * (k1[0] + 2.0 * k2[0] + 2.0 * k3_[0] + k4[0]) / 6.0
-            v += h * (k1[1] + 2.0 * k2[1] + 2.0 * k3_[1] + k4[1]) / 6.0
-            zb += h * (k1[2] + 2.0 * k2[2] + 2.0 * k3_[2] + k4[2]) / 6.0
-            zj += h * (k1[3] + 2.0 * k2[3] + 2.0 * k3_[3] + k4[3]) / 6.0
-            if jk[0] > 0.0:
-                zj = min(max(zj, -jk[1] * (1.0 - jk[2])), jk[1] * (1.0 + jk[2]))
+        y, v, zb, zj = rk4_sample(drive_fine, i, substeps, h, y, v, zb, zj, m, c, k, k3, f0, bw,
+                                  jk, ev)
     return out
 
 
