@@ -46,6 +46,7 @@ from labjoint.compare.ties import mark_ties, simpler_first
 from labjoint.models import FitResult, Model, ModelFitter
 from labjoint.models.asymmetry import EVEN, amplitude, asymmetry
 from labjoint.models.effects import get_effect
+from labjoint.models.result import parameter_table
 
 DEFAULT_FACTOR = 1.5
 CONTENDER_RATIO = 1.5
@@ -135,15 +136,7 @@ def parameters_dict(fit: FitResult) -> dict[str, dict[str, Any]]:
     """``{"<effect>.<param>": {"value", "stderr", "unit"}}`` of a fit, and ``"flag"`` where
     the standard error is undetermined (then ``stderr`` is null) or exceeds the value
     (:func:`labjoint.models.result.parameter_flags`)."""
-    out = {}
-    flags = fit.flags_
-    for k, p in fit.params_.items():
-        se = fit.stderr_.get(k)
-        out[k] = {"value": p.value, "stderr": None if se is None or not np.isfinite(se) else se,
-                  "unit": p.unit}
-        if k in flags:
-            out[k]["flag"] = flags[k]
-    return out
+    return parameter_table(fit.params_, fit.stderr_, fit.flags_)
 
 
 @dataclass

@@ -60,7 +60,7 @@ from labjoint.models import LoopSummary, Model, Parameters
 from labjoint.models.asymmetry import EVEN, asymmetry
 from labjoint.models.covariance import covariance
 from labjoint.models.effects import get_effect
-from labjoint.models.result import parameter_flags
+from labjoint.models.result import parameter_flags, parameter_table
 from labjoint.models.scores import nrmse_from_sums, pooled_nrmse
 from labjoint.models.simulate import DEFAULT_SUBSTEPS, check_simulable, simulate
 
@@ -169,14 +169,7 @@ class SimulationFit:
     def model_dict(self) -> dict[str, Any]:
         """What ``--out MODEL.json`` holds: effects by name with parameters, the structure
         (an undetermined standard error is null, with the parameter's flag)."""
-        flags = self.flags()
-        pars = {}
-        for k, p in self.params.items():
-            se = self.stderr.get(k)
-            pars[k] = {"value": p.value, "stderr": se if se is not None and np.isfinite(se) else None,
-                       "unit": p.unit}
-            if k in flags:
-                pars[k]["flag"] = flags[k]
+        pars = parameter_table(self.params, self.stderr, self.flags())
         return {"format": FORMAT, "model": self.model.expr, "structure": "sdof",
                 "input": "force_N", "output": "displacement_m", "substeps": self.substeps,
                 "parameters": pars}

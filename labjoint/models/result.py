@@ -38,6 +38,20 @@ def parameter_flags(values: dict[str, float], stderr: dict[str, float | None]
     return out
 
 
+def parameter_table(params: Parameters, stderr: dict[str, float | None],
+                    flags: dict[str, str]) -> dict[str, dict[str, Any]]:
+    """``{name: {"value", "stderr", "unit"}}`` with ``"flag"`` where :func:`parameter_flags`
+    gives one; an undetermined (None or non-finite) standard error is null, never a number."""
+    out: dict[str, dict[str, Any]] = {}
+    for k, p in params.items():
+        se = stderr.get(k)
+        out[k] = {"value": p.value, "stderr": None if se is None or not np.isfinite(se) else se,
+                  "unit": p.unit}
+        if k in flags:
+            out[k]["flag"] = flags[k]
+    return out
+
+
 @dataclass
 class FitResult:
     """Parameters learned from a set of runs, their uncertainty and the fit quality.
