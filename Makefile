@@ -4,7 +4,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test test-fast bench bench-smoke browser postgres clean
+.PHONY: demo test test-slow test-all bench bench-smoke browser postgres clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -30,14 +30,19 @@ postgres:
 	  if [ "$$(id -u)" = 0 ]; then apt-get update -qq && apt-get install -y -qq postgresql >/dev/null; \
 	  else sudo apt-get update -qq && sudo apt-get install -y -qq postgresql >/dev/null; fi; }
 
-# The whole suite, slow end-to-end checks and every benchmark's smoke run
-# (tests/test_benchmarks_smoke.py) included: what .ci/run runs.
+# The suite without the `slow` end-to-end group (under 10 minutes on 2 cores): the
+# README's test command. .ci/run runs it, then the slow group (make test-slow).
 test: $(STAMP) browser postgres
-	$(PY) -m pytest -n 2 -q
-
-# The suite without the `slow` marker group (a quick check while working; CI runs all).
-test-fast: $(STAMP) browser postgres
 	$(PY) -m pytest -n 2 -q -m "not slow"
+
+# The slow end-to-end group alone: structure and BERT loops, every benchmark's smoke run
+# (tests/test_benchmarks_smoke.py).
+test-slow: $(STAMP) browser postgres
+	$(PY) -m pytest -n 2 -q -m slow
+
+# Both groups in one pytest run.
+test-all: $(STAMP) browser postgres
+	$(PY) -m pytest -n 2 -q
 
 # Every benchmark at full size; figures are ratios, with the load average before/after.
 bench: $(STAMP)
