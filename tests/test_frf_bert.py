@@ -45,5 +45,8 @@ def test_bert_modes_and_distortion(tmp_path, capsys):
     out = {r["run"]: r for r in json.loads(capsys.readouterr().out)["runs"]}
     h = lambda run, k: out[run]["channels"]["laser"]["harmonics"][k - 2]["ratio"]  # noqa: E731
     assert 0.05 <= h("Sine_Sine_06Hz", 3) <= 0.07 and 0.05 <= h("Sine_Sine_06p5Hz", 3) <= 0.07
-    assert 0.69 <= h("Sine_Sine_09p5Hz", 2) <= 0.72           # steady state: 0.709 +- 0.002
+    # steady state (after the response's start-up, which rings at mode 1 = 2 x 9.5 Hz, has
+    # settled): 0.706 +- 0.0003; the data's README says 0.68-0.70, a whole-record FFT's
+    # figure (0.683 here), start-up and stop included
+    assert 0.70 <= h("Sine_Sine_09p5Hz", 2) <= 0.712
     assert out["Sine_Sine_09p5Hz"]["channels"]["input_V"]["harmonics"][0]["ratio"] < 1e-3

@@ -2,8 +2,11 @@
 even nonlinear distortion of a multisine with detection lines.
 
 **Steady sine.** The drive's frequency f0 is measured (:func:`estimate_frequency`, phase
-slope). The driven part after its first tenth (start-up) is cut into ``blocks`` blocks of
-whole cycles (the nearest sample); in each block every channel is fitted by least
+slope). The steady part starts after the drive's first tenth and after the responses
+have settled (:func:`settled_start`: a lightly damped structure started from rest rings at
+its natural frequency for several decay times, and at f0 = f_n / 2 that ringing sits on the
+2nd harmonic); it is cut into ``blocks`` blocks of whole cycles (the nearest sample); in
+each block every channel is fitted by least
 squares with a constant and cos/sin at h f0, h = 1..2H+1 (below Nyquist; the harmonics
 above H absorb what would leak from them), giving its phasors X_h. Per block
 the ratio r_h = |X_h| / |X_1|; the reported ratio is their mean and its standard error
@@ -60,16 +63,20 @@ def harmonics(channels: dict[str, Any], fs: float, *, drive: str, orders: int = 
                          field="orders")
     per = fs / f0
     a0, a1 = steady_part(u, fs, f0)
-    start = a0 + int(np.ceil((a1 - a0) / 10))
+    fit = max(orders, min(2 * orders + 1, int(np.floor(0.5 * fs / f0 * 0.999))))
+    responses = {n: validate.signal(x, n, min_samples=u.size) for n, x in channels.items()
+                 if n != drive}
+    start = max(a0 + int(np.ceil((a1 - a0) / 10)),
+                settled_start(responses, fs, f0, a0, a1, fit))
     cycles = int((a1 - start) / per)
     k = cycles // blocks
     if k < 2:
         raise InputError(f"{cycles} whole cycles of {f0:g} Hz after the start-up: too few for "
                          f"{blocks} blocks of two or more", field=drive)
     edges = [start + int(round(b * k * per)) for b in range(blocks + 1)]
-    # harmonics above those reported are fitted too (up to 2H + 1, below Nyquist): a block
-    # is whole cycles only to the nearest sample, and a strong unfitted harmonic would leak
-    fit = max(orders, min(2 * orders + 1, int(np.floor(0.5 * fs / f0 * 0.999))))
+    # harmonics above those reported are fitted too (up to 2H + 1, below Nyquist, `fit`):
+    # a block is whole cycles only to the nearest sample, and a strong unfitted harmonic
+    # would leak
     out: dict[str, list[dict[str, Any]]] = {}
     for name, x in channels.items():
         x = validate.signal(x, name, min_samples=u.size)
@@ -101,6 +108,37 @@ def steady_part(u: np.ndarray, fs: float, f0: float) -> tuple[int, int]:
         if run > best[1] - best[0]:
             best = (b0, i + 1)
     return best[0] * win, best[1] * win
+
+
+def settled_start(responses: dict[str, np.ndarray], fs: float, f0: float, a0: int, a1: int,
+                  fit: int) -> int:
+    """First sample of the driven part [a0, a1) from which every response's harmonics stay
+    steady: the driven part is cut into short blocks of whole cycles (4 cycles, at least a
+    quarter second); per block the phasors X_h, h = 1..fit; the reference is their median
+    over the last half of the blocks; a block deviates by max_h |X_h - X_h,ref| / |X_1,ref|.
+    Settled from the first block after which every deviation stays within three times the
+    typical deviation of the last half (noise and slow drift) and 0.2 % of the fundamental
+    at least. Never later than the middle of the driven part (a record whose response never
+    settles still gives its second half)."""
+    per = fs / f0
+    m = max(4, int(np.ceil(0.25 * f0)))
+    nb = int((a1 - a0) / (m * per))
+    if nb < 8 or not responses:
+        return a0
+    edges = [a0 + int(round(b * m * per)) for b in range(nb + 1)]
+    settled = 0
+    for x in responses.values():
+        ph = np.array([_phasors(x[a:b], fs, f0, fit, a) for a, b in zip(edges, edges[1:])])
+        tail = ph[nb // 2:]
+        ref = np.median(tail.real, axis=0) + 1j * np.median(tail.imag, axis=0)
+        if not np.abs(ref[0]) > 0:
+            continue
+        d = np.max(np.abs(ph - ref), axis=1) / np.abs(ref[0])
+        tol = max(3.0 * float(np.median(d[nb // 2:])), 2e-3)
+        bad = np.nonzero(d > tol)[0]
+        if bad.size:
+            settled = max(settled, int(bad[-1]) + 1)
+    return edges[min(settled, nb // 2)]
 
 
 def _phasors(x: np.ndarray, fs: float, f0: float, orders: int, offset: int) -> np.ndarray:
