@@ -15,7 +15,9 @@ does not converge is left out (null) and listed.
 Per sweep, sensor and harmonic h, measured and model are given as magnitude per newton
 (|response_h| / |F|, in the set's quantity: m/s^2/N, m/s/N or m/N) and phase relative to
 the force (arg response_h - h arg F, degrees in (-180, 180]), as the comparison's
-residuals see them (:class:`labjoint.structure.predict.FrfPredictor`).
+residuals see them (:class:`labjoint.structure.predict.FrfPredictor`). A model harmonic
+below ``ROUNDOFF`` of the sensor's harmonic-1 peak is given as magnitude 0 and phase null
+(the solver's round-off, not a response).
 """
 
 from __future__ import annotations
@@ -36,6 +38,9 @@ from labjoint.structure.predict import convert
 
 DEFAULT_POINTS, MAX_POINTS, MIN_POINTS = 200, 1000, 20
 DEFAULT_MARGIN = 0.25
+#: a model harmonic below this fraction of the sensor's harmonic-1 peak is round-off of
+#: the solver (a linear or odd law has no even harmonics): magnitude 0, phase null
+ROUNDOFF = 1e-9
 UNITS = {"acceleration": "m/s^2/N", "velocity": "m/s/N", "displacement": "m/N"}
 
 
@@ -83,7 +88,10 @@ def sweep_curve(m: FrfMeasurement, law: JointLaw, points: int = DEFAULT_POINTS,
     ph = ph[:, 1:, :][:, :, rows]                               # (n, H, S)
     hw = 2 * np.pi * np.outer(f, np.arange(1, H + 1))           # (n, H)
     model_ph = np.stack([convert(ph[i], hw[i], fs.quantity) for i in range(f.size)]).transpose(0, 2, 1)
+    ref = np.nanmax(np.abs(model_ph[:, :, :1]), axis=0, initial=0.0)     # (S, 1) harmonic 1's peak
+    model_ph = np.where(np.abs(model_ph) <= ROUNDOFF * ref, 0.0, model_ph)
     mag, phase = _mag_phase(model_ph, Fabs.astype(complex))
+    phase[mag == 0] = np.nan                                     # no response: no phase
     mmag, mphase = _mag_phase(fs.response, fs.force)
     failed = ~np.all(np.isfinite(model_ph), axis=(1, 2))
     return {"run": m.name, "level_n": m.level_n, "direction": m.direction, "mode": m.mode + 1,
