@@ -22,6 +22,8 @@ from labjoint.compare.frf_api import load_frf
 from labjoint.compare.frf_curves import dense_curves
 from labjoint.errors import InputError
 from test_api_helpers import AUTH, CONTROL, live_server, wait_for
+import patience
+from labjoint.client import Client
 from patience import http_client
 
 ZETA = 0.005                   # the structure file's [damping] ratios
@@ -125,3 +127,6 @@ def test_the_curves_job_over_rest(data):
         assert bad.status_code == 422
         assert http.post("/structures/lin/curves", json={"frfsets": ["nope"], "model": "linear_stiffness",
                                                          "parameters": LINEAR}).status_code == 404
+        with Client(url, token=CONTROL, timeout=patience.HTTP_TIMEOUT_S) as c:
+            res = c.structure_curves("lin", ["sweep"], "linear_stiffness", LINEAR, points=20, modes=4)
+        assert [len(s["model"]["frequency_hz"]) for s in res["sweeps"]] == [20, 20, 20]

@@ -65,7 +65,7 @@ def test_structure_view_draws_dense_model_curves_per_sensor_and_level(served, wi
     w = open_page(browser, url, token=CONTROL, width=width)
     page = w.page
     page.click("nav a[data-view=structure]")
-    page.fill("#frf-candidates-input", "viscous,wear")
+    page.fill("#frf-candidates-input", "viscous,offset,wear")
     page.click("#frf-go")
     page.wait_for_selector("#frf-verdict", timeout=240_000)
     # the verdict, the refusal and the candidates as the pipeline gives them
@@ -75,7 +75,11 @@ def test_structure_view_draws_dense_model_curves_per_sensor_and_level(served, wi
     refused = page.text_content("#frf-refused li[data-effect='wear']")
     assert refused.startswith("wear: cannot act in a structure's joint")
     assert page.text_content("#frf-failures").startswith("mode 1,")
-    assert page.locator("#frf-candidates tbody tr").count() == 1
+    rows = page.locator("#frf-candidates tbody tr")
+    cands = {rows.nth(i).locator("td").first.text_content(): rows.nth(i).locator("td").last.text_content()
+             for i in range(rows.count())}
+    # an even effect's constant cancels in this joint's moment: the pipeline flags both parameters
+    assert cands == {"viscous": "–", "offset": "linear_stiffness.k, offset.F0"}, cands
     # every sensor: magnitude and phase, every level, measured points and a dense model curve
     for s in SENSORS:
         for kind in ("mag", "phase"):
@@ -106,6 +110,13 @@ def test_structure_view_draws_dense_model_curves_per_sensor_and_level(served, wi
     wait_attr(page, mag, "data-model", lambda v: v == "linear_stiffness+viscous", timeout=240)
     assert page.locator("#params tr[data-param='viscous.c']").count() == 1
     screenshot(page, f"structure-h1-{width}")
+    labels = page.locator("#frf-curve-pick option").all_text_contents()
+    page.select_option("#frf-curve-pick", index=next(i for i, x in enumerate(labels) if x.startswith("+ offset")))
+    wait_attr(page, mag, "data-model", lambda v: v == "linear_stiffness+offset", timeout=240)
+    flag = page.get_attribute("#params tr[data-param='offset.F0']", "data-flag")
+    assert flag.startswith("undetermined") and flag in page.text_content("#params tr[data-param='offset.F0']")
+    page.select_option("#frf-curve-pick", index=1)
+    wait_attr(page, mag, "data-model", lambda v: v == "linear_stiffness+viscous", timeout=240)
     page.select_option("#frf-harmonic", "2")
     page.wait_for_selector(_plot(page, "mag", "free_end", 2))
     # a linear law has no second harmonic: the solver's round-off is not drawn as a response
@@ -119,4 +130,27 @@ def test_structure_view_draws_dense_model_curves_per_sensor_and_level(served, wi
         box = page.locator(_plot(page, "phase", s).replace("-h1", "-h2")).bounding_box()
         assert box and box["x"] >= 0 and box["x"] + box["width"] <= inner and box["height"] > 80
     screenshot(page, f"structure-{width}")
+    assert w.problems() == []
+
+
+def test_a_ladder_from_the_page_draws_each_steps_curves(served):
+    """The ladder from the page: its steps, the final diagnosis's verdict and the reason it
+    stopped; the last step's curves drawn first, an earlier step's on selecting it."""
+    url, browser = served
+    w = open_page(browser, url, token=CONTROL, width=1400)
+    page = w.page
+    page.click("nav a[data-view=structure]")
+    page.fill("#frf-candidates-input", "viscous")
+    page.select_option("#frf-op", "ladder")
+    page.click("#frf-go")
+    page.wait_for_selector("#frf-steps tbody tr", timeout=480_000)
+    steps = page.locator("#frf-steps tbody tr td:nth-child(3)").all_text_contents()
+    assert steps[:2] == ["linear_stiffness", "linear_stiffness+viscous"], steps
+    assert page.text_content("#frf-stop").startswith("ladder stopped: ")
+    assert page.text_content("#frf-verdict").strip()
+    mag = _plot(page, "mag", "free_end")
+    wait_attr(page, mag, "data-model", lambda v: v == steps[-1], timeout=240)
+    page.select_option("#frf-curve-pick", index=0)
+    wait_attr(page, mag, "data-model", lambda v: v == "linear_stiffness", timeout=240)
+    assert _drawn(page, mag, "10 N up model") >= 20 * STEPS
     assert w.problems() == []

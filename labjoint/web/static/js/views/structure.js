@@ -21,7 +21,23 @@ const state = { model: 'linear_stiffness', candidates: 'viscous,iwan,cubic_stiff
 const select = (id, names, chosen) => h('select', { id },
   ...names.map((n) => h('option', { value: n, selected: n === chosen }, n)));
 const values = (ps) => Object.fromEntries(Object.entries(ps || {}).map(([k, p]) => [k, p.value]));
-const flagged = (ps) => Object.entries(ps || {}).filter(([, p]) => determination(p)[0] !== 'ok').map(([k]) => k);
+// Flagged: the pipeline's own flag, or the page's rule for a standard error (modelplots.js).
+const flagged = (ps) => Object.entries(ps || {}).filter(([, p]) => p.flag || determination(p)[0] !== 'ok')
+  .map(([k]) => k);
+
+// The parameter table of the models page, with the pipeline's flag in its words where it gives one.
+function paramTable(o) {
+  const t = parameters(o);
+  for (const [k, p] of Object.entries(o.parameters || {})) {
+    const row = [...t.querySelectorAll('tr[data-param]')].find((r) => r.dataset.param === k);
+    if (!p.flag || !row) continue;
+    row.classList.add('flagged');
+    row.dataset.flag = p.flag;
+    row.lastElementChild.className = 'verdict bad';
+    row.lastElementChild.textContent = p.flag;
+  }
+  return t;
+}
 const scroll = (el) => h('div', { class: 'scroll' }, el);
 
 // The models whose curves can be drawn: the baseline and each candidate, or each ladder step.
@@ -81,7 +97,7 @@ function resultView(res, msg) {
   }
   async function showCurves() {
     const o = opts[state.choice];
-    params.replaceChildren(h('p', { class: 'caption' }, `Parameters of ${o.model}`), scroll(parameters(o)));
+    params.replaceChildren(h('p', { class: 'caption' }, `Parameters of ${o.model}`), scroll(paramTable(o)));
     const key = JSON.stringify([state.files, o.model, values(o.parameters)]);
     generation += 1;
     const mine = generation;
