@@ -129,6 +129,12 @@ def test_structure_view_draws_dense_model_curves_per_sensor_and_level(served, wi
     for s in SENSORS:
         box = page.locator(_plot(page, "phase", s).replace("-h1", "-h2")).bounding_box()
         assert box and box["x"] >= 0 and box["x"] + box["width"] <= inner and box["height"] > 80
+    # no text of a plot runs past its own frame (an SVG clips it without widening the page)
+    past = page.locator("#frf-plots svg.plot text, #frf-maps svg.plot text").evaluate_all(
+        "ts => ts.filter(t => { const b = t.getBoundingClientRect(),"
+        " v = t.ownerSVGElement.getBoundingClientRect();"
+        " return b.left < v.left - 0.5 || b.right > v.right + 0.5; }).map(t => t.textContent)")
+    assert past == [], past
     screenshot(page, f"structure-{width}")
     assert w.problems() == []
 

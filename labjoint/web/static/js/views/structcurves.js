@@ -39,6 +39,9 @@ export function curvePlots(curves, hn) {
     || a.direction.localeCompare(b.direction));
   const levels = [...new Set(sweeps.map(levelName))];
   const hue = (sw) => color(levels.indexOf(levelName(sw)));
+  // where levels coincide (a linear law: one curve per newton) each stays visible: the
+  // first level's line and points are the widest, each next one narrower on top of it
+  const under = (sw) => levels.length - 1 - levels.indexOf(levelName(sw));
   const modes = [...new Set(sweeps.map((sw) => sw.mode))];
   const figs = [];
   for (const mode of modes) {
@@ -52,30 +55,32 @@ export function curvePlots(curves, hn) {
         const c = hue(sw);
         const name = levelName(sw);
         const mf = sw.model.frequency_hz;
+        const look = { color: c, width: 1.5 + 1.5 * under(sw), r: 3 + 1.2 * under(sw) };
         mag.push({ name: `${name} measured`, x: sw.measured.frequency_hz, y: sw.measured.magnitude_per_n[s][hn - 1],
-          mode: 'points', color: c, legend: false });
-        mag.push({ name: `${name} model`, x: mf, y: sw.model.magnitude_per_n[s][hn - 1], color: c });
+          mode: 'points', legend: false, ...look });
+        mag.push({ name: `${name} model`, x: mf, y: sw.model.magnitude_per_n[s][hn - 1], ...look });
         phase.push({ name: `${name} measured`, x: sw.measured.frequency_hz, y: sw.measured.phase_deg[s][hn - 1],
-          mode: 'points', color: c, legend: false });
-        phase.push({ name: `${name} model`, ...unwrapBreaks(mf, sw.model.phase_deg[s][hn - 1]), color: c,
-          legend: false });
+          mode: 'points', legend: false, ...look });
+        phase.push({ name: `${name} model`, ...unwrapBreaks(mf, sw.model.phase_deg[s][hn - 1]), legend: false,
+          ...look });
       }
       const id = `m${mode}-${slug(sensor)}-h${hn}`;
       const opts = { xlabel: 'frequency (Hz)', height: 280, width: narrow() ? 420 : 640 };
       const none = ms.every((sw) => sw.model.magnitude_per_n[s][hn - 1].every((v) => v === 0));
+      const where = `mode ${mode}, ${sensor}, harmonic ${hn}`;
       const magPlot = plotXY({ ...opts, id: `frf-mag-${id}`, ylog: true, legendAt: 'auto',
-        title: `mode ${mode}, ${sensor}, harmonic ${hn}: |response| / |force|`,
-        ylabel: `|H${hn}| (${units})`, series: mag });
+        title: '|response| / |force|', ylabel: `|H${hn}| (${units})`, series: mag });
       const phPlot = plotXY({ ...opts, id: `frf-phase-${id}`, ydomain: [-180, 180],
-        title: `mode ${mode}, ${sensor}, harmonic ${hn}: phase to the force`,
-        ylabel: 'phase (°)', series: phase });
+        title: 'phase to the force', ylabel: 'phase (°)', series: phase });
+      magPlot.setAttribute('aria-label', `${where}: |response| / |force| (${units})`);
+      phPlot.setAttribute('aria-label', `${where}: phase to the force (°)`);
       const steps = ms.reduce((n, sw) => n + sw.measured.frequency_hz.length, 0);
       const dense = ms.reduce((n, sw) => n + sw.model.points, 0);
       for (const p of [magPlot, phPlot]) {
         Object.assign(p.dataset, { mode, sensor, harmonic: hn, levels: ms.length, steps, modelPoints: dense,
           model: curves.model });
       }
-      figs.push(h('figure', { class: 'frf-curve', dataset: { mode, sensor } }, magPlot, phPlot,
+      figs.push(h('figure', { class: 'frf-curve', dataset: { mode, sensor } }, h('h4', {}, where), magPlot, phPlot,
         none ? h('figcaption', { class: 'caption' }, `The model has no response at harmonic ${hn} here `
           + '(below 1e-9 of harmonic 1: a law with no such harmonic); only the measured steps are drawn.') : null));
     }
