@@ -21,6 +21,8 @@ from labjoint.api import ApiSettings, create_app
 from labjoint.compare.frf_api import load_frf
 from labjoint.compare.frf_curves import dense_curves
 from labjoint.errors import InputError
+from labjoint.structure.frf import response_at
+from labjoint.structure.hbm import ConvergenceError
 from test_api_helpers import AUTH, CONTROL, live_server, wait_for
 import patience
 from labjoint.client import Client
@@ -130,3 +132,16 @@ def test_the_curves_job_over_rest(data):
         with Client(url, token=CONTROL, timeout=patience.HTTP_TIMEOUT_S) as c:
             res = c.structure_curves("lin", ["sweep"], "linear_stiffness", LINEAR, points=20, modes=4)
         assert [len(s["model"]["frequency_hz"]) for s in res["sweeps"]] == [20, 20, 20]
+
+
+def test_response_at_takes_a_force_per_frequency_and_leaves_out_what_does_not_converge():
+    """The building block of the curves: a force per frequency (linear joint: the response
+    scales with it), and a frequency where Newton cannot meet the tolerance (here one
+    below round-off) raises, or with ``skip_failed`` is NaN, never a made-up value."""
+    sysm = predictor().system
+    one = response_at(sysm, [39.0], 2.0, harmonics=1)[0]
+    per = response_at(sysm, [38.0, 39.0, 40.0], [2.0, 4.0, 2.0], harmonics=1)
+    np.testing.assert_allclose(per[1, 1], 2 * one[1], rtol=1e-6)
+    with pytest.raises(ConvergenceError):
+        response_at(sysm, [38.0, 39.0], 2.0, harmonics=1, tol=1e-30)
+    assert np.isnan(response_at(sysm, [38.0, 39.0], 2.0, harmonics=1, tol=1e-30, skip_failed=True)).all()

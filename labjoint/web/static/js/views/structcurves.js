@@ -85,7 +85,12 @@ export function curvePlots(curves, hn) {
           + '(below 1e-9 of harmonic 1: a law with no such harmonic); only the measured steps are drawn.') : null));
     }
   }
-  const failed = curves.sweeps.flatMap((sw) => sw.model.not_converged_hz.map((f) => `${fmt(f, 5)} Hz (${levelName(sw)})`));
+  const failed = curves.sweeps.filter((sw) => sw.model.not_converged_hz.length).map((sw) => {
+    const f = sw.model.not_converged_hz;
+    const at = f.length <= 3 ? f.map((x) => `${fmt(x, 5)} Hz`).join(', ')
+      : `${f.length} frequencies between ${fmt(Math.min(...f), 5)} and ${fmt(Math.max(...f), 5)} Hz`;
+    return `${levelName(sw)} mode ${sw.mode}: ${at}`;
+  });
   const hb = curves.harmonic_balance || {};
   const red = hb.reduction && hb.reduction.method === 'craig_bampton' ? `Craig-Bampton, ${hb.reduction.modes} modes`
     : 'unreduced';
@@ -94,7 +99,7 @@ export function curvePlots(curves, hn) {
       + `solved by harmonic balance (${hb.harmonics} harmonics, ${red}) at ${curves.points} frequencies per `
       + 'sweep, continued in frequency in the sweep\'s direction. Colours: force levels.'),
     failed.length ? h('p', { class: 'note error', id: 'frf-curves-failed' },
-      `harmonic balance did not converge at ${failed.join(', ')}: left out of the curves`) : null,
+      `harmonic balance did not converge (${failed.join('; ')}): left out of the curves`) : null,
     h('div', { class: 'grid2' }, ...figs));
 }
 

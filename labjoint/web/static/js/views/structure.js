@@ -13,8 +13,10 @@ import { onPage } from '../words.js';
 import { determination, parameters } from './modelplots.js';
 import { curvePlots, residualMaps } from './structcurves.js';
 
-//: frequencies per sweep of the dense model curve (the reduced model: seconds per sweep)
+// frequencies per sweep of the dense model curve (the reduced model: seconds per sweep)
 const POINTS = 200;
+// model curves kept for switching back and forth (the oldest is dropped first)
+const MAX_CACHED = 16;
 const state = { model: 'linear_stiffness', candidates: 'viscous,iwan,cubic_stiffness', op: 'diagnose',
   result: null, files: null, choice: 0, harmonic: 1, curves: new Map() };
 
@@ -105,6 +107,7 @@ function resultView(res, msg) {
       note(msg, `evaluating ${o.model} densely…`, 'busy');
       try {
         const body = { frfsets: [state.files[1]], model: o.model, parameters: values(o.parameters), points: POINTS };
+        if (state.curves.size >= MAX_CACHED) state.curves.delete(state.curves.keys().next().value);
         state.curves.set(key, await runJob(`/structures/${encodeURIComponent(state.files[0])}/curves`,
           '/structures/jobs', body, (job) => note(msg, `model curves: ${job.status}`, 'busy')));
       } catch (err) {
