@@ -23,6 +23,7 @@ from labjoint.compare.frf_curves import dense_curves
 from labjoint.errors import InputError
 from labjoint.structure.frf import response_at
 from labjoint.structure.hbm import ConvergenceError
+from labjoint.structure.predict import synthetic_frfset
 from test_api_helpers import AUTH, CONTROL, live_server, wait_for
 import patience
 from labjoint.client import Client
@@ -145,3 +146,22 @@ def test_response_at_takes_a_force_per_frequency_and_leaves_out_what_does_not_co
     with pytest.raises(ConvergenceError):
         response_at(sysm, [38.0, 39.0], 2.0, harmonics=1, tol=1e-30)
     assert np.isnan(response_at(sysm, [38.0, 39.0], 2.0, harmonics=1, tol=1e-30, skip_failed=True)).all()
+
+
+def test_each_modes_sweeps_get_their_own_curve_at_that_modes_resonance(tmp_path, data):
+    """A set with steps around modes 1 and 2: one curve per level and mode, each over its
+    own steps, each resonating at its own natural frequency with the file's damping."""
+    pr = predictor()
+    fn = pr.natural_frequencies(2)
+    f = np.concatenate([np.linspace(0.97, 1.03, 5) * fn[0], np.linspace(0.97, 1.03, 5) * fn[1]])
+    synthetic_frfset(pr, None, f, [2.0, 10.0], harmonics=1, noise=0.005, seed=4).save(tmp_path / "two.json")
+    res = dense_curves([str(tmp_path / "two.json")], "linear_stiffness", LINEAR, data.opts, points=300)
+    assert sorted((s["mode"], s["level_n"]) for s in res["sweeps"]) == [(1, 2.0), (1, 10.0), (2, 2.0), (2, 10.0)]
+    for sw in res["sweeps"]:
+        g = _arr(sw["model"]["frequency_hz"])
+        mag = _arr(sw["model"]["magnitude_per_n"][sw["sensors"].index("free_end")][0])
+        target = fn[sw["mode"] - 1]
+        assert g.min() < 0.97 * target and g.max() > 1.03 * target and g.max() < 1.1 * target
+        assert abs(g[np.argmax(mag)] - target) <= g[1] - g[0], (sw["run"], target)
+        half = g[mag >= mag.max() / np.sqrt(2)]
+        assert (half.max() - half.min()) / (2 * target) == pytest.approx(ZETA, rel=0.05), sw["run"]
