@@ -53,6 +53,9 @@ function choices(res) {
       model: c.model, parameters: c.parameters }))];
 }
 
+// Adequate in green, a verdict that the data cannot decide in plain text, the rest in red.
+const verdictClass = (dg) => (dg.adequate ? 'good' : String(dg.verdict).startsWith('inconclusive') ? '' : 'bad');
+
 // What the diagnosis says, in its own words: verdict, tie, where the model fails, the
 // effects refused or not tried (with the reason), and the candidates with their flags.
 function verdictView(dg, ladder) {
@@ -62,7 +65,7 @@ function verdictView(dg, ladder) {
   return h('div', { id: 'frf-verdict-box' },
     h('p', { id: 'frf-summary' }, `${dg.model}: NRMSE ${nrmse(dg.nrmse)}, noise floor `
       + `${nrmse(dg.noise_floor)}; validation NRMSE ${nrmse(dg.nrmse_validation)} (${onPage(dg.split)}).`),
-    h('p', { id: 'frf-verdict', class: `verdict ${dg.adequate ? 'good' : 'bad'}` }, onPage(dg.verdict)),
+    h('p', { id: 'frf-verdict', class: `verdict ${verdictClass(dg)}` }, onPage(dg.verdict)),
     dg.tie ? h('p', { class: 'caption', id: 'frf-tie' }, `tied: ${dg.tie.effects.join(', ')}: ${dg.tie.reason}`) : null,
     ladder ? h('p', { class: 'caption', id: 'frf-stop' }, `ladder stopped: ${onPage(ladder.stop_reason)}`) : null,
     h('ul', { id: 'frf-failures' }, ...(dg.failures || []).map((f) => h('li', {}, f.text))),
