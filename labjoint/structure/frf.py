@@ -38,8 +38,8 @@ def response_at(structure: Structure | NonlinearSystem, frequencies_hz, force_n,
     one for all frequencies or one per frequency), solved in the order given, each from
     the previous solution (continuation in frequency, as a step sine follows its branch).
 
-    ``skip_failed``: a frequency where the harmonic balance does not converge gives NaN
-    phasors instead of raising, and the next frequency starts again from the last
+    ``skip_failed``: a frequency where the harmonic balance does not converge (or its
+    state or Jacobian overflows) gives NaN phasors instead of raising, and the next frequency starts again from the last
     solution that converged."""
     sysm = structure if isinstance(structure, NonlinearSystem) else system_of(structure, modes)
     hb = HarmonicBalance(sysm, harmonics, samples)
@@ -49,8 +49,11 @@ def response_at(structure: Structure | NonlinearSystem, frequencies_hz, force_n,
     x = None
     for i, (fi, Fi) in enumerate(zip(f, force)):
         try:
-            x = hb.solve(2 * np.pi * fi, float(Fi), x0=x, tol=tol)
-        except ConvergenceError:
+            # with skip_failed, an overflow is a failed point (raised here, not a NaN warning)
+            with np.errstate(**({"over": "raise", "invalid": "raise"} if skip_failed else {})):
+                x = hb.solve(2 * np.pi * fi, float(Fi), x0=x, tol=tol)
+        except (ConvergenceError, FloatingPointError, ValueError, np.linalg.LinAlgError):
+            # ValueError: a state or Jacobian that is not finite (scipy's finite check)
             if not skip_failed:
                 raise
             continue
