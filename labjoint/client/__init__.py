@@ -246,6 +246,17 @@ class Client:
                                    {"force_n": force_n, "band_hz": list(band_hz),
                                     "harmonics": harmonics, "modes": modes}, timeout)
 
+    def structure_curves(self, name: str, frfsets: Iterable[str], model: str,
+                         parameters: dict[str, float], points: int = 200, margin: float = 0.25,
+                         modes: int = 10, timeout: float = 600.0) -> dict[str, Any]:
+        """The joint model ``model`` with ``parameters`` evaluated densely beside the
+        measured steps of each sweep of the FRF sets (every sensor and harmonic, magnitude
+        per newton and phase), waited for."""
+        return self._structure_job(f"/structures/{name}/curves",
+                                   {"frfsets": list(frfsets), "model": model,
+                                    "parameters": dict(parameters), "points": points,
+                                    "margin": margin, "modes": modes}, timeout)
+
     def structure_stage2(self, name: str, frfsets: Iterable[str],
                          parameters: Iterable[str] | None = None, modes: int = 10,
                          timeout: float = 3600.0) -> dict[str, Any]:

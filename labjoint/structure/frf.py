@@ -15,7 +15,7 @@ import numpy as np
 
 from labjoint.structure.assembly import Structure
 from labjoint.structure.continuation import Curve, continuation
-from labjoint.structure.hbm import HarmonicBalance
+from labjoint.structure.hbm import REL_TOL, ConvergenceError, HarmonicBalance
 from labjoint.structure.reduction import reduced_system
 from labjoint.structure.system import NonlinearSystem
 
@@ -30,18 +30,35 @@ def system_of(structure: Structure, modes: int | None = DEFAULT_MODES) -> Nonlin
     return reduced_system(structure, modes)[0]
 
 
-def response_at(structure: Structure | NonlinearSystem, frequencies_hz, force_n: float,
+def response_at(structure: Structure | NonlinearSystem, frequencies_hz, force_n,
                 harmonics: int = DEFAULT_HARMONICS, modes: int | None = DEFAULT_MODES,
-                samples: int | None = None) -> np.ndarray:
-    """(n_freq, H+1, n_sensors) displacement phasors (m) at force amplitude ``force_n``,
-    solved in the order given, each from the previous solution."""
+                samples: int | None = None, tol: float = REL_TOL,
+                skip_failed: bool = False) -> np.ndarray:
+    """(n_freq, H+1, n_sensors) displacement phasors (m) at force amplitude ``force_n`` (N,
+    one for all frequencies or one per frequency), solved in the order given, each from
+    the previous solution (continuation in frequency, as a step sine follows its branch).
+
+    ``skip_failed``: a frequency where the harmonic balance does not converge (or its
+    state or Jacobian overflows) gives NaN phasors instead of raising, and the next frequency starts again from the last
+    solution that converged."""
     sysm = structure if isinstance(structure, NonlinearSystem) else system_of(structure, modes)
     hb = HarmonicBalance(sysm, harmonics, samples)
-    out, x = [], None
-    for f in np.asarray(frequencies_hz, float):
-        x = hb.solve(2 * np.pi * f, force_n, x0=x)
-        out.append(hb.phasors(x))
-    return np.array(out)
+    f = np.asarray(frequencies_hz, float)
+    force = np.broadcast_to(np.asarray(force_n, float), f.shape)
+    out = np.full((f.size, hb.H + 1, np.atleast_2d(sysm.outputs).shape[0]), np.nan + 0j)
+    x = None
+    for i, (fi, Fi) in enumerate(zip(f, force)):
+        try:
+            # with skip_failed, an overflow is a failed point (raised here, not a NaN warning)
+            with np.errstate(**({"over": "raise", "invalid": "raise"} if skip_failed else {})):
+                x = hb.solve(2 * np.pi * fi, float(Fi), x0=x, tol=tol)
+        except (ConvergenceError, FloatingPointError, ValueError, np.linalg.LinAlgError):
+            # ValueError: a state or Jacobian that is not finite (scipy's finite check)
+            if not skip_failed:
+                raise
+            continue
+        out[i] = hb.phasors(x)
+    return out
 
 
 @dataclass(frozen=True)

@@ -32,7 +32,7 @@ router = APIRouter(prefix="/structures", tags=["structures"])
 STRUCTURES, FRFSETS = "structures", "frf"
 #: names a file cannot have: ``/structures/jobs/{id}`` would shadow ``/structures/{name}/...``
 RESERVED = frozenset({"jobs"})
-KINDS = ("structure_update", "structure_frf", "structure_stage2")
+KINDS = ("structure_update", "structure_frf", "structure_stage2", "structure_curves")
 Name = Annotated[str, Field(pattern=RUN_NAME)]
 Hz = Annotated[float, Field(gt=0, le=1e5, allow_inf_nan=False)]
 
@@ -57,6 +57,17 @@ class Stage2Request(_In):
     frfsets: list[Name] = Field(min_length=1, max_length=20)
     parameters: list[Annotated[str, Field(max_length=100, pattern=r"^[a-z_]+\.[A-Za-z_]+$")]] | None = None
     modes: int = Field(10, ge=0, le=100)
+
+
+class CurvesRequest(_In):
+    frfsets: list[Name] = Field(min_length=1, max_length=20)
+    model: str = Field(pattern=MODEL_EXPR, max_length=400)
+    parameters: dict[Annotated[str, Field(max_length=100, pattern=r"^[a-z_]+\.[A-Za-z0-9_]+$")],
+                     Annotated[float, Field(allow_inf_nan=False)]] = Field(max_length=50)
+    points: int = Field(200, ge=20, le=1000)
+    margin: float = Field(0.25, ge=0, le=2, allow_inf_nan=False)
+    modes: int = Field(10, ge=0, le=100)
+    harmonics: int | None = Field(None, ge=1, le=3)
 
 
 class FrfModelOptions(_In):
@@ -222,6 +233,31 @@ def stage2(request: Request, body: Stage2Request, name: str = Path(pattern=RUN_N
         return update_nonlinear(pr, fs, body.parameters).to_dict()
 
     return _job(request, "structure_stage2", {"structure": name, **body.model_dump()}, scope, work)
+
+
+@router.post("/{name}/curves", response_model=Job, status_code=202, responses=errors_doc(),
+             summary="Model FRFs evaluated densely beside the measured steps (a job)")
+def curves(request: Request, body: CurvesRequest, name: str = Path(pattern=RUN_NAME),
+           scope: str = Depends(require_control)) -> dict[str, Any]:
+    """Per sweep of the FRF sets (a level, a direction, the steps around one mode): the
+    measured steps and the joint model ``model`` with ``parameters`` (e.g. a diagnosis's
+    candidate or a ladder's step) solved by harmonic balance on ``points`` frequencies
+    over the steps and ``margin`` x their span around them, every sensor and harmonic as
+    magnitude per newton and phase (:mod:`labjoint.compare.frf_curves`)."""
+    from labjoint.compare.frf_curves import checked_law, dense_curves
+
+    path = named_file(request, STRUCTURES, name, ".toml")
+    files = [str(named_file(request, FRFSETS, n, ".json")) for n in dict.fromkeys(body.frfsets)]
+    checked_law(body.model, body.parameters)             # refused before it is queued
+    opts: dict[str, Any] = {"structure": str(path), "modes": body.modes}
+    if body.harmonics is not None:
+        opts["harmonics"] = body.harmonics
+
+    def work(progress: Callable[[float, str], None]) -> dict[str, Any]:
+        return dense_curves(files, body.model, body.parameters, opts, body.points, body.margin)
+
+    return _job(request, "structure_curves", {"structure": name, **body.model_dump()}, scope, work,
+                False)
 
 
 @router.post("/{name}/models/{operation}", response_model=Job, status_code=202,

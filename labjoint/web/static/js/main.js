@@ -19,8 +19,9 @@ export const VIEWS = {
     'plot/axes.js', 'plot/svg.js'],
   trends: ['views/trends.js', 'dom.js', 'plot/plot.js', 'plot/axes.js', 'plot/svg.js',
     'units.js', 'views/runs.js', 'views/trendexport.js'],
-  structure: ['views/structure.js', 'dom.js', 'units.js', 'plot/plot.js', 'plot/heatmap.js',
-    'plot/axes.js', 'plot/svg.js'],
+  structure: ['views/structure.js', 'dom.js', 'units.js', 'words.js', 'views/modelplots.js',
+    'views/structcurves.js', 'plot/plot.js', 'plot/heatmap.js', 'plot/bars.js', 'plot/axes.js',
+    'plot/svg.js'],
   reprocess: ['views/reprocess.js', 'dom.js'],
   frf: ['views/frf.js', 'dom.js', 'units.js', 'plot/plot.js', 'plot/axes.js', 'plot/svg.js'],
 };
