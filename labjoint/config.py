@@ -88,6 +88,14 @@ class LimitsConfig(_Strict):
     max_frequency_step: float | None = Field(None, gt=0)
 
 
+class PlausibilityConfig(_Strict):
+    """Limits of what the pipelines take as a joint's measurement (``[plausibility]``);
+    None: labjoint.identify.plausible's default (0.01 m). The CLI's
+    ``--max-displacement M`` overrides it."""
+
+    max_displacement_amplitude_m: float | None = Field(None, gt=0)
+
+
 #: Contact-zone outer radius over bolt radius, a = 3.5 r_b (seed 002 Eq. 2 / Sec. II.B).
 CONTACT_RATIO = 3.5
 
@@ -172,6 +180,7 @@ class RigConfig(_Strict):
     generator: GeneratorConfig = Field(default_factory=GeneratorConfig)
     daq: DAQConfig
     limits: LimitsConfig = Field(default_factory=LimitsConfig)
+    plausibility: PlausibilityConfig = Field(default_factory=PlausibilityConfig)
     sim: dict[str, Any] = Field(default_factory=dict)
     #: the REST service's settings, validated by labjoint.api.settings (a higher layer)
     api: dict[str, Any] = Field(default_factory=dict)

@@ -51,6 +51,10 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="with --modal: shaker parameters (labjoint.structure.shaker.Shaker fields) "
                         "to identify; each is refused by name with what the voltage-driven "
                         "records see of it instead")
+    p.add_argument("--max-displacement", type=float, default=None, metavar="M",
+                   help="largest plausible displacement amplitude (m) of a steady sine (default "
+                        "the rig config's [plausibility] max_displacement_amplitude_m, else 0.01 m: "
+                        "a joint's; a structure's may be larger); checked before the fit")
     p.add_argument("--kind", choices=("auto", "sine", "record", "frf", "modal"), default="auto",
                    help="judge steady-sine cycles (sine) or the record along its history under "
                         "any excitation (record); auto: sine when every run is a steady sine")
@@ -157,13 +161,29 @@ def _shaker(args: argparse.Namespace) -> None:
         shaker_identifiable([n.strip() for n in args.shaker_fit.split(",") if n.strip()])
 
 
+def max_displacement(args: argparse.Namespace) -> float | None:
+    """The displacement cap: --max-displacement, else the rig config's [plausibility]
+    value when --config is given, else None (the pipeline's default)."""
+    if getattr(args, "max_displacement", None) is not None:
+        if not args.max_displacement > 0:
+            raise InputError(f"must be a positive amplitude in m, got {args.max_displacement}",
+                             field="max_displacement")
+        return float(args.max_displacement)
+    if getattr(args, "config", None):
+        from labjoint.config import load_config
+
+        return load_config(args.config).plausibility.max_displacement_amplitude_m
+    return None
+
+
 def _options(args: argparse.Namespace, judging: bool) -> dict[str, Any]:
     _shaker(args)
     o: dict[str, Any] = {"validate": args.validate, "prime_cycles": _prime(args.prime_cycles),
                          "seed": args.seed, "kind": args.kind, "warmup": args.warmup,
                          "structure": args.structure, "modes": args.modes,
                          "harmonics": args.harmonics, "modal": args.modal,
-                         "responses": args.responses}
+                         "responses": args.responses,
+                         "max_displacement_m": max_displacement(args)}
     if judging:
         o.update(factor=args.factor, alpha=args.alpha, n_jobs=args.jobs,
                  candidates=args.candidates)

@@ -51,13 +51,15 @@ def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None 
                    n_points: int = DEFAULT_POINTS, n_harmonics: int = 5,
                    rel_tol: float = 0.01, min_cycles: int = 3,
                    phase_correction_rad: float = 0.0, phase_uncertainty_rad: float = 0.0,
-                   phase_note: str = "", threads: bool = True) -> LoopResult:
+                   phase_note: str = "", threads: bool = True,
+                   max_displacement_m: float | None = None) -> LoopResult:
     """Hysteresis-loop results of a record given as blocks of (displacement m, force N).
 
     ``phase_correction_rad`` rotates the force's fundamental (the force sensor's
     calibrated phase lead over the displacement's); ``phase_uncertainty_rad`` is that
     phase's standard uncertainty, propagated into W and C with the noise
-    (:mod:`labjoint.identify.resolution`). ``threads=False`` keeps the whole pipeline
+    (:mod:`labjoint.identify.resolution`). ``max_displacement_m``: the plausibility cap
+    (:data:`labjoint.identify.plausible.MAX_DISPLACEMENT_AMPLITUDE_M` by default). ``threads=False`` keeps the whole pipeline
     in the calling thread (a batch that runs one record per core); by default reading
     and filtering overlap the loop measurements in helper threads.
 
@@ -103,7 +105,8 @@ def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None 
     per_cycle, bounds = stream.finish()
     if per_cycle:
         correct_phase(per_cycle, float(phase_correction_rad), f)
-    return _assemble(per_cycle, bounds, fs, f, rel_tol, min_cycles, float(phase_uncertainty_rad), {
+    return _assemble(per_cycle, bounds, fs, f, rel_tol, min_cycles, float(phase_uncertainty_rad),
+                     max_displacement_m, {
         "frequency_source": source, "cutoff_hz": cutoff, "cutoff_rule": rule,
         "filter": (f"zero-phase Butterworth order {order} (sosfiltfilt): -6.02 dB at the "
                    "cutoff (seed 002)" if cutoff is not None else "none"),
@@ -284,7 +287,7 @@ class _LoopStream:
 
 
 def _assemble(per_cycle: dict[str, np.ndarray], bounds: np.ndarray, fs: float, f: float,
-              rel_tol: float, min_cycles: int, phase_u: float,
+              rel_tol: float, min_cycles: int, phase_u: float, max_displacement_m: float | None,
               meta: dict[str, Any]) -> LoopResult:
     n = per_cycle["energy_loss"].size if per_cycle else 0
     if n < min_cycles:
@@ -313,7 +316,7 @@ def _assemble(per_cycle: dict[str, np.ndarray], bounds: np.ndarray, fs: float, f
     extra["damping_ns_per_m_uncertainty"] = extra["energy_loss_j_uncertainty"] / (
         np.pi * 2 * np.pi * f * u_amp ** 2) if u_amp > 0 else float("nan")
     result.summary.update(extra)
-    refuse_impossible(result.summary)
+    refuse_impossible(result.summary, max_displacement_m)
     span = bounds[steady.stop] - bounds[steady.start]
     measured = float(fs * (steady.stop - steady.start) / span) if span > 0 else float("nan")
     refuse_frequency_mismatch(f, measured, meta["frequency_source"])

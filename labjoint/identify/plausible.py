@@ -30,22 +30,45 @@ MAX_FILTER_LOSS = 0.005
 MAX_FREQUENCY_MISMATCH = 0.005
 
 #: A joint's relative tangential displacement beyond this amplitude (m) is not one: the
-#: column is in other units, or holds the force (displacement and force swapped).
+#: column is in other units, or holds the force (displacement and force swapped). The
+#: default of the override: the rig config's ``[plausibility] max_displacement_amplitude_m``
+#: or the CLI's ``--max-displacement M`` (a structure's displacement, a cantilever's tip,
+#: can be centimetres).
 MAX_DISPLACEMENT_AMPLITUDE_M = 0.01
+OVERRIDE = ("override: --max-displacement M, or max_displacement_amplitude_m in the rig "
+            "config's [plausibility] table")
 
 
-def refuse_impossible(s: dict[str, Any]) -> None:
+def refuse_large_displacement(u_amp: float, limit: float | None = None, where: str = "") -> None:
+    """Refuse a displacement amplitude above ``limit`` (m; default
+    :data:`MAX_DISPLACEMENT_AMPLITUDE_M`), naming the override."""
+    lim = MAX_DISPLACEMENT_AMPLITUDE_M if limit is None else float(limit)
+    if not lim > 0:
+        raise InputError(f"must be a positive displacement in m, got {limit!r}", field="max_displacement_m")
+    if u_amp > lim:
+        raise InputError(f"{where}amplitude {u_amp:.4g} m is not a joint's relative displacement "
+                         f"(above {lim:g} m): the column must be in metres (SI), and displacement "
+                         f"and force may be swapped; a structure's displacement may be larger "
+                         f"({OVERRIDE})", field="displacement")
+
+
+def refuse_large_record(displacement: Any, limit: float | None = None, where: str = "") -> None:
+    """The same check in one pass over the samples, before any slow analysis: half the
+    range between the 0.1 and 99.9 percentiles (a sine's amplitude; spikes ignored)."""
+    u = np.asarray(displacement, float)
+    u = u[np.isfinite(u)]
+    if u.size:
+        lo, hi = np.percentile(u, [0.1, 99.9])
+        refuse_large_displacement(0.5 * float(hi - lo), limit, where)
+
+
+def refuse_impossible(s: dict[str, Any], max_displacement_m: float | None = None) -> None:
     """Refuse loops no joint makes: a displacement amplitude of centimetres, or a loop run
     backwards (W < 0 beyond its uncertainty) with a negative stiffness, the signature of a
     force (or displacement) sensor of inverted sign. A negative W with a positive
     stiffness stays a flagged result (``below_resolution``): an uncorrected phase lag
     between the channels gives it too (:mod:`labjoint.identify.resolution`)."""
-    u_amp = s["displacement_amplitude_m"]
-    if u_amp > MAX_DISPLACEMENT_AMPLITUDE_M:
-        raise InputError(f"amplitude {u_amp:.4g} m is not a joint's relative displacement "
-                         f"(above {MAX_DISPLACEMENT_AMPLITUDE_M:g} m): the column must be in "
-                         "metres (SI), and displacement and force may be swapped",
-                         field="displacement")
+    refuse_large_displacement(s["displacement_amplitude_m"], max_displacement_m)
     w, k = s["energy_loss_j"], s["stiffness_n_per_m"]
     if w < -COVERAGE * s["energy_loss_j_uncertainty"] and k < 0:
         raise InputError(f"runs against the displacement: energy loss {w:.4g} J < 0 (the "
