@@ -90,6 +90,12 @@ def loop_row(item: Any, force: str, save: bool, cutoff: float | str | None = Non
     row.update({k: res.summary.get(k) for k in FIELDS if k != "run"})
     row.update({k: v for k, v in res.summary.items() if k not in row})
     row.update(extra)
+    from labjoint.compare.flags import energy_flag
+
+    flag = energy_flag(str(name), float(row.get("energy_loss_j") or float("nan")),
+                       float(row.get("energy_loss_j_uncertainty") or 0.0))
+    if flag:
+        row["flags"] = [flag]
     return row
 
 
@@ -148,6 +154,9 @@ def print_loop_table(rows: list[dict[str, Any]]) -> None:
                   *_w_c(r), _scale(r.get("stiffness_n_per_m"), 1e-6), r.get("cycles")]
                  for r in rows])
     print(out)
+    for r in rows:
+        for f in r.get("flags") or []:
+            print(f"warning: run {r['run']}: {f['message']}")
     if any(r.get("below_resolution") for r in rows):
         print(f"\n{BELOW}: W is under twice its uncertainty (sensor phase and cycle-to-cycle "
               "scatter, at least 2 pi K U^2 u_phase): not a measurement of W or C; the JSON "

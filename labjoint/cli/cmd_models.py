@@ -242,10 +242,18 @@ def _fit_modal(args: argparse.Namespace) -> int:
     return 0
 
 
+def print_flags(res: dict[str, Any]) -> None:
+    """One warning line per measurement flag (the text output's counterpart of the JSON's
+    ``measurement_flags``, :mod:`labjoint.compare.flags`)."""
+    for f in res.get("measurement_flags") or []:
+        print(f"warning: run {f['run']}: {f['message']}")
+
+
 def _print_parameters(res: dict[str, Any]) -> None:
     """The parameter table, then each flagged parameter and each even effect's asymmetry."""
     print(table(["parameter", "value", "stderr", "unit"],
                 [[k, v["value"], v["stderr"], v["unit"]] for k, v in res["parameters"].items()]))
+    print_flags(res)
     for k, why in (res.get("flags") or {}).items():
         print(f"warning: {k}: {why}")
     for a in res.get("asymmetry") or []:
@@ -343,6 +351,7 @@ def _print_diagnosis(res: dict[str, Any], how: str) -> None:
     print(f"model {res['model']}{how}: NRMSE {_pct(res['nrmse'])}, noise floor "
           f"{_pct(res['noise_floor'])}, adequate: {'yes' if res['adequate'] else 'no'}")
     print(res["verdict"])
+    print_flags(res)
     for k, why in (res.get("flags") or {}).items():
         print(f"warning: {k}: {why}")
     for a in res.get("asymmetry") or []:
@@ -370,6 +379,7 @@ def _print_ladder(res: dict[str, Any], how: str) -> None:
     print(table(["step", "model", "added", "NRMSE %", "validation %", "adequate"],
                 [[i, s["model"], s["added"] or "-", _x100(s["nrmse"]), _x100(s["nrmse_validation"]),
                   "yes" if s["adequate"] else "no"] for i, s in enumerate(res["steps"])]))
+    print_flags(res)
     print(f"\n{how}noise floor {_pct(res['noise_floor'])}; adequate: "
           f"{'yes' if res['adequate'] else 'no'} ({res['stop_reason']})")
 

@@ -37,6 +37,7 @@ from labjoint.compare.kinds import kind_of, prepare
 from labjoint.compare.runs import split_by_names
 from labjoint.compare.significance import SignificanceSettings
 from labjoint.compare.store import save_ladder
+from labjoint.compare.flags import measurement_flags
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model, ModelFitter
 
@@ -87,7 +88,11 @@ def _load(runs: Any, options: dict[str, Any]) -> tuple[list[Measurement], list[s
 
 
 def _measured(d: dict[str, Any], ms: Sequence[Measurement]) -> dict[str, Any]:
-    """FRF results say what their NRMSE and noise floor are (design.md's ``measurement``)."""
+    """FRF results say what their NRMSE and noise floor are (design.md's ``measurement``);
+    ``measurement_flags``: a user's likely mistakes in the data (:mod:`.flags`)."""
+    flags = measurement_flags(ms)
+    if flags:
+        d["measurement_flags"] = flags
     if ms and ms[0].kind == "frf":
         d["measurement"] = "frf"
         d["error"] = "response phasors (harmonics 1..H) whitened by the FRF set's response_std"

@@ -81,11 +81,11 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
     (these pass through); names made unique.
 
     ``kind``: "sine" (steady cycles), "record" (any excitation, along the history) or
-    ``max_displacement_m``: the sine kind's plausibility cap, checked on every run's
-    samples before any run is prepared (a refusal in seconds, not after the slow part).
     "auto": sine when every run's force is a steady sine
     (:func:`labjoint.signal.excitation.detect_excitation`), else record for all of them,
     so that one set is judged one way.
+    ``max_displacement_m``: the sine kind's plausibility cap, checked on every run's
+    samples before any run is prepared (a refusal in seconds, not after the slow part).
     """
     if kind not in ("auto", *KINDS):
         raise InputError(f"unknown kind {kind!r}; known: auto, {', '.join(KINDS)}", field="kind")
