@@ -48,7 +48,7 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--responses", default=None, metavar="A,B,...",
                    help="with --modal: the response channels compared (default every motion channel)")
     p.add_argument("--shaker-fit", default=None, metavar="A,B,...",
-                   help="with --modal: shaker parameters (labjoint.structure.shaker.Shaker fields) "
+                   help="with --modal: shaker parameters (labjoint.models.shaker.Shaker fields) "
                         "to identify; each is refused by name with what the voltage-driven "
                         "records see of it instead")
     p.add_argument("--max-displacement", type=float, default=None, metavar="M",

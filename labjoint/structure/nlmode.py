@@ -35,7 +35,7 @@ suspension taking the force at low frequency): a first-order high-pass of corner
 17 Hz, as tan(phi) = f_hp / f with f_hp ~ 1.6 Hz).
 
 The shaker: with the force not measured, the shaker between voltage and structure
-(:class:`labjoint.structure.shaker.Shaker`: coil R, L, force factor Bl, armature m_a, k_s,
+(:class:`labjoint.models.shaker.Shaker`: coil R, L, force factor Bl, armature m_a, k_s,
 c_s) enters the modes as products only: Bl G / R times the drive-point participation
 (b, g_sj), the back-EMF Bl^2 / R and the suspension c_s as viscous damping of each mode,
 m_a and k_s as modal mass and stiffness at the drive point (merged with f_j, zeta_j).
