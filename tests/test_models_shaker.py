@@ -141,3 +141,38 @@ def test_shaker_table(tmp_path):
     p.write_text("[shaker]\ncoil_resistance_ohm = -2.0\n")
     with pytest.raises(InputError, match="positive"):
         shaker_table(p)
+
+
+def test_cli_shaker_on_frf_sets(test_record, tmp_path, capsys):
+    """`labjoint shaker FRF.json --drive a1`: from a force-driven set with the voltage beside
+    (everything), and from a voltage-driven set with the [shaker] table's known parts."""
+    import json
+
+    from labjoint.cli.main import main
+    from labjoint.signal.frfset import FrfSet
+
+    r = test_record
+    n = LINES.size
+    resp = np.stack([r["a1"], r["v2"] * 2j * np.pi * LINES], 1)[:, :, None]      # both as acceleration
+    common = dict(frequencies_hz=LINES, direction=["up"] * n, sensors=("a1", "a2"),
+                  response_std=np.full(resp.shape, 1e-9), quantity="acceleration")
+    with_force = tmp_path / "force.json"
+    FrfSet(level_n=np.full(n, 1.0), force=r["F"], response=resp, drive_v=np.ones(n, complex),
+           **common).save(with_force)
+    assert main(["shaker", str(with_force), "--drive", "a1", "--modes", "2", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res["force_measured"] and res["shaker"]["force_factor_n_per_a"] == pytest.approx(BL, rel=0.03)
+    volts = tmp_path / "volts.json"
+    FrfSet(level_n=np.full(n, 0.5), force=np.ones(n, complex), response=resp, drive_quantity="voltage",
+           **common).save(volts)
+    given = tmp_path / "s.toml"
+    given.write_text("[shaker]\n" + "".join(f"{k} = {v!r}\n" for k, v in
+                                            {**ARMATURE, "force_factor_n_per_a": BL, "coil_resistance_ohm": R}.items()))
+    assert main(["shaker", str(volts), "--drive", "a1", "--modes", "2", "--given", str(given), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res["shaker"]["coil_inductance_h"] == pytest.approx(L, rel=0.03)
+    assert res["parameters"]["shaker.coil_resistance_ohm"]["given"]
+    given.write_text("[shaker]\n" + "".join(f"{k} = {v!r}\n" for k, v in ARMATURE.items()))
+    assert main(["shaker", str(volts), "--drive", "a1", "--modes", "2", "--given", str(given), "--json"]) == 2
+    err = capsys.readouterr()
+    assert err.out == "" and "force_factor_n_per_a (Bl) not identifiable" in err.err
