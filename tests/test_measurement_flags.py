@@ -47,3 +47,20 @@ def test_negative_energy_loss_in_analyze_and_fit_text(tmp_path):
                        text=True, env=env, timeout=300)
     assert r.returncode == 0, r.stderr
     assert "warning: run backwards: measured energy loss" in r.stdout
+
+
+def test_negative_energy_loss_on_a_record(tmp_path):
+    """A broadband record (the record kind: W = sum of F v / fs) run backwards."""
+    fs, rng = 2000.0, np.random.default_rng(1)
+    t = np.arange(int(4 * fs)) / fs
+    freqs = np.arange(5.0, 80.0, 2.5)
+    ph = rng.uniform(0, 2 * np.pi, freqs.size)
+    u = 1e-5 * np.sin(2 * np.pi * np.multiply.outer(t, freqs) + ph).sum(-1) / np.sqrt(freqs.size)
+    v = 1e-5 * (2 * np.pi * freqs * np.cos(2 * np.pi * np.multiply.outer(t, freqs) + ph)).sum(-1) / np.sqrt(freqs.size)
+    for name, c in (("backwards", -30.0), ("fine", 30.0)):
+        F = 1e6 * u + c * v
+        rows = "\n".join(f"{a:.6f},{b:.9e},{x:.9e}" for a, b, x in zip(t, u, F))
+        (tmp_path / f"{name}.csv").write_text(f"# sample_rate_hz: {fs}\ntime_s,displacement_m,force_N\n{rows}\n")
+    res = fit_runs([tmp_path / "backwards.csv"], "linear_stiffness+viscous", kind="record")
+    assert res["measurement_flags"][0]["run"] == "backwards"
+    assert "measurement_flags" not in fit_runs([tmp_path / "fine.csv"], "linear_stiffness+viscous", kind="record")
