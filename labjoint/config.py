@@ -90,10 +90,14 @@ class LimitsConfig(_Strict):
 
 class PlausibilityConfig(_Strict):
     """Limits of what the pipelines take as a joint's measurement (``[plausibility]``);
-    None: labjoint.identify.plausible's default (0.01 m). The CLI's
-    ``--max-displacement M`` overrides it."""
+    None: labjoint.identify.plausible's default (0.01 m; 10 samples per period; 0.5 % of
+    W lost to the low-pass; 0.5 % frequency mismatch). The CLI's ``--max-displacement M``
+    overrides the first."""
 
     max_displacement_amplitude_m: float | None = Field(None, gt=0)
+    min_samples_per_period: float | None = Field(None, gt=0)
+    max_filter_loss: float | None = Field(None, gt=0, lt=1)
+    max_frequency_mismatch: float | None = Field(None, gt=0, lt=1)
 
 
 #: Contact-zone outer radius over bolt radius, a = 3.5 r_b (seed 002 Eq. 2 / Sec. II.B).

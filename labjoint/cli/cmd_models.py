@@ -161,19 +161,25 @@ def _shaker(args: argparse.Namespace) -> None:
         shaker_identifiable([n.strip() for n in args.shaker_fit.split(",") if n.strip()])
 
 
-def max_displacement(args: argparse.Namespace) -> float | None:
-    """The displacement cap: --max-displacement, else the rig config's [plausibility]
-    value when --config is given, else None (the pipeline's default)."""
-    if getattr(args, "max_displacement", None) is not None:
-        if not args.max_displacement > 0:
-            raise InputError(f"must be a positive amplitude in m, got {args.max_displacement}",
-                             field="max_displacement")
-        return float(args.max_displacement)
+def plausibility(args: argparse.Namespace) -> Any:
+    """The plausibility limits (labjoint.identify.plausible.Plausibility): the rig config's
+    [plausibility] table when --config is given, --max-displacement over it; None when
+    neither is given (the pipeline's defaults)."""
+    from labjoint.identify.plausible import Plausibility
+
+    table: dict[str, Any] = {}
     if getattr(args, "config", None):
         from labjoint.config import load_config
 
-        return load_config(args.config).plausibility.max_displacement_amplitude_m
-    return None
+        table = load_config(args.config).plausibility.model_dump()
+    cap = getattr(args, "max_displacement", None)
+    if cap is not None:
+        if not cap > 0:
+            raise InputError(f"must be a positive amplitude in m, got {cap}", field="max_displacement")
+        table["max_displacement_amplitude_m"] = float(cap)
+    if not any(v is not None for v in table.values()):
+        return None
+    return Plausibility.from_mapping(table, getattr(args, "config", None) or "")
 
 
 def _options(args: argparse.Namespace, judging: bool) -> dict[str, Any]:
@@ -183,7 +189,7 @@ def _options(args: argparse.Namespace, judging: bool) -> dict[str, Any]:
                          "structure": args.structure, "modes": args.modes,
                          "harmonics": args.harmonics, "modal": args.modal,
                          "responses": args.responses,
-                         "max_displacement_m": max_displacement(args)}
+                         "plausibility": plausibility(args)}
     if judging:
         o.update(factor=args.factor, alpha=args.alpha, n_jobs=args.jobs,
                  candidates=args.candidates)

@@ -26,7 +26,7 @@ from labjoint.compare.kinds.frf_maps import FRF
 from labjoint.compare.kinds.modal_maps import MODAL
 from labjoint.compare.kinds.record import RECORD, RecordMeasurement, prepare_record
 from labjoint.compare.kinds.sine import SINE
-from labjoint.identify.plausible import refuse_large_record
+from labjoint.identify.plausible import Plausibility, refuse_large_record
 from labjoint.compare.measurement import Kind, Measurement
 from labjoint.compare.prepared import PreparedRun
 from labjoint.compare.runs import prepare_run
@@ -76,7 +76,7 @@ def check_quantities(run: Run) -> None:
 
 
 def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str = "auto",
-            warmup: str | float = "auto", max_displacement_m: float | None = None) -> list[Measurement]:
+            warmup: str | float = "auto", plausibility: Plausibility | None = None) -> list[Measurement]:
     """Measurements of one kind from run-file or CSV paths, Runs or prepared measurements
     (these pass through); names made unique.
 
@@ -84,8 +84,9 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
     "auto": sine when every run's force is a steady sine
     (:func:`labjoint.signal.excitation.detect_excitation`), else record for all of them,
     so that one set is judged one way.
-    ``max_displacement_m``: the sine kind's plausibility cap, checked on every run's
-    samples before any run is prepared (a refusal in seconds, not after the slow part).
+    ``plausibility``: the sine kind's limits (:mod:`labjoint.identify.plausible`); the
+    displacement cap is checked on every run's samples before any run is prepared (a
+    refusal in seconds, not after the slow part).
     """
     if kind not in ("auto", *KINDS):
         raise InputError(f"unknown kind {kind!r}; known: auto, {', '.join(KINDS)}", field="kind")
@@ -119,7 +120,7 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
     if kind == "sine":
         for r in items:
             if isinstance(r, Run):
-                refuse_large_record(r.displacement, max_displacement_m, f"run '{r.name}': ")
+                refuse_large_record(r.displacement, plausibility, f"run '{r.name}': ")
     out: list[Measurement] = []
     for r in items:
         if isinstance(r, FrfMeasurement):
@@ -131,7 +132,7 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
                                  field="kind")
             out.append(r)
         elif isinstance(r, Run):
-            out.append(prepare_run(r, prime_cycles=prime_cycles, max_displacement_m=max_displacement_m)
+            out.append(prepare_run(r, prime_cycles=prime_cycles, plausibility=plausibility)
                        if kind == "sine"
                        else prepare_record(r, warmup=warmup, excitation=found.get(id(r))))
         else:
