@@ -29,17 +29,17 @@ import numpy as np
 
 from labjoint.errors import InputError
 from labjoint.models.shaker import Shaker
+from labjoint.models.shaker import force_per_volt as receptance_force_per_volt
 from labjoint.models.shaker_fit import shaker_from_force
 from labjoint.structure.assembly import Structure
 from labjoint.structure.system import NonlinearSystem
 
 
 def force_per_volt(shaker: Shaker, frequencies_hz: Any, drive_accelerance: Any) -> np.ndarray:
-    """F / V (N per generator volt) on a structure of drive-point accelerance H_d (closed form above)."""
+    """F / V (N per generator volt) on a structure of drive-point accelerance H_d (closed form
+    above; :func:`labjoint.models.shaker.force_per_volt` on the receptance -H_d / w^2)."""
     w = 2 * np.pi * np.asarray(frequencies_hz, float)
-    h = np.asarray(drive_accelerance, complex)
-    bl, g, ze = shaker.force_factor_n_per_a, shaker.amplifier_gain_v_per_v, shaker.coil_impedance(w)
-    return (bl * g / ze) / (1 + h * (shaker.apparent_mass(w) + bl**2 / (1j * w * ze)))
+    return receptance_force_per_volt(shaker, frequencies_hz, -np.asarray(drive_accelerance, complex) / w**2)
 
 
 def linear_accelerance(structure: Structure, frequencies_hz: Any) -> tuple[np.ndarray, np.ndarray]:
