@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from labjoint.cli.cmd_models import plausibility
+from labjoint.cli.limits import plausibility
 from labjoint.cli.inputs import load_runs
 from labjoint.cli.output import Progress, emit_json, table
 from labjoint.errors import InputError, LabjointError

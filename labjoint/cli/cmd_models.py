@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from labjoint.cli.limits import plausibility, print_flags
 from labjoint.cli.output import Progress, emit_json, fmt, table
 from labjoint.errors import InputError
 
@@ -161,27 +162,6 @@ def _shaker(args: argparse.Namespace) -> None:
         shaker_identifiable([n.strip() for n in args.shaker_fit.split(",") if n.strip()])
 
 
-def plausibility(args: argparse.Namespace) -> Any:
-    """The plausibility limits (labjoint.identify.plausible.Plausibility): the rig config's
-    [plausibility] table when --config is given, --max-displacement over it; None when
-    neither is given (the pipeline's defaults)."""
-    from labjoint.identify.plausible import Plausibility
-
-    table: dict[str, Any] = {}
-    if getattr(args, "config", None):
-        from labjoint.config import load_config
-
-        table = load_config(args.config).plausibility.model_dump()
-    cap = getattr(args, "max_displacement", None)
-    if cap is not None:
-        if not cap > 0:
-            raise InputError(f"must be a positive amplitude in m, got {cap}", field="max_displacement")
-        table["max_displacement_amplitude_m"] = float(cap)
-    if not any(v is not None for v in table.values()):
-        return None
-    return Plausibility.from_mapping(table, getattr(args, "config", None) or "")
-
-
 def _options(args: argparse.Namespace, judging: bool) -> dict[str, Any]:
     _shaker(args)
     o: dict[str, Any] = {"validate": args.validate, "prime_cycles": _prime(args.prime_cycles),
@@ -246,13 +226,6 @@ def _fit_modal(args: argparse.Namespace) -> int:
     if args.out:
         print(f"saved to {args.out}")
     return 0
-
-
-def print_flags(res: dict[str, Any]) -> None:
-    """One warning line per measurement flag (the text output's counterpart of the JSON's
-    ``measurement_flags``, :mod:`labjoint.compare.flags`)."""
-    for f in res.get("measurement_flags") or []:
-        print(f"warning: run {f['run']}: {f['message']}")
 
 
 def _print_parameters(res: dict[str, Any]) -> None:

@@ -49,7 +49,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from labjoint.errors import InputError
-from labjoint.models.shaker import ARMATURE, COIL, SYMBOLS, Shaker, checked_values, force_from_motion, force_per_volt
+from labjoint.models.shaker import (ARMATURE, COIL, SYMBOLS, Shaker, checked_values, force_from_motion,
+                                   force_per_volt, shaker_from_force)
 
 RANK_TOL = 1e-6
 ORDER = {"displacement": 0, "velocity": 1, "acceleration": 2}
@@ -309,8 +310,8 @@ def identify(frequencies_hz: Any, responses_per_volt: Mapping[str, Any], drive: 
     vals.update(_structure_values(md))
     stderr = {n: float(sd[i] if _signed(n, md) else vals[n] * sd[i]) for i, n in enumerate(free)}
     given_names = tuple([f"shaker.{k}" for k in shaker_given] + list(struct_given)
-                        + ([] if has_force else []) + (["shaker.amplifier_gain_v_per_v"]
-                                                       if "amplifier_gain_v_per_v" not in shaker_given else []))
+                        + ([] if "amplifier_gain_v_per_v" in shaker_given
+                           else ["shaker.amplifier_gain_v_per_v"]))      # G: 1 unless given
     return ShakerFit(sh, md, q, tuple(free), given_names, stderr,
                      float(np.sqrt(np.mean(fun ** 2) * 2)), has_force)
 
@@ -372,30 +373,3 @@ def _require_identifiable(residual: Any, x0: np.ndarray, free: list[str], has_fo
     raise InputError(f"{what} not identifiable from this test ({'with' if has_force else 'without'} a "
                      f"force){': it trades off with ' + ', '.join(others) if others else ''}; give it"
                      + (f" ([shaker] {name} = ...)" if pick.startswith("shaker.") else ""), field=pick)
-
-
-def shaker_from_force(f: np.ndarray, fu: np.ndarray, h: np.ndarray, gain: float) -> Shaker:
-    """The shaker from F / U and the drive point's accelerance h = a / F (both measured, at
-    least 4 frequencies) by one linear least squares:
-    U / F = P (1 + H_d D_a) + i w H_d Bl / G with P = Z_e / (Bl G) (S3) is linear in
-    (R, L, L m_a, R m_a + L c_a, R c_a + L k_a + Bl^2, R k_a) / (Bl G)."""
-    w = 2 * np.pi * f
-    iw = 1j * w
-    y = 1.0 / fu
-    cols = np.stack([np.ones_like(iw), iw, h * iw, h, h / iw, h / iw**2], 1)
-    scale = 1.0 / np.abs(y)
-    A = np.vstack([(cols * scale[:, None]).real, (cols * scale[:, None]).imag])
-    b = np.concatenate([(y * scale).real, (y * scale).imag])
-    cn = np.linalg.norm(A, axis=0)
-    a1, a2, p1, p0, pm1, pm2 = np.linalg.lstsq(A / cn, b, rcond=None)[0] / cn
-    if not (a1 > 0 and a2 > 0):
-        raise InputError("the test does not determine the coil (resistance and inductance); "
-                         "widen the frequency band", field="frequencies_hz")
-    m, k = p1 / a2, pm2 / a1
-    c = (p0 - a1 * m) / a2
-    bl = (pm1 - a1 * c - a2 * k) * gain
-    if not bl > 0 or not m > 0:
-        raise InputError(f"the test gives Bl = {bl:.3g} N/A, m_a = {m:.3g} kg: not a shaker; check the "
-                         "force's sign and the drive point", field="force")
-    return Shaker(float(m), float(max(k, 1e-9)), float(max(c, 1e-9)), float(a1 * bl * gain), float(a2 * bl * gain),
-                  float(bl), float(gain))

@@ -28,9 +28,8 @@ from typing import Any
 import numpy as np
 
 from labjoint.errors import InputError
-from labjoint.models.shaker import Shaker
+from labjoint.models.shaker import Shaker, shaker_from_force
 from labjoint.models.shaker import force_per_volt as receptance_force_per_volt
-from labjoint.models.shaker_fit import shaker_from_force
 from labjoint.structure.assembly import Structure
 from labjoint.structure.system import NonlinearSystem
 
