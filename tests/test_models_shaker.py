@@ -159,9 +159,14 @@ def test_cli_shaker_on_frf_sets(test_record, tmp_path, capsys):
     with_force = tmp_path / "force.json"
     FrfSet(level_n=np.full(n, 1.0), force=r["F"], response=resp, drive_v=np.ones(n, complex),
            **common).save(with_force)
-    assert main(["shaker", str(with_force), "--drive", "a1", "--modes", "2", "--json"]) == 0
+    assert main(["shaker", str(with_force), "--drive", "a1", "--modes", "2", "--json", "--full"]) == 0
     res = json.loads(capsys.readouterr().out)
     assert res["force_measured"] and res["shaker"]["force_factor_n_per_a"] == pytest.approx(BL, rel=0.03)
+    pn = np.array(res["per_newton"]["a1"]["re"]) + 1j * np.array(res["per_newton"]["a1"]["im"])
+    want = -((2 * np.pi * LINES) ** 2) * _structure_frf(LINES, 0)
+    assert np.max(np.abs(pn / want - 1)) < 0.03 and res["units"]["per_newton"] == "m/s^2/N"
+    pf = np.array(res["per_volt"]["force"]["re"]) + 1j * np.array(res["per_volt"]["force"]["im"])
+    assert np.max(np.abs(pf / r["F"] - 1)) < 0.03
     volts = tmp_path / "volts.json"
     FrfSet(level_n=np.full(n, 0.5), force=np.ones(n, complex), response=resp, drive_quantity="voltage",
            **common).save(volts)

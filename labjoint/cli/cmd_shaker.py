@@ -23,6 +23,9 @@ def add_shaker_arguments(p: argparse.ArgumentParser) -> None:
                    help="mode 1's modal mass at the drive point, when known (a scale of the structure)")
     p.add_argument("--modes", type=int, default=1, metavar="N", help="structural modes in the band (default 1)")
     p.add_argument("--band", default=None, metavar="LO:HI", help="frequency band in Hz (default: all lines)")
+    p.add_argument("--full", action="store_true",
+                   help="with --json: the model's FRFs per volt (and the force per volt) and per newton, "
+                        "each sensor in the set's quantity, at the set's frequencies ({re, im})")
 
 
 def per_volt(fs: Any, band: tuple[float, float] | None) -> tuple[np.ndarray, dict[str, np.ndarray], Any]:
@@ -63,7 +66,7 @@ def _band(text: str | None) -> tuple[float, float] | None:
 def run(args: argparse.Namespace) -> int:
     from labjoint.models.shaker import shaker_table
     from labjoint.models.shaker_fit import identify
-    from labjoint.signal.frfset import FrfSet
+    from labjoint.signal.frfset import RESPONSE_UNITS, FrfSet
 
     fs = FrfSet.load(args.frf)
     f, resp, force = per_volt(fs, _band(args.band))
@@ -82,6 +85,11 @@ def run(args: argparse.Namespace) -> int:
            "modes": [{"frequency_hz": a, "damping_ratio": b, "mass_kg": c} for a, b, c in
                      zip(fit.structure.frequencies_hz, fit.structure.damping_ratios, fit.structure.masses_kg)]}
     if args.json:
+        if args.full:
+            pack = lambda d: {k: {"re": v.real.tolist(), "im": v.imag.tolist()} for k, v in d.items()}  # noqa: E731
+            unit = RESPONSE_UNITS[fs.quantity]
+            res.update(frequencies_hz=f.tolist(), units={"per_volt": f"{unit}/V", "per_newton": f"{unit}/N"},
+                       per_volt=pack(fit.per_volt(f)), per_newton=pack(fit.per_newton(f)))
         emit_json(res)
         return 0
     print(table(["parameter", "value", "stderr", "given"],
