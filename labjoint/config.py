@@ -88,6 +88,18 @@ class LimitsConfig(_Strict):
     max_frequency_step: float | None = Field(None, gt=0)
 
 
+class PlausibilityConfig(_Strict):
+    """Limits of what the pipelines take as a joint's measurement (``[plausibility]``);
+    None: labjoint.identify.plausible's default (0.01 m; 10 samples per period; 0.5 % of
+    W lost to the low-pass; 0.5 % frequency mismatch). The CLI's ``--max-displacement M``
+    overrides the first."""
+
+    max_displacement_amplitude_m: float | None = Field(None, gt=0)
+    min_samples_per_period: float | None = Field(None, gt=0)
+    max_filter_loss: float | None = Field(None, gt=0, lt=1)
+    max_frequency_mismatch: float | None = Field(None, gt=0, lt=1)
+
+
 #: Contact-zone outer radius over bolt radius, a = 3.5 r_b (seed 002 Eq. 2 / Sec. II.B).
 CONTACT_RATIO = 3.5
 
@@ -172,6 +184,7 @@ class RigConfig(_Strict):
     generator: GeneratorConfig = Field(default_factory=GeneratorConfig)
     daq: DAQConfig
     limits: LimitsConfig = Field(default_factory=LimitsConfig)
+    plausibility: PlausibilityConfig = Field(default_factory=PlausibilityConfig)
     sim: dict[str, Any] = Field(default_factory=dict)
     #: the REST service's settings, validated by labjoint.api.settings (a higher layer)
     api: dict[str, Any] = Field(default_factory=dict)

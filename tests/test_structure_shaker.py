@@ -47,7 +47,7 @@ def test_identification_recovers_a_known_shaker(structure):
     assert e.value.field == "frequencies_hz"
     with pytest.raises(InputError) as e:
         Shaker(0.0, 1.0, 1.0, 1.0, 1.0, 1.0)
-    assert e.value.field == "armature_mass_kg"
+    assert e.value.field == "shaker.armature_mass_kg"    # the [shaker] table's field
 
 
 def _sweep(freqs, level, d):

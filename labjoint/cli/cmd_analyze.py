@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from labjoint.cli.limits import plausibility
 from labjoint.cli.inputs import load_runs
 from labjoint.cli.output import Progress, emit_json, table
 from labjoint.errors import InputError, LabjointError
@@ -40,6 +41,9 @@ def add_analyze_arguments(p: argparse.ArgumentParser) -> None:
                    help="low-pass cutoff of the loop method (default: seed 002's 3 kHz, "
                         "capped at 0.45 fs); 'none': no filter. For fundamentals the 3 kHz "
                         "filter would attenuate (it refuses them, naming the cutoff needed)")
+    p.add_argument("--max-displacement", type=float, default=None, metavar="M",
+                   help="largest plausible displacement amplitude (m) of the loop method (default "
+                        "the rig config's [plausibility] max_displacement_amplitude_m, else 0.01 m)")
     p.add_argument("--table", action="store_true",
                    help="the trends of the runs: seed 002 Tables 2-4 (both methods, with "
                         "uncertainties) and the dissipation exponent W ~ F^n with its 95 %% "
@@ -66,12 +70,12 @@ def _cutoff_hz(cutoff: float | str | None) -> float | None:
     return PAPER_CUTOFF_HZ if cutoff is None else None if cutoff == "none" else float(cutoff)
 
 
-def loop_row(item: Any, force: str, save: bool, cutoff: float | str | None = None
-             ) -> dict[str, Any]:
+def loop_row(item: Any, force: str, save: bool, cutoff: float | str | None = None,
+             plausibility: Any = None) -> dict[str, Any]:
     from labjoint.identify.analyze import analyze_file, analyze_run
 
     if isinstance(item, Path):
-        res = analyze_file(item, force=force, cutoff_hz=_cutoff_hz(cutoff))
+        res = analyze_file(item, force=force, cutoff_hz=_cutoff_hz(cutoff), plausibility=plausibility)
         name = res.metadata.get("run", item.stem)
         extra = {k: res.metadata.get(k) for k in ("excitation_vpp", "torque_nm")}
         if save:
@@ -83,13 +87,19 @@ def loop_row(item: Any, force: str, save: bool, cutoff: float | str | None = Non
             raise InputError("an imported CSV record has one force column; --force reference "
                              "applies to run files only", file=str(item.path or item.name),
                              field="--force")
-        res = analyze_run(item, cutoff_hz=_cutoff_hz(cutoff))
+        res = analyze_run(item, cutoff_hz=_cutoff_hz(cutoff), plausibility=plausibility)
         name = item.name
         extra = {k: item.metadata.get(k) for k in ("excitation_vpp", "torque_nm")}
     row = {"run": name}
     row.update({k: res.summary.get(k) for k in FIELDS if k != "run"})
     row.update({k: v for k, v in res.summary.items() if k not in row})
     row.update(extra)
+    from labjoint.compare.flags import energy_flag
+
+    flag = energy_flag(str(name), float(row.get("energy_loss_j") or float("nan")),
+                       float(row.get("energy_loss_j_uncertainty") or 0.0))
+    if flag:
+        row["flags"] = [flag]
     return row
 
 
@@ -97,7 +107,7 @@ def analyze_paths(paths: list[str], method: str = "loop", force: str = "joint",
                   friction: Any = None, save: bool = False, data_dir: str | None = None,
                   progress: bool = False, friction_run: str | None = None,
                   errors: list[dict[str, str]] | None = None,
-                  cutoff: float | str | None = None) -> list[dict[str, Any]]:
+                  cutoff: float | str | None = None, plausibility: Any = None) -> list[dict[str, Any]]:
     """Rows of ``labjoint analyze``; ``friction`` a number or Identified, or ``friction_run``
     a friction-test file mu is identified from (else the one stored in ``data_dir``);
     ``cutoff`` the loop method's low-pass (Hz, "none", or None for the default).
@@ -124,7 +134,7 @@ def analyze_paths(paths: list[str], method: str = "loop", force: str = "joint",
         try:
             (item,) = load_runs([p])
             if method == "loop":
-                rows.append(loop_row(item, force, save, cutoff))
+                rows.append(loop_row(item, force, save, cutoff, plausibility))
             else:
                 from labjoint.identify.methods import analyze_runs
                 rows += analyze_runs([item], method, friction=friction, data_dir=data_dir,
@@ -148,6 +158,9 @@ def print_loop_table(rows: list[dict[str, Any]]) -> None:
                   *_w_c(r), _scale(r.get("stiffness_n_per_m"), 1e-6), r.get("cycles")]
                  for r in rows])
     print(out)
+    for r in rows:
+        for f in r.get("flags") or []:
+            print(f"warning: run {r['run']}: {f['message']}")
     if any(r.get("below_resolution") for r in rows):
         print(f"\n{BELOW}: W is under twice its uncertainty (sensor phase and cycle-to-cycle "
               "scatter, at least 2 pi K U^2 u_phase): not a measurement of W or C; the JSON "
@@ -218,7 +231,7 @@ def run(args: argparse.Namespace) -> int:
     errors: list[dict[str, str]] = []
     rows = analyze_paths(args.runs, args.method, args.force, args.friction, args.save, data_dir,
                          progress=not (args.json or args.quiet), friction_run=args.friction_run,
-                         errors=errors, cutoff=args.cutoff)
+                         errors=errors, cutoff=args.cutoff, plausibility=plausibility(args))
     for e in errors:
         sys.stderr.write(f"labjoint: error: {e['file']}: {e['error']}\n")
     code = 2 if errors else 0

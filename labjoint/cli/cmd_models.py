@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from labjoint.cli.limits import plausibility, print_flags
 from labjoint.cli.output import Progress, emit_json, fmt, table
 from labjoint.errors import InputError
 
@@ -48,9 +49,13 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--responses", default=None, metavar="A,B,...",
                    help="with --modal: the response channels compared (default every motion channel)")
     p.add_argument("--shaker-fit", default=None, metavar="A,B,...",
-                   help="with --modal: shaker parameters (labjoint.structure.shaker.Shaker fields) "
+                   help="with --modal: shaker parameters (labjoint.models.shaker.Shaker fields) "
                         "to identify; each is refused by name with what the voltage-driven "
                         "records see of it instead")
+    p.add_argument("--max-displacement", type=float, default=None, metavar="M",
+                   help="largest plausible displacement amplitude (m) of a steady sine (default "
+                        "the rig config's [plausibility] max_displacement_amplitude_m, else 0.01 m: "
+                        "a joint's; a structure's may be larger); checked before the fit")
     p.add_argument("--kind", choices=("auto", "sine", "record", "frf", "modal"), default="auto",
                    help="judge steady-sine cycles (sine) or the record along its history under "
                         "any excitation (record); auto: sine when every run is a steady sine")
@@ -163,7 +168,8 @@ def _options(args: argparse.Namespace, judging: bool) -> dict[str, Any]:
                          "seed": args.seed, "kind": args.kind, "warmup": args.warmup,
                          "structure": args.structure, "modes": args.modes,
                          "harmonics": args.harmonics, "modal": args.modal,
-                         "responses": args.responses}
+                         "responses": args.responses,
+                         "plausibility": plausibility(args)}
     if judging:
         o.update(factor=args.factor, alpha=args.alpha, n_jobs=args.jobs,
                  candidates=args.candidates)
@@ -226,6 +232,7 @@ def _print_parameters(res: dict[str, Any]) -> None:
     """The parameter table, then each flagged parameter and each even effect's asymmetry."""
     print(table(["parameter", "value", "stderr", "unit"],
                 [[k, v["value"], v["stderr"], v["unit"]] for k, v in res["parameters"].items()]))
+    print_flags(res)
     for k, why in (res.get("flags") or {}).items():
         print(f"warning: {k}: {why}")
     for a in res.get("asymmetry") or []:
@@ -323,6 +330,7 @@ def _print_diagnosis(res: dict[str, Any], how: str) -> None:
     print(f"model {res['model']}{how}: NRMSE {_pct(res['nrmse'])}, noise floor "
           f"{_pct(res['noise_floor'])}, adequate: {'yes' if res['adequate'] else 'no'}")
     print(res["verdict"])
+    print_flags(res)
     for k, why in (res.get("flags") or {}).items():
         print(f"warning: {k}: {why}")
     for a in res.get("asymmetry") or []:
@@ -350,6 +358,7 @@ def _print_ladder(res: dict[str, Any], how: str) -> None:
     print(table(["step", "model", "added", "NRMSE %", "validation %", "adequate"],
                 [[i, s["model"], s["added"] or "-", _x100(s["nrmse"]), _x100(s["nrmse_validation"]),
                   "yes" if s["adequate"] else "no"] for i, s in enumerate(res["steps"])]))
+    print_flags(res)
     print(f"\n{how}noise floor {_pct(res['noise_floor'])}; adequate: "
           f"{'yes' if res['adequate'] else 'no'} ({res['stop_reason']})")
 

@@ -27,6 +27,12 @@ def add_predict_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default=None, metavar="PRED.csv",
                    help="write time_s, displacement_m (measured), predicted_m (a modal model: "
                         "each channel measured and model)")
+    p.add_argument("--shaker", default=None, metavar="S.toml",
+                   help="the record is driven by a voltage: drive the model through the shaker of "
+                        "this file's [shaker] table (SI) and predict the response per volt in its "
+                        "quantity and the force on the structure")
+    p.add_argument("--response", default=None, metavar="NAME",
+                   help="with --shaker: the response channel (default: the first motion channel)")
     p.add_argument("--full", action="store_true",
                    help="a modal model with --json: the measured and model series too")
 
@@ -62,10 +68,48 @@ def _modal(args: argparse.Namespace) -> int:
     return 0
 
 
+def _shaker(args: argparse.Namespace) -> int:
+    """A joint model through the shaker on a voltage-driven record: response and force."""
+    from labjoint.compare.shaker_predict import predict_shaker
+
+    if args.periodic:
+        raise InputError("--periodic goes without --shaker", field="periodic")
+    res = predict_shaker(args.model, args.record, args.shaker, warmup=args.warmup, response=args.response)
+    if args.out:
+        out = Path(args.out)
+        tmp = out.with_name(out.name + ".tmp")
+        chans = res["channels"]
+        cols = [np.asarray(v[k]) for v in chans.values() for k in ("measured", "model") if v[k] is not None]
+        head = ",".join(["time_s"] + [f"{c}_{k}" for c, v in chans.items() for k in ("measured", "model")
+                                      if v[k] is not None])
+        n = cols[0].size
+        np.savetxt(tmp, np.column_stack([res["warmup_s"] + np.arange(n) / res["sample_rate_hz"], *cols]),
+                   delimiter=",", header=head, comments="", fmt="%.9g")
+        tmp.replace(out)
+    res["saved"] = args.out
+    if not (getattr(args, "json", False) and args.full):
+        for v in res["channels"].values():
+            v.pop("measured"), v.pop("model")
+    if args.json:
+        emit_json(res)
+        return 0
+    for ch, v in res["channels"].items():
+        nr = "not measured" if v["nrmse"] is None else f"NRMSE {100 * v['nrmse']:.3g} %"
+        print(f"{ch} ({v['quantity']}): {nr}")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     from labjoint.compare.modal_api import is_modal_model
     from labjoint.compare.model_file import predict_file
 
+    if args.shaker:
+        if is_modal_model(args.model):
+            raise InputError("--shaker goes with a joint model file; the modal model holds the shaker "
+                             "path as modal.drive and its high-pass", field="shaker")
+        return _shaker(args)
+    if args.response:
+        raise InputError("--response goes with --shaker", field="response")
     if is_modal_model(args.model):
         return _modal(args)
     pred = predict_file(args.model, args.record, periodic=args.periodic, warmup=args.warmup)

@@ -33,6 +33,7 @@ COMMANDS = {
     "modes": ("cmd_frf", "run_modes", "natural frequency, damping and mode shape per level (LSCF/LSFD, half-power)"),
     "distortion": ("cmd_distortion", "run", "harmonics of steady sines; odd/even distortion of multisines"),
     "predict": ("cmd_predict", "run", "simulate a saved model on a record's force"),
+    "shaker": ("cmd_shaker", "run", "identify the shaker with the structure's modes from a low-level FRF set"),
     "structure": ("cmd_structure", "run", "assembled-structure model: modes, stage-1 update, nonlinear FRF"),
     "backbone": ("cmd_backbone", "run", "frequency and damping against amplitude: measured and modelled"),
     "hw": ("cmd_hw", "run", "hardware: `labjoint hw check` lists instruments and DAQ devices"),

@@ -37,15 +37,17 @@ from labjoint.compare.kinds import kind_of, prepare
 from labjoint.compare.runs import split_by_names
 from labjoint.compare.significance import SignificanceSettings
 from labjoint.compare.store import save_ladder
+from labjoint.compare.flags import measurement_flags
 from labjoint.errors import InputError
+from labjoint.identify.plausible import Plausibility
 from labjoint.models import FitResult, Model, ModelFitter
 
 SIG_KEYS = ("alpha", "practical", "min_rel", "tie_tol", "tie_corr")
 
 
 def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | str = "auto",
-         kind: str = "auto", warmup: str | float = "auto", frf: dict[str, Any] | None = None
-         ) -> tuple[list[Measurement], list[str] | None]:
+         kind: str = "auto", warmup: str | float = "auto", frf: dict[str, Any] | None = None,
+         plausibility: Plausibility | None = None) -> tuple[list[Measurement], list[str] | None]:
     """Prepared measurements of one kind (:func:`labjoint.compare.kinds.prepare`;
     validation runs named but not among ``runs`` are added) and the validation run names.
     FRF set files (or FrfSets) are prepared as the ``frf`` kind inside the structure of
@@ -71,7 +73,8 @@ def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | s
                                           if isinstance(x, (str, Path))}
         extra = [v for v in validate if isinstance(v, (str, Path)) and Path(str(v)).is_file()
                  and str(Path(str(v)).resolve()) not in given and str(v) not in given]
-    prepared = prepare(items + extra, kind=kind, prime_cycles=prime_cycles, warmup=warmup)
+    prepared = prepare(items + extra, kind=kind, prime_cycles=prime_cycles, warmup=warmup,
+                       plausibility=plausibility)
     if not validate:
         return prepared, None
     _, val, _ = split_by_names(prepared, [str(v) for v in validate])
@@ -81,11 +84,16 @@ def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | s
 def _load(runs: Any, options: dict[str, Any]) -> tuple[list[Measurement], list[str] | None]:
     return load(runs, options.get("validate"), options.get("prime_cycles", "auto"),
                 options.get("kind", "auto"), options.get("warmup", "auto"),
-                {k: options.get(k) for k in (*FRF_OPTIONS, *MODAL_OPTIONS)})
+                {k: options.get(k) for k in (*FRF_OPTIONS, *MODAL_OPTIONS)},
+                options.get("plausibility"))
 
 
 def _measured(d: dict[str, Any], ms: Sequence[Measurement]) -> dict[str, Any]:
-    """FRF results say what their NRMSE and noise floor are (design.md's ``measurement``)."""
+    """FRF results say what their NRMSE and noise floor are (design.md's ``measurement``);
+    ``measurement_flags``: a user's likely mistakes in the data (:mod:`.flags`)."""
+    flags = measurement_flags(ms)
+    if flags:
+        d["measurement_flags"] = flags
     if ms and ms[0].kind == "frf":
         d["measurement"] = "frf"
         d["error"] = "response phasors (harmonics 1..H) whitened by the FRF set's response_std"
@@ -135,7 +143,7 @@ def _check(options: dict[str, Any], allowed: Iterable[str]) -> None:
 
 
 COMMON = ("validate", "prime_cycles", "multistart", "seed", "full", "progress", "kind",
-          "warmup") + FRF_OPTIONS + MODAL_OPTIONS
+          "warmup", "plausibility") + FRF_OPTIONS + MODAL_OPTIONS
 DIAG = COMMON + SIG_KEYS + ("factor", "n_jobs", "candidates", "warm", "executor")
 
 

@@ -52,6 +52,7 @@ def load_modal(items: Sequence[Any], validate: Sequence[Any] | None, options: di
     paths = [str(x) for x in items]
     extra = [str(v) for v in (validate or []) if str(v) not in paths]
     ms = [prepare_modal(p, basis, resp) for p in paths + extra]
+    check_drives(ms)
     seen: dict[str, int] = {}
     for i, m in enumerate(ms):
         seen[m.name] = seen.get(m.name, 0) + 1
@@ -63,6 +64,20 @@ def load_modal(items: Sequence[Any], validate: Sequence[Any] | None, options: di
     return ms, [m.name for m in val]
 
 
+def check_drives(ms: Sequence[ModalMeasurement], model_input: str | None = None) -> None:
+    """Refuse a drive whose quantity is not the model's input: one ``modal.drive`` is per
+    volt or per newton, never both (``model_input``: a saved model's; else the set's first)."""
+    want = model_input or (ms[0].metadata.get("drive_quantity") if ms else None)
+    for m in ms:
+        have = m.metadata.get("drive_quantity")
+        if want and have and have != want:
+            whose = "the model's input" if model_input else f"run '{ms[0].name}''s drive"
+            raise InputError(f"run '{m.name}': its drive '{m.metadata.get('drive_channel')}' is a {have}, "
+                             f"but {whose} is a {want} (modal.drive is per "
+                             f"{'volt' if want == 'voltage' else 'newton'}); a {have} is never taken "
+                             f"as a {want}: fit the runs of each drive apart", file=m.path, field="drive")
+
+
 def save_modal(fit: FitResult, ms: Sequence[ModalMeasurement], path: str | Path) -> None:
     """The fitted modal model as JSON, written whole or not at all."""
     vals = fit.params_.valuesdict()
@@ -72,7 +87,8 @@ def save_modal(fit: FitResult, ms: Sequence[ModalMeasurement], path: str | Path)
                          field="model")
     d = {"format": FORMAT, "model": fit.model.expr, "parameters": fit.params_.to_dict(),
          "basis": ms[0].basis.to_dict(), "channels": list(ms[0].channels),
-         "nrmse": fit.nrmse_, "fit_runs": list(fit.fit_runs_)}
+         "nrmse": fit.nrmse_, "fit_runs": list(fit.fit_runs_),
+         "drive_quantity": ms[0].metadata.get("drive_quantity")}
     p = Path(path)
     tmp = p.with_name(p.name + ".tmp")
     tmp.write_text(json.dumps(d, indent=1), encoding="utf-8")
@@ -98,6 +114,7 @@ def predict_modal(model_path: str | Path, record: str | Path) -> dict[str, Any]:
     params = Parameters.from_dict(d["parameters"])
     basis = ModalBasis.from_dict(d["basis"])
     m = prepare_modal(str(record), basis, d["channels"])
+    check_drives([m], d.get("drive_quantity"))
     pred = m.predict(model, params)
     if not np.all(np.isfinite(pred)):
         raise InputError("the model diverges on this record", file=str(record), field="model")

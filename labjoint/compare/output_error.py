@@ -50,6 +50,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
+from labjoint.compare.flags import measurement_flags
 from labjoint.compare.identifiability import band_warnings
 from labjoint.compare.kinds import prepare
 from labjoint.compare.kinds.record import RecordMeasurement
@@ -157,6 +158,8 @@ class SimulationFit:
     n_evals: int = 0
     message: str = ""
     warnings: list[str] = field(default_factory=list)
+    #: the user's likely mistakes in the records (:mod:`labjoint.compare.flags`)
+    measurement_flags: list[dict[str, Any]] = field(default_factory=list)
 
     def nrmse(self, which: str = "fit") -> float:
         ps = self.fit if which == "fit" else self.validation
@@ -198,6 +201,8 @@ class SimulationFit:
                  nrmse_validation=self.nrmse("validation") if self.validation else None,
                  start=self.start, n_evals=self.n_evals, message=self.message,
                  warnings=list(self.warnings))
+        if self.measurement_flags:
+            d["measurement_flags"] = list(self.measurement_flags)
         return d
 
 
@@ -335,7 +340,7 @@ def fit_prepared(fit_recs: list[RecordMeasurement], model: Model, *,
         warn.append(f"started from {origin}")
     return SimulationFit(model, out, stderr, {k: float(v.value) for k, v in first.items()},
                          preds, vpreds, periodic, int(substeps), n_evals[0], str(sol.message),
-                         warn)
+                         warn, measurement_flags([*fit_recs, *(validation or [])]))
 
 
 def _stderr(sc: _Scaled, sol: Any, vals: dict[str, float], scales: list[float],

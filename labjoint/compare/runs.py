@@ -41,6 +41,7 @@ from scipy.interpolate import CubicSpline
 
 from labjoint.errors import InputError
 from labjoint.identify import LoopResult, analyze_run
+from labjoint.identify.plausible import Plausibility, refuse_large_record
 from labjoint.compare.noise import stationary_cycles
 from labjoint.compare.prepared import PreparedRun
 from labjoint.models import ModelInputs, RunData
@@ -76,19 +77,23 @@ def steady_cycles(run: Run, loop: LoopResult) -> tuple[np.ndarray, int, bool]:
 
 
 def prepare_run(run: Run | str | Path, *, prime_cycles: int | str = "auto",
-                band_hz: float | None = None, min_cycles: int = 3) -> PreparedRun:
+                band_hz: float | None = None, min_cycles: int = 3,
+                plausibility: Plausibility | None = None) -> PreparedRun:
     """Prepare one run: loop pipeline, steady cycles, model inputs (priming: module doc).
 
-    ``prime_cycles``: "auto" (module doc) or a number of cycles to prepend.
+    ``prime_cycles``: "auto" (module doc) or a number of cycles to prepend;
+    ``plausibility``: the limits of :mod:`labjoint.identify.plausible` (the displacement
+    cap checked on the samples before the loop pipeline).
     """
     if isinstance(run, (str, Path)):
         run = read_any(run)
     if not isinstance(run, Run):
         raise InputError(f"expected a run file path or a Run, got {type(run).__name__}", field="runs")
     where = run.path or run.name
+    refuse_large_record(run.displacement, plausibility, f"run '{run.name}': ")
     run, hum = _without_mains(run)
     try:
-        loop = analyze_run(run, min_cycles=min_cycles)
+        loop = analyze_run(run, min_cycles=min_cycles, plausibility=plausibility)
     except InputError as exc:
         raise InputError(f"run '{run.name}': {exc.message}", file=run.path,
                          field=exc.field) from None

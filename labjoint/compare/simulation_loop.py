@@ -113,6 +113,7 @@ class SimulationDiagnosis:
                 "validation_runs": [p.name for p in self.base.validation],
                 "parameters": self.base.model_dict()["parameters"],
                 "flags": self.base.flags(), "asymmetry": self.base.asymmetry(),
+                **({"measurement_flags": self.base.measurement_flags} if self.base.measurement_flags else {}),
                 "failures": self.failures,
                 "candidates": [c.to_dict() for c in self.candidates], "skipped": self.skipped,
                 "timing_s": self.timing}
@@ -279,4 +280,5 @@ def ladder_simulation(runs: Any, model: str | Model, *, max_steps: int | None = 
             continue
         return {"measurement": "record", "error": "simulation", "noise_floor": d.noise_floor,
                 "adequate": d.adequate, "stop_reason": reason, "split": d.rule, "steps": steps,
-                "final": d.to_dict()}
+                "final": d.to_dict(),
+                **({"measurement_flags": d.base.measurement_flags} if d.base.measurement_flags else {})}

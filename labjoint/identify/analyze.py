@@ -18,7 +18,7 @@ import numpy as np
 
 from labjoint.errors import InputError
 from labjoint.identify.loop import DEFAULT_STIFFNESS, PER_CYCLE, LoopResult, loop_metrics, summarize
-from labjoint.identify.plausible import (refuse_frequency_mismatch, refuse_impossible,
+from labjoint.identify.plausible import (Plausibility, refuse_frequency_mismatch, refuse_impossible,
                                          refuse_unresolved)
 from labjoint.identify.resolution import correct_phase, resolution, sensor_phase
 from labjoint.signal import validate
@@ -51,13 +51,15 @@ def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None 
                    n_points: int = DEFAULT_POINTS, n_harmonics: int = 5,
                    rel_tol: float = 0.01, min_cycles: int = 3,
                    phase_correction_rad: float = 0.0, phase_uncertainty_rad: float = 0.0,
-                   phase_note: str = "", threads: bool = True) -> LoopResult:
+                   phase_note: str = "", threads: bool = True,
+                   plausibility: Plausibility | None = None) -> LoopResult:
     """Hysteresis-loop results of a record given as blocks of (displacement m, force N).
 
     ``phase_correction_rad`` rotates the force's fundamental (the force sensor's
     calibrated phase lead over the displacement's); ``phase_uncertainty_rad`` is that
     phase's standard uncertainty, propagated into W and C with the noise
-    (:mod:`labjoint.identify.resolution`). ``threads=False`` keeps the whole pipeline
+    (:mod:`labjoint.identify.resolution`). ``plausibility``: the limits of
+    :mod:`labjoint.identify.plausible` (its defaults when None). ``threads=False`` keeps the whole pipeline
     in the calling thread (a batch that runs one record per core); by default reading
     and filtering overlap the loop measurements in helper threads.
 
@@ -92,7 +94,7 @@ def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None 
         raise InputError(f"{f:g} Hz is at or above the Nyquist frequency {fs / 2:g} Hz of "
                          f"the {fs:g} Hz sampling", field="frequency_hz")
     cutoff, rule = analysis_cutoff(fs, cutoff_hz)
-    refuse_unresolved(f, fs, cutoff, order)
+    refuse_unresolved(f, fs, cutoff, order, plausibility)
     _check_int(min_cycles, "min_cycles", 1)
     _check_int(n_points, "n_points", 8)
     _check_int(n_harmonics, "n_harmonics", 1, n_points // 2 - 1)
@@ -103,7 +105,8 @@ def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None 
     per_cycle, bounds = stream.finish()
     if per_cycle:
         correct_phase(per_cycle, float(phase_correction_rad), f)
-    return _assemble(per_cycle, bounds, fs, f, rel_tol, min_cycles, float(phase_uncertainty_rad), {
+    return _assemble(per_cycle, bounds, fs, f, rel_tol, min_cycles, float(phase_uncertainty_rad),
+                     plausibility, {
         "frequency_source": source, "cutoff_hz": cutoff, "cutoff_rule": rule,
         "filter": (f"zero-phase Butterworth order {order} (sosfiltfilt): -6.02 dB at the "
                    "cutoff (seed 002)" if cutoff is not None else "none"),
@@ -284,7 +287,7 @@ class _LoopStream:
 
 
 def _assemble(per_cycle: dict[str, np.ndarray], bounds: np.ndarray, fs: float, f: float,
-              rel_tol: float, min_cycles: int, phase_u: float,
+              rel_tol: float, min_cycles: int, phase_u: float, plausibility: Plausibility | None,
               meta: dict[str, Any]) -> LoopResult:
     n = per_cycle["energy_loss"].size if per_cycle else 0
     if n < min_cycles:
@@ -313,10 +316,10 @@ def _assemble(per_cycle: dict[str, np.ndarray], bounds: np.ndarray, fs: float, f
     extra["damping_ns_per_m_uncertainty"] = extra["energy_loss_j_uncertainty"] / (
         np.pi * 2 * np.pi * f * u_amp ** 2) if u_amp > 0 else float("nan")
     result.summary.update(extra)
-    refuse_impossible(result.summary)
+    refuse_impossible(result.summary, plausibility)
     span = bounds[steady.stop] - bounds[steady.start]
     measured = float(fs * (steady.stop - steady.start) / span) if span > 0 else float("nan")
-    refuse_frequency_mismatch(f, measured, meta["frequency_source"])
+    refuse_frequency_mismatch(f, measured, meta["frequency_source"], plausibility)
     warnings = []
     if steady.n_steady < 0.5 * n:
         warnings.append(f"only {steady.n_steady} of {n} cycles are steady")

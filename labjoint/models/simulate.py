@@ -40,6 +40,7 @@ from labjoint.models.params import Parameters
 
 DEFAULT_SUBSTEPS = 20
 MAX_PERIODS = 50
+MAX_COIL_SUBSTEPS = 2000
 SUPPORTED = ("inertia", "viscous", "linear_stiffness", "cubic_stiffness", "offset",
              "bouc_wen", "coulomb", "quadratic_stiffness", "bilinear_stiffness", "contact",
              "asymmetric_slip")
@@ -66,41 +67,69 @@ def _rates(t_force, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev):  # pragma: no co
 
 
 @njit(cache=True)
-def rk4_sample(fine, i, substeps, h, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev):  # pragma: no cover
+def rk4_sample(fine, i, substeps, h, y, v, zb, zj, ci, m, c, k, k3, f0, bw, jk, ev, coil):  # pragma: no cover
     """The state after sample ``i``'s ``substeps`` classical RK4 steps of :func:`_rates`;
     ``fine`` holds the drive at every half substep (shared by the joint-level simulator
-    and the modal model, :mod:`labjoint.structure.nlmode`)."""
+    and the modal model, :mod:`labjoint.structure.nlmode`). ``coil`` = (Bl, R, L, G):
+    with Bl > 0 the drive is the shaker's generator voltage u and the force is Bl ci, the
+    coil current ci integrated with the rest by L ci' = G u - R ci - Bl v
+    (:mod:`labjoint.models.shaker` S1); else the drive is the force and ci stays 0."""
+    bl = coil[0]
     for s in range(substeps):
         j = 2 * (i * substeps + s)
-        f0_, fm, f1 = fine[j], fine[j + 1], fine[j + 2]
-        k1 = _rates(f0_, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev)
-        k2 = _rates(fm, y + 0.5 * h * k1[0], v + 0.5 * h * k1[1], zb + 0.5 * h * k1[2],
-                    zj + 0.5 * h * k1[3], m, c, k, k3, f0, bw, jk, ev)
-        k3_ = _rates(fm, y + 0.5 * h * k2[0], v + 0.5 * h * k2[1], zb + 0.5 * h * k2[2],
-                     zj + 0.5 * h * k2[3], m, c, k, k3, f0, bw, jk, ev)
-        k4 = _rates(f1, y + h * k3_[0], v + h * k3_[1], zb + h * k3_[2], zj + h * k3_[3],
-                    m, c, k, k3, f0, bw, jk, ev)
+        u0, um, u1 = fine[j], fine[j + 1], fine[j + 2]
+        d1 = 0.0
+        if bl > 0.0:
+            d1 = (coil[3] * u0 - coil[1] * ci - bl * v) / coil[2]
+            u0 = bl * ci
+        k1 = _rates(u0, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev)
+        y2, v2, c2 = y + 0.5 * h * k1[0], v + 0.5 * h * k1[1], ci + 0.5 * h * d1
+        d2, f2 = 0.0, um
+        if bl > 0.0:
+            d2 = (coil[3] * um - coil[1] * c2 - bl * v2) / coil[2]
+            f2 = bl * c2
+        k2 = _rates(f2, y2, v2, zb + 0.5 * h * k1[2], zj + 0.5 * h * k1[3], m, c, k, k3, f0, bw, jk, ev)
+        y3, v3, c3 = y + 0.5 * h * k2[0], v + 0.5 * h * k2[1], ci + 0.5 * h * d2
+        d3, f3 = 0.0, um
+        if bl > 0.0:
+            d3 = (coil[3] * um - coil[1] * c3 - bl * v3) / coil[2]
+            f3 = bl * c3
+        k3_ = _rates(f3, y3, v3, zb + 0.5 * h * k2[2], zj + 0.5 * h * k2[3], m, c, k, k3, f0, bw, jk, ev)
+        y4, v4, c4 = y + h * k3_[0], v + h * k3_[1], ci + h * d3
+        d4, f4 = 0.0, u1
+        if bl > 0.0:
+            d4 = (coil[3] * u1 - coil[1] * c4 - bl * v4) / coil[2]
+            f4 = bl * c4
+        k4 = _rates(f4, y4, v4, zb + h * k3_[2], zj + h * k3_[3], m, c, k, k3, f0, bw, jk, ev)
         y += h * (k1[0] + 2.0 * k2[0] + 2.0 * k3_[0] + k4[0]) / 6.0
         v += h * (k1[1] + 2.0 * k2[1] + 2.0 * k3_[1] + k4[1]) / 6.0
         zb += h * (k1[2] + 2.0 * k2[2] + 2.0 * k3_[2] + k4[2]) / 6.0
         zj += h * (k1[3] + 2.0 * k2[3] + 2.0 * k3_[3] + k4[3]) / 6.0
+        ci += h * (d1 + 2.0 * d2 + 2.0 * d3 + d4) / 6.0
         if jk[0] > 0.0:
             zj = min(max(zj, -jk[1] * (1.0 - jk[2])), jk[1] * (1.0 + jk[2]))
-    return y, v, zb, zj
+    return y, v, zb, zj, ci
+
+
+NO_COIL = np.zeros(4)
 
 
 @njit(cache=True)
-def _integrate(force_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, state):  # pragma: no cover
-    """y at every sample; ``force_fine`` holds the force at every half substep."""
+def _integrate(force_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, state, coil):  # pragma: no cover
+    """(n, 4): y, y', y'' and the coil current at every sample; ``force_fine`` holds the
+    drive (force, or the shaker's voltage when ``coil`` has Bl > 0) at every half substep."""
     n = (force_fine.size - 1) // (2 * substeps) + 1
-    out = np.empty(n)
-    y, v, zb, zj = state[0], state[1], state[2], state[3]
-    out[0] = y
-    for i in range(n - 1):
-        y, v, zb, zj = rk4_sample(force_fine, i, substeps, h, y, v, zb, zj, m, c, k, k3, f0, bw,
-                                  jk, ev)
-        out[i + 1] = y
-    state[0], state[1], state[2], state[3] = y, v, zb, zj
+    out = np.empty((n, 4))
+    y, v, zb, zj, ci = state[0], state[1], state[2], state[3], state[4]
+    for i in range(n):
+        f = coil[0] * ci if coil[0] > 0.0 else force_fine[2 * i * substeps]
+        r = _rates(f, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev)
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = y, v, r[1], ci
+        if i == n - 1:
+            break
+        y, v, zb, zj, ci = rk4_sample(force_fine, i, substeps, h, y, v, zb, zj, ci, m, c, k, k3, f0,
+                                      bw, jk, ev, coil)
+    state[0], state[1], state[2], state[3], state[4] = y, v, zb, zj, ci
     return out
 
 
@@ -151,26 +180,71 @@ def fine_force(force: np.ndarray, substeps: int, periodic: bool) -> np.ndarray:
 def simulate(model: Model | str, params: Parameters | Mapping[str, Any], force: np.ndarray,
              fs: float, *, substeps: int = DEFAULT_SUBSTEPS, periodic: bool = False) -> np.ndarray:
     """Displacement (m) at every sample of ``force`` (N) sampled at ``fs`` (module docstring)."""
+    return simulate_states(model, params, force, fs, substeps=substeps, periodic=periodic)[:, 0]
+
+
+def simulate_states(model: Model | str, params: Parameters | Mapping[str, Any], drive: np.ndarray,
+                    fs: float, *, substeps: int = DEFAULT_SUBSTEPS, periodic: bool = False,
+                    shaker: Any = None) -> np.ndarray:
+    """(n, 4): displacement, velocity, acceleration and coil current at every sample of
+    ``drive``: the force (N), or with ``shaker`` (:class:`labjoint.models.shaker.Shaker`)
+    the generator voltage (V) through the shaker, whose armature rides on the mass
+    (m + m_a, c + c_a, k + k_a) and whose coil is integrated with it (S1; with L = 0 the
+    current is (G u - Bl v) / R: a force Bl G u / R and a damping Bl^2 / R)."""
     model = Model.parse(model)
     check_simulable(model)
     if not (np.isfinite(fs) and fs > 0):
         raise InputError(f"sample rate must be > 0, got {fs}", field="sample_rate_hz")
-    f = np.asarray(force, dtype=float)
+    f = np.asarray(drive, dtype=float)
     if f.ndim != 1 or f.size < 2 or not np.all(np.isfinite(f)):
-        raise InputError("the force must be a finite record of 2 or more samples", field="force")
+        raise InputError(f"the {'voltage' if shaker else 'force'} must be a finite record of 2 or more "
+                         "samples", field="voltage" if shaker else "force")
     if isinstance(substeps, bool) or int(substeps) < 1:
         raise InputError(f"must be a whole number >= 1, got {substeps!r}", field="substeps")
     m, c, k, k3, f0, bw, jk, ev = _coefficients(model, params)
     s = int(substeps)
+    coil = NO_COIL
+    if shaker is not None:
+        sh = shaker
+        m, c, k = (m + sh.armature_mass_kg, c + sh.suspension_damping_ns_per_m,
+                   k + sh.suspension_stiffness_n_per_m)
+        bl, R, L, G = (sh.force_factor_n_per_a, sh.coil_resistance_ohm, sh.coil_inductance_h,
+                       sh.amplifier_gain_v_per_v)
+        if L > 0:
+            coil = np.array([bl, R, L, G])
+            tau = L / R                       # RK4 stays stable and accurate with h <= tau / 2
+            s = max(s, int(np.ceil(2.0 / (fs * tau))))
+            if s > MAX_COIL_SUBSTEPS:
+                raise InputError(f"the coil's time constant L / R = {tau:.3g} s needs {s} RK4 steps "
+                                 f"per sample at {fs:g} Hz; its corner R / (2 pi L) = "
+                                 f"{1 / (2 * np.pi * tau):.4g} Hz lies far above the record: give "
+                                 "coil_inductance_h = 0", field="shaker.coil_inductance_h")
+        else:
+            f = f * (bl * G / R)
+            c = c + bl * bl / R
     h = 1.0 / (fs * s)
-    state = np.zeros(4)
+    state = np.zeros(5)
     if not periodic:
-        return _integrate(fine_force(f, s, False), h, m, c, k, k3, f0, bw, jk, ev, s, state)
+        return _integrate(fine_force(f, s, False), h, m, c, k, k3, f0, bw, jk, ev, s, state, coil)
     one = fine_force(f, s, True)
     prev = None
     for _ in range(MAX_PERIODS):
-        y = _integrate(one, h, m, c, k, k3, f0, bw, jk, ev, s, state)
-        if prev is not None and np.max(np.abs(y - prev)) <= 1e-9 * max(np.ptp(y), 1e-300):
+        y = _integrate(one, h, m, c, k, k3, f0, bw, jk, ev, s, state, coil)
+        if prev is not None and np.max(np.abs(y[:, 0] - prev)) <= 1e-9 * max(np.ptp(y[:, 0]), 1e-300):
             break
-        prev = y
-    return y[:-1] if y.size > f.size else y
+        prev = y[:, 0]
+    return y[:-1] if y.shape[0] > f.size else y
+
+
+def shaker_outputs(states: np.ndarray, shaker: Any, volts: np.ndarray) -> dict[str, np.ndarray]:
+    """Per sample of :func:`simulate_states` with a shaker: the displacement, velocity and
+    acceleration of the driven mass, the coil current and the force on the structure,
+    F = Bl i - m_a a - c_a v - k_a x (:mod:`labjoint.models.shaker` S2): the per-volt and
+    the per-newton responses both follow."""
+    x, v, a, i = states.T
+    sh = shaker
+    if sh.coil_inductance_h == 0:
+        i = (sh.amplifier_gain_v_per_v * np.asarray(volts, float) - sh.force_factor_n_per_a * v) / sh.coil_resistance_ohm
+    F = sh.force_factor_n_per_a * i - sh.armature_mass_kg * a - sh.suspension_damping_ns_per_m * v \
+        - sh.suspension_stiffness_n_per_m * x
+    return {"displacement": x, "velocity": v, "acceleration": a, "coil_current": i, "force": F}

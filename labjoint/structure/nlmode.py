@@ -35,7 +35,7 @@ suspension taking the force at low frequency): a first-order high-pass of corner
 17 Hz, as tan(phi) = f_hp / f with f_hp ~ 1.6 Hz).
 
 The shaker: with the force not measured, the shaker between voltage and structure
-(:class:`labjoint.structure.shaker.Shaker`: coil R, L, force factor Bl, armature m_a, k_s,
+(:class:`labjoint.models.shaker.Shaker`: coil R, L, force factor Bl, armature m_a, k_s,
 c_s) enters the modes as products only: Bl G / R times the drive-point participation
 (b, g_sj), the back-EMF Bl^2 / R and the suspension c_s as viscous damping of each mode,
 m_a and k_s as modal mass and stiffness at the drive point (merged with f_j, zeta_j).
@@ -67,7 +67,7 @@ from scipy.signal import lfilter
 
 from labjoint.errors import InputError
 from labjoint.models import Model
-from labjoint.models.simulate import SUPPORTED, _coefficients, _rates, fine_force, rk4_sample
+from labjoint.models.simulate import NO_COIL, SUPPORTED, _coefficients, _rates, fine_force, rk4_sample
 
 SUBSTEPS = 4
 MAX_WH = 0.1            # RK4 step: w h at most this at 1.5x the highest mode (phase error ~1e-7 a step)
@@ -166,8 +166,8 @@ def _mode(drive_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, y0, v0):  # prag
         out[i, 0], out[i, 1], out[i, 2] = y, v, r[1]
         if i == n - 1 or not abs(y) < 1e6:
             break
-        y, v, zb, zj = rk4_sample(drive_fine, i, substeps, h, y, v, zb, zj, m, c, k, k3, f0, bw,
-                                  jk, ev)
+        y, v, zb, zj, _ = rk4_sample(drive_fine, i, substeps, h, y, v, zb, zj, 0.0, m, c, k, k3, f0,
+                                     bw, jk, ev, NO_COIL)
     return out
 
 

@@ -1,4 +1,4 @@
-"""The shaker in the structure model: responses per volt for labs that drive a known
+"""The shaker in the structure model (the shaker itself: :mod:`labjoint.models.shaker`): responses per volt for labs that drive a known
 amplifier voltage (issue 15 item 5).
 
 An electrodynamic shaker on a voltage amplifier is an electromechanical element at the
@@ -23,52 +23,22 @@ gain G taken as known (only Bl G and Bl / G are seen by the measurement).
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 
 from labjoint.errors import InputError
+from labjoint.models.shaker import Shaker, shaker_from_force
+from labjoint.models.shaker import force_per_volt as receptance_force_per_volt
 from labjoint.structure.assembly import Structure
 from labjoint.structure.system import NonlinearSystem
 
 
-@dataclass(frozen=True)
-class Shaker:
-    """Electrodynamic shaker on a voltage amplifier (SI units)."""
-
-    armature_mass_kg: float
-    suspension_stiffness_n_per_m: float
-    suspension_damping_ns_per_m: float
-    coil_resistance_ohm: float
-    coil_inductance_h: float
-    force_factor_n_per_a: float
-    amplifier_gain_v_per_v: float = 1.0
-
-    def __post_init__(self) -> None:
-        for k, v in asdict(self).items():
-            if not np.isfinite(v) or v < 0 or (v == 0 and k in ("armature_mass_kg", "coil_resistance_ohm",
-                                                                 "force_factor_n_per_a", "amplifier_gain_v_per_v")):
-                raise InputError(f"must be finite and {'positive' if v == 0 else 'non-negative'}, got {v}",
-                                 field=k)
-
-    def apparent_mass(self, w: np.ndarray) -> np.ndarray:
-        """Z_a = m_a + c_s / (i w) - k_s / w^2: armature force per unit acceleration."""
-        return self.armature_mass_kg + self.suspension_damping_ns_per_m / (1j * w) - self.suspension_stiffness_n_per_m / w**2
-
-    def coil_impedance(self, w: np.ndarray) -> np.ndarray:
-        return self.coil_resistance_ohm + 1j * w * self.coil_inductance_h
-
-    def to_dict(self) -> dict[str, float]:
-        return {k: float(v) for k, v in asdict(self).items()}
-
-
 def force_per_volt(shaker: Shaker, frequencies_hz: Any, drive_accelerance: Any) -> np.ndarray:
-    """F / V (N per generator volt) on a structure of drive-point accelerance H_d (closed form above)."""
+    """F / V (N per generator volt) on a structure of drive-point accelerance H_d (closed form
+    above; :func:`labjoint.models.shaker.force_per_volt` on the receptance -H_d / w^2)."""
     w = 2 * np.pi * np.asarray(frequencies_hz, float)
-    h = np.asarray(drive_accelerance, complex)
-    bl, g, ze = shaker.force_factor_n_per_a, shaker.amplifier_gain_v_per_v, shaker.coil_impedance(w)
-    return (bl * g / ze) / (1 + h * (shaker.apparent_mass(w) + bl**2 / (1j * w * ze)))
+    return receptance_force_per_volt(shaker, frequencies_hz, -np.asarray(drive_accelerance, complex) / w**2)
 
 
 def linear_accelerance(structure: Structure, frequencies_hz: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -125,26 +95,8 @@ def identify_shaker(frequencies_hz: Any, force_per_volt_measured: Any, drive_acc
         raise InputError("needs at least 4 frequencies with F/V and a/F at each", field="frequencies_hz")
     if not amplifier_gain_v_per_v > 0:
         raise InputError("must be positive", field="amplifier_gain_v_per_v")
-    w = 2 * np.pi * f
-    iw = 1j * w
     y = 1.0 / fv
-    cols = np.stack([np.ones_like(iw), iw, h * iw, h, h / iw, h / iw**2], 1)
-    scale = 1.0 / np.abs(y)                                   # relative misfit
-    A = np.vstack([(cols * scale[:, None]).real, (cols * scale[:, None]).imag])
-    b = np.concatenate([(y * scale).real, (y * scale).imag])
-    cn = np.linalg.norm(A, axis=0)
-    p = np.linalg.lstsq(A / cn, b, rcond=None)[0] / cn
-    a1, a2, p1, p0, pm1, pm2 = p
-    if not (a1 > 0 and a2 > 0):
-        raise InputError("the test does not determine the coil (resistance and inductance); "
-                         "widen the frequency band", field="frequencies_hz")
-    m, k = p1 / a2, pm2 / a1
-    c = (p0 - a1 * m) / a2
-    bg = pm1 - a1 * c - a2 * k                                # Bl / G
-    g = float(amplifier_gain_v_per_v)
-    bl = bg * g
-    shaker = Shaker(float(m), float(max(k, 0.0)), float(max(c, 0.0)), float(a1 * bl * g), float(a2 * bl * g),
-                    float(bl), g)
+    shaker = shaker_from_force(f, fv, h, float(amplifier_gain_v_per_v))
     misfit = np.sqrt(np.mean(np.abs(1.0 / force_per_volt(shaker, f, h) - y) ** 2 / np.abs(y) ** 2))
     return shaker, float(misfit)
 

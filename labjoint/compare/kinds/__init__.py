@@ -26,6 +26,7 @@ from labjoint.compare.kinds.frf_maps import FRF
 from labjoint.compare.kinds.modal_maps import MODAL
 from labjoint.compare.kinds.record import RECORD, RecordMeasurement, prepare_record
 from labjoint.compare.kinds.sine import SINE
+from labjoint.identify.plausible import Plausibility, refuse_large_record
 from labjoint.compare.measurement import Kind, Measurement
 from labjoint.compare.prepared import PreparedRun
 from labjoint.compare.runs import prepare_run
@@ -75,7 +76,7 @@ def check_quantities(run: Run) -> None:
 
 
 def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str = "auto",
-            warmup: str | float = "auto") -> list[Measurement]:
+            warmup: str | float = "auto", plausibility: Plausibility | None = None) -> list[Measurement]:
     """Measurements of one kind from run-file or CSV paths, Runs or prepared measurements
     (these pass through); names made unique.
 
@@ -83,6 +84,9 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
     "auto": sine when every run's force is a steady sine
     (:func:`labjoint.signal.excitation.detect_excitation`), else record for all of them,
     so that one set is judged one way.
+    ``plausibility``: the sine kind's limits (:mod:`labjoint.identify.plausible`); the
+    displacement cap is checked on every run's samples before any run is prepared (a
+    refusal in seconds, not after the slow part).
     """
     if kind not in ("auto", *KINDS):
         raise InputError(f"unknown kind {kind!r}; known: auto, {', '.join(KINDS)}", field="kind")
@@ -113,6 +117,10 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
         given = {r.kind for r in items if isinstance(r, (PreparedRun, RecordMeasurement))}
         sine = all(e.kind == "sine" for e in found.values())
         kind = "sine" if sine and given <= {"sine"} else "record"
+    if kind == "sine":
+        for r in items:
+            if isinstance(r, Run):
+                refuse_large_record(r.displacement, plausibility, f"run '{r.name}': ")
     out: list[Measurement] = []
     for r in items:
         if isinstance(r, FrfMeasurement):
@@ -124,7 +132,8 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
                                  field="kind")
             out.append(r)
         elif isinstance(r, Run):
-            out.append(prepare_run(r, prime_cycles=prime_cycles) if kind == "sine"
+            out.append(prepare_run(r, prime_cycles=prime_cycles, plausibility=plausibility)
+                       if kind == "sine"
                        else prepare_record(r, warmup=warmup, excitation=found.get(id(r))))
         else:
             raise InputError(f"expected a run file path or a Run, got {type(r).__name__}",

@@ -268,4 +268,5 @@ def prepare_modal(path: str | ChannelRecord, basis: ModalBasis, responses: Seque
     n = judged.stop - judged.start
     return ModalMeasurement(rec.name, basis, drive, tuple(names), qts, judged, np.array(scales), lin, RunData(inputs, y, np.ones(y.size, bool)),
                             _spans(n, len(names)),
-                            float(level) if level is not None else None, str(path), dict(rec.metadata))
+                            float(level) if level is not None else None, str(path),
+                            {**rec.metadata, "drive_channel": dr.name, "drive_quantity": dr.quantity})

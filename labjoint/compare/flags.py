@@ -1,0 +1,54 @@
+"""Flags for a user's likely mistakes in what was measured (issue 29 item 7), for the fit,
+diagnose and ladder JSON (``measurement_flags``) and text.
+
+- **negative measured energy loss**: a passive joint dissipates, so the measured loop's
+  energy loss W (seed 002 Eq. 1; for a record, the sum of F v / fs over the judged
+  samples) is positive. W < 0 beyond its uncertainty (a record: beyond 1 % of the sum
+  of |F v| / fs, its stored energy's scale) means the loop runs backwards: a
+  force (or displacement) sensor of inverted sign, or a voltage taken as the force.
+
+(A drive channel whose quantity is not the model's input, a voltage given to a
+force-input model, is refused when the run is prepared,
+:func:`labjoint.compare.kinds.check_quantities`; parameters whose standard error exceeds
+their value carry a ``flag`` in the parameter table, :func:`labjoint.models.result.parameter_table`.)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from labjoint.identify.resolution import COVERAGE
+
+NEGATIVE_ENERGY = ("measured energy loss {w:.4g} J < 0: the loop runs backwards (a passive joint "
+                   "dissipates); usually a sensor of inverted sign, or a voltage taken as the force")
+
+
+def measurement_flags(measurements: Sequence[Any]) -> list[dict[str, Any]]:
+    """[{run, flag, message, ...}] for the measurements that show a likely mistake."""
+    out: list[dict[str, Any]] = []
+    for m in measurements:
+        if getattr(m, "kind", None) not in ("sine", "record"):
+            continue
+        loop = getattr(m, "loop", None)
+        if loop is not None and getattr(loop, "summary", None):
+            w = float(loop.summary.get("energy_loss_j", np.nan))
+            unc = float(loop.summary.get("energy_loss_j_uncertainty", 0.0) or 0.0)
+        else:
+            w = float(m.figures(m.data.force)["energy_loss_measured_j"])
+            j = m.judged                                  # the work's own scale: 1 % of sum |F v| / fs
+            unc = 0.01 * float(np.sum(np.abs(m.data.force[j] * m.data.inputs.v[j]))) / m.fs / COVERAGE
+        f = energy_flag(m.name, w, unc)
+        if f:
+            out.append(f)
+    return out
+
+
+def energy_flag(run: str, w: float, uncertainty: float) -> dict[str, Any] | None:
+    """The negative-energy-loss flag of one loop (W, J, and its standard uncertainty), or None."""
+    if np.isfinite(w) and w < -COVERAGE * (uncertainty if np.isfinite(uncertainty) else 0.0):
+        return {"run": run, "flag": "negative_energy_loss", "energy_loss_j": float(w),
+                "message": NEGATIVE_ENERGY.format(w=w)}
+    return None

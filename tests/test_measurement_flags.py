@@ -1,0 +1,66 @@
+"""Flags for a user's mistakes (issue 29 item 7): a negative measured energy loss in the
+fit / diagnose / analyze JSON and text; against a loop of known W written here."""
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from labjoint.compare import fit_runs
+
+LABJOINT = [sys.executable, "-m", "labjoint.cli.main"]
+
+
+def _csv(path, c, amp=2e-5, f=10.0, fs=2000.0, k=1e6):
+    """A linear loop F = k u + c v: W = pi c w U^2 per cycle (negative for c < 0)."""
+    t = np.arange(int(4 * fs)) / fs
+    u = amp * np.sin(2 * np.pi * f * t)
+    F = k * u + c * amp * 2 * np.pi * f * np.cos(2 * np.pi * f * t)
+    rows = "\n".join(f"{a:.6f},{b:.9e},{x:.9e}" for a, b, x in zip(t, u, F))
+    path.write_text(f"# frequency_hz: {f}\n# sample_rate_hz: {fs}\ntime_s,displacement_m,force_N\n{rows}\n")
+    return path
+
+
+def test_negative_energy_loss_flagged_in_fit_json(tmp_path):
+    bad, good = _csv(tmp_path / "backwards.csv", c=-50.0), _csv(tmp_path / "fine.csv", c=50.0)
+    res = fit_runs([bad], "linear_stiffness+viscous")
+    (flag,) = res["measurement_flags"]
+    w = np.pi * -50.0 * 2 * np.pi * 10.0 * (2e-5) ** 2
+    assert flag["run"] == "backwards" and flag["flag"] == "negative_energy_loss"
+    assert flag["energy_loss_j"] == pytest.approx(w, rel=0.02)
+    assert "sign" in flag["message"] and "voltage" in flag["message"]
+    assert "measurement_flags" not in fit_runs([good], "linear_stiffness+viscous")
+
+
+def test_negative_energy_loss_in_analyze_and_fit_text(tmp_path):
+    bad = _csv(tmp_path / "backwards.csv", c=-50.0)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    r = subprocess.run([*LABJOINT, "analyze", str(bad), "--json"], capture_output=True, text=True, env=env,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr
+    (row,) = json.loads(r.stdout)["runs"]
+    assert row["flags"][0]["flag"] == "negative_energy_loss"
+    r = subprocess.run([*LABJOINT, "fit", str(bad), "--model", "linear_stiffness+viscous"], capture_output=True,
+                       text=True, env=env, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "warning: run backwards: measured energy loss" in r.stdout
+
+
+def test_negative_energy_loss_on_a_record(tmp_path):
+    """A broadband record (the record kind: W = sum of F v / fs) run backwards."""
+    fs, rng = 2000.0, np.random.default_rng(1)
+    t = np.arange(int(4 * fs)) / fs
+    freqs = np.arange(5.0, 80.0, 2.5)
+    ph = rng.uniform(0, 2 * np.pi, freqs.size)
+    u = 1e-5 * np.sin(2 * np.pi * np.multiply.outer(t, freqs) + ph).sum(-1) / np.sqrt(freqs.size)
+    v = 1e-5 * (2 * np.pi * freqs * np.cos(2 * np.pi * np.multiply.outer(t, freqs) + ph)).sum(-1) / np.sqrt(freqs.size)
+    for name, c in (("backwards", -30.0), ("fine", 30.0)):
+        F = 1e6 * u + c * v
+        rows = "\n".join(f"{a:.6f},{b:.9e},{x:.9e}" for a, b, x in zip(t, u, F))
+        (tmp_path / f"{name}.csv").write_text(f"# sample_rate_hz: {fs}\ntime_s,displacement_m,force_N\n{rows}\n")
+    res = fit_runs([tmp_path / "backwards.csv"], "linear_stiffness+viscous", kind="record")
+    assert res["measurement_flags"][0]["run"] == "backwards"
+    assert "measurement_flags" not in fit_runs([tmp_path / "fine.csv"], "linear_stiffness+viscous", kind="record")
