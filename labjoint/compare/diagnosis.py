@@ -123,8 +123,9 @@ class CandidateResult:
 
 def fit_asymmetry(fit: FitResult, runs: Sequence[Measurement]) -> list[dict[str, Any]]:
     """The even effects' asymmetry (:mod:`labjoint.models.asymmetry`) at the largest
-    displacement amplitude of the runs (none for FRF sets: their data are phasors)."""
-    if not any(n in EVEN for n in fit.model.names) or not runs or runs[0].kind == "frf":
+    displacement amplitude of the runs (none for FRF sets and backbones: their data are
+    phasors, frequencies and damping ratios)."""
+    if not any(n in EVEN for n in fit.model.names) or not runs or runs[0].kind in ("frf", "backbone"):
         return []
     if hasattr(runs[0], "displacement_amplitude"):     # modal records: the model's modal amplitude
         u = max(r.displacement_amplitude(fit.model, fit.params_) for r in runs)
@@ -176,7 +177,7 @@ class Diagnosis:
 
     def to_dict(self, full: bool = False) -> dict[str, Any]:
         d: dict[str, Any] = {
-            "model": self.model.expr, "kind": self.evaluation.runs[0].run.kind,
+            "model": self.model.expr, "kind": kind_of(self.evaluation.runs_measured()).name,
             "nrmse": self.nrmse, "noise_floor": self.noise.nrmse,
             "adequate": self.adequate, "verdict": self.verdict, "factor": self.settings.factor,
             "nrmse_validation": self.nrmse_validation,
