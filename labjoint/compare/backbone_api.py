@@ -19,7 +19,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from labjoint.compare.frf_api import MAX_HARMONICS, _predictor, load_frf
+from labjoint.compare.frf_api import MAX_HARMONICS, _predictor, is_frfset, load_frf
 from labjoint.compare.kinds.backbone import prepare_backbones
 from labjoint.errors import InputError
 from labjoint.signal.backbone import Backbone, is_backbone_file, load_backbones
@@ -63,6 +63,12 @@ def load_structural(items: Sequence[Any], validate: Sequence[Any] | None, option
     name, file stem or part before ``/``, ``:`` or ``@`` is in ``validate``)."""
     bb = [it for it in items if is_backbone(it)]
     rest = [it for it in items if not is_backbone(it)]
+    odd = [str(it) for it in rest if not is_frfset(it)
+           and not (isinstance(it, (str, Path)) and Path(it).suffix.lower() in (".h5", ".hdf5"))]
+    if odd:
+        raise InputError(f"{', '.join(odd[:3])} cannot be judged with backbones: only FRF sets (or "
+                         "the step-sine runs to make one of) of the same structure combine with "
+                         "them; compare the others on their own", field="runs")
     named = _named(bb)
     ms: list[Any] = []
     if rest:

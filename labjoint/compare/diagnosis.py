@@ -233,7 +233,8 @@ class Baseline:
         n_samples = sum(int(np.count_nonzero(r.run.data.steady)) for r in rv)
         noise_var = self.floor ** 2 * sum(r.ssf for r in rv) / max(n_samples, 1)
         test = noise_test(np.concatenate([r.unit_sse() for r in rv]),
-                          np.concatenate([r.unit_sse() for r in cv]), dforce, noise_var)
+                          np.concatenate([r.unit_sse() for r in cv]), dforce, noise_var,
+                          known=bool(getattr(self.kind, "known_noise", False)))
         nv_base, nv = ref.nrmse(val), ev.nrmse(val)
         sig, reason = is_significant(test, nv_base, nv, self.floor, self.significance)
         maps = self.kind.maps(ev.runs, {})

@@ -97,10 +97,12 @@ def _point(d: Any, where: str, file: str | None) -> BackbonePoint:
         elif isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
             raise InputError(f"must be a finite number, got {v!r}", file=file, field=f"{where}.{k}")
         vals[k] = v
-    if not (vals["amplitude"] > 0 and vals["frequency_hz"] > 0):
-        raise InputError("amplitude and frequency_hz must be > 0", file=file, field=where)
-    if any(vals[k] < 0 for k in POINT_FIELDS if k.endswith("_sd")):
-        raise InputError("uncertainties must be >= 0", file=file, field=where)
+    for k in ("amplitude", "frequency_hz"):
+        if not vals[k] > 0:
+            raise InputError(f"must be > 0, got {vals[k]!r}", file=file, field=f"{where}.{k}")
+    for k in POINT_FIELDS:
+        if k.endswith("_sd") and vals[k] < 0:
+            raise InputError(f"an uncertainty must be >= 0, got {vals[k]!r}", file=file, field=f"{where}.{k}")
     extra = {k: v for k, v in d.items() if k not in POINT_FIELDS and k != "amplitude_units"}
     return BackbonePoint(**vals, extra=extra)
 

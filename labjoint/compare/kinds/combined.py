@@ -10,7 +10,8 @@ candidate effect is judged on both kinds of evidence at once.
 A :class:`CombinedKind` is made of the kinds it joins (:data:`COMBINABLE`, registered by
 :func:`labjoint.compare.kinds.kind_of` for a set that mixes them). Each set-level
 operation asks each part kind about its own measurements and joins the answers:
-split (each kind's rule on its own), maps and failures (each kind's, in its own words),
+split (each kind's rule on its own), the significance test (against the stated noise,
+``known_noise``), maps and failures (each kind's, in its own words),
 evidence (each kind's sentence, on its own measurements), candidates (the structure's:
 the FRF kind's), and the fit (:func:`labjoint.compare.kinds.frf_fit.fit_frf`, which
 stacks every measurement's whitened residual; its starts come from the FRF sweeps). A
@@ -60,6 +61,10 @@ class CombinedCurves:
 
 class CombinedKind:
     """Set-level operations over measurements of several kinds (module docstring)."""
+
+    #: residuals whitened by stated uncertainties: candidates are tested against that noise
+    #: whatever the number of units (:func:`labjoint.compare.significance.noise_test`)
+    known_noise = True
 
     def __init__(self, kinds: dict[str, Any]) -> None:
         self.kinds = dict(sorted(kinds.items(), key=lambda kv: kv[0] != "frf"))   # frf first
