@@ -103,9 +103,10 @@ export async function show(el) {
   const msg = h('div', { id: 'backbone-msg' });
   const out = h('div', { id: 'backbone-view' });
   const pick = select('backbone-stored', stored.backbones, '(stored backbones)');
-  const runs = h('div', { class: 'run-pick', id: 'backbone-runs' }, ...runList.items
-    .filter((r) => ['phase_resonance', 'step_sine'].includes(r.plan))
+  const usable = runList.items.filter((r) => ['phase_resonance', 'step_sine'].includes(r.plan));
+  const runs = h('div', { class: 'run-pick', id: 'backbone-runs' }, ...usable
     .map((r) => h('label', { class: 'field inline' }, h('input', { type: 'checkbox', value: r.name }), r.name)));
+  if (!usable.length) runs.append(h('p', { class: 'note' }, 'No complete phase_resonance or step_sine run yet.'));
   const name = h('input', { id: 'backbone-name', placeholder: 'name to store as', size: 16 });
   const st = select('backbone-structure', files.structures, '(structure)');
   const fs = h('select', { id: 'backbone-frfsets', multiple: true, size: Math.min(4, files.frfsets.length || 1) },
