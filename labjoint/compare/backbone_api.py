@@ -43,6 +43,11 @@ def _named(items: Sequence[Any]) -> list[tuple[str, Backbone, int, str | None]]:
         bs, mode = load_backbones(it)
         for b in bs:
             out.append((f"{Path(it).stem}:{_method(b)}", b, mode - 1, str(it)))
+    seen: dict[str, int] = {}
+    for i, (name, b, mode, path) in enumerate(out):      # two files of one stem: names kept apart
+        seen[name] = seen.get(name, 0) + 1
+        if seen[name] > 1:
+            out[i] = (f"{name}#{seen[name]}", b, mode, path)
     for name, b, _, path in out:
         if len(b.points) < MIN_POINTS:
             raise InputError(f"backbone '{name}' has {len(b.points)} point(s): too few to compare "
@@ -61,6 +66,9 @@ def load_structural(items: Sequence[Any], validate: Sequence[Any] | None, option
     """Measurements of backbone files (or Backbones) and of FRF sets or step-sine runs
     beside them, on one structure model; and the validation names (measurements whose
     name, file stem or part before ``/``, ``:`` or ``@`` is in ``validate``)."""
+    if options.get("structure") is None:
+        raise InputError("backbones are compared inside a structure: give the structure file "
+                         "(--structure STRUCTURE.toml)", field="structure")
     bb = [it for it in items if is_backbone(it)]
     rest = [it for it in items if not is_backbone(it)]
     odd = [str(it) for it in rest if not is_frfset(it)
