@@ -171,3 +171,22 @@ def test_readme_commands_on_the_simulated_structural_rig_name_the_slip_law(tmp_p
     assert top and top[0].startswith("damping too low above")
     best = dg["candidates"][0]
     assert best["effect"] == "iwan" and best["nrmse_after_validation"] < 0.3 * dg["nrmse_validation"]
+
+
+def test_model_json_shapes_a_backbone_model_takes(tmp_path, capsys):
+    """--model MODEL.json: a saved model file, a fit's JSON, a ladder's (its last step);
+    anything else is refused naming the file."""
+    from labjoint.cli.cmd_backbone import model_file
+
+    params = {"linear_stiffness.k": {"value": 2e8, "stderr": None, "unit": "N/m"}}
+    shapes = {"saved.json": {"format": "labjoint-model/1", "model": "linear_stiffness", "parameters": params},
+              "fit.json": {"model": "linear_stiffness", "nrmse": 0.1, "parameters": params},
+              "ladder.json": {"steps": [{"model": "viscous", "parameters": {}},
+                                        {"model": "linear_stiffness", "parameters": params}]}}
+    for name, d in shapes.items():
+        (tmp_path / name).write_text(json.dumps(d))
+        assert model_file(str(tmp_path / name)) == ("linear_stiffness", {"linear_stiffness.k": 2e8})
+    (tmp_path / "runs.json").write_text(json.dumps({"runs": []}))
+    code, out, err = run(capsys, "backbone", "--model", tmp_path / "runs.json", "--mass", "1",
+                         "--amplitudes", "1e-6:1e-3:3", "--json")
+    assert code == 2 and out == "" and "runs.json" in err and len(err.strip().splitlines()) == 1
