@@ -360,7 +360,7 @@ def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
             cands[i] = judge(c.effect, c.fit, evaluate(model, ab.params_, runs, loops=False))
     cands.sort(key=lambda c: c.nrmse_after_validation)
     t2 = time.perf_counter()
-    mark_ties(cands, ev, val_names, floor_val, sig_s)
+    mark_ties(cands, ev, val_names, floor_val, sig_s, known=bool(getattr(kind, "known_noise", False)))
     cands.sort(key=lambda c: (not c.significant, c.nrmse_after_validation))
     cands = simpler_first(cands)
     best = next((c for c in cands if c.significant), None)

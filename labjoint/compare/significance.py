@@ -33,7 +33,9 @@ Tie (stated): two candidates are tied when the difference of their validation NR
 within its uncertainty, max(2 standard errors of the paired per-cycle test between them,
 ``tie_tol`` x the noise floor), and what they add to the baseline's prediction is
 nearly the same on the data: correlation of the two changes of the model force above
-``tie_corr`` (default 0.95).
+``tie_corr`` (default 0.95). Where the noise is known (whitened data, above) the standard
+error of that difference is the noise's, from 2 sigma ||F_a - F_b||
+(:func:`labjoint.compare.ties.mark_ties`).
 """
 
 from __future__ import annotations
