@@ -88,3 +88,17 @@ def test_the_openapi_schema_has_one_request_schema_per_plan_type(tmp_path):
     assert dwell["additionalProperties"] is False
     body = schema["paths"]["/api/v1/plans"]["post"]["requestBody"]["content"]["application/json"]
     assert body["schema"]["discriminator"]["propertyName"] == "plan"
+
+
+def test_a_phase_resonance_plan_is_admitted_on_the_structural_rig_and_its_limits_checked():
+    """The dry run's ideal rig answers on every configured channel with the response at the
+    loop's target phase (it locks at once), so the plan reaches its records and ringdown;
+    a level above the generator's limit is refused naming the step."""
+    cfg = load_config("configs/rig-structure-sim.toml")
+    plan = {"plan": "phase_resonance", "levels_vpp": [0.5, 1.5, 5.0], "f_start_hz": 28.0,
+            "band_hz": [20.0, 35.0], "response_channel": "free_end", "n_cycles": 60, "ringdown_s": 8.0}
+    check_plan(plan, cfg)
+    with pytest.raises(InputError, match=r"step \d+ \(Ramp\): amplitude 500 Vpp"):
+        check_plan({**plan, "levels_vpp": [0.5, 500.0]}, cfg)
+    with pytest.raises(InputError, match="'nowhere'"):
+        check_plan({**plan, "response_channel": "nowhere"}, cfg)

@@ -51,3 +51,24 @@ def test_backbones_of_runs_through_the_client(served):
         with pytest.raises(ApiError) as e:          # bad input: named, without the server's paths
             c.backbones([n for n in names if "ringdown" in n], sensor="nothere")
         assert e.value.status == 422 and "nothere" in e.value.message and str(d) not in e.value.message
+
+
+@pytest.mark.slow
+def test_backbones_stored_under_a_name_and_read_back(served):
+    url, d = served
+    names = [Path(f).stem for f in sorted(glob.glob(str(d / "*.h5")))]
+    with Client(url, CONTROL) as c:
+        got = c.backbones(names, save_as="pr")
+        assert got["saved"] == "pr" and (d / "backbones" / "pr.json").is_file()
+        assert c.stored_backbones() == ["pr"]
+        f = c.stored_backbone("pr")
+        assert f["format"] == "labjoint.backbone/1" and f["mode"] == 1
+        stored = [p["frequency_hz"] for b in f["backbones"] for p in b["points"]]
+        assert stored == pytest.approx([p["frequency_hz"] for p in got["points"]])
+        with pytest.raises(ApiError) as e:          # never overwritten unless asked
+            c.backbones(names, save_as="pr")
+        assert e.value.status == 422 and "overwrite" in e.value.message
+        assert c.backbones(names, save_as="pr", overwrite=True)["saved"] == "pr"
+        with pytest.raises(ApiError) as e:
+            c.backbones(names, save_as="jobs")
+        assert e.value.status == 422

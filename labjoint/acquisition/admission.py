@@ -2,7 +2,8 @@
 
 :func:`check_plan` builds the plan (its own parameter limits, :mod:`.plans`), then runs it
 dry against an ideal rig (every wait reaches steady state, every measurement finds the
-force the plan asks for) and checks each message as the engine would: generator settings
+force the plan asks for on every channel of the rig, and a plan's ``response_channel``
+at the phase its loop seeks: a phase-locked loop locks at once) and checks each message as the engine would: generator settings
 within the safety limits (:func:`~labjoint.acquisition.safety.check_settings`: amplitude,
 frequency range), a closed-loop force target (``force_amplitude_n``) within
 ``max_force_n`` (:func:`~labjoint.acquisition.safety.check_force_target`), every drive
@@ -22,6 +23,7 @@ from typing import Any
 from labjoint.acquisition.messages import (Configure, LoadWaveform, Measure, Measurement,
                                            Message, Ramp, Record, SteadyResult, WaitSteady)
 from labjoint.acquisition.plans import load_plan
+from labjoint.acquisition.plans_resonance import TARGET_DEG
 from labjoint.acquisition.safety import LimitTrip, check_force_target, check_settings
 from labjoint.config import RigConfig
 from labjoint.errors import InputError
@@ -31,10 +33,19 @@ MAX_MESSAGES = 100_000
 _REF = "reference"
 
 
-def _ideal(params: Mapping[str, Any], max_vpp: float) -> Any:
-    """Answers of a rig that is always steady and delivers the force asked for."""
+def _ideal(params: Mapping[str, Any], max_vpp: float, config: RigConfig | None = None) -> Any:
+    """Answers of a rig that is always steady and delivers the force asked for, on its
+    reference channel and every channel of ``config``; the plan's ``response_channel`` (a
+    phase-resonance loop's) at its target phase against the force."""
     force = float(params.get("force_amplitude_n", 1.0) or 1.0)
     state = {"f": 1.0}
+    names = [c.name for c in config.daq.channels] if config is not None else []
+    ref = (config.rig.reference_force_channel if config is not None else None) or _REF
+    amp = {n: force for n in [*names, ref, _REF]}
+    phase = dict.fromkeys(amp, 0.0)
+    resp = params.get("response_channel")
+    if isinstance(resp, str) and resp in amp:
+        phase[resp] = math.radians(TARGET_DEG.get(str(params.get("response_quantity", "acceleration")), 0.0))
 
     def respond(msg: Message) -> Any:
         if isinstance(msg, (Configure, LoadWaveform)):
@@ -42,7 +53,7 @@ def _ideal(params: Mapping[str, Any], max_vpp: float) -> Any:
         if isinstance(msg, WaitSteady):
             return SteadyResult(True, msg.window, 0.0)
         if isinstance(msg, Measure):
-            return Measurement(state["f"], {_REF: force}, {_REF: 0.0}, _REF, max_vpp)
+            return Measurement(state["f"], dict(amp), dict(phase), ref, max_vpp)
         return None
 
     return respond
@@ -62,7 +73,7 @@ def check_plan(plan: Mapping[str, Any], config: RigConfig) -> None:
             except LimitTrip as trip:
                 gen.close()
                 raise InputError(f"{trip} (the rig's limit)", field=key) from None
-    respond = _ideal(params, limits.max_vpp)
+    respond = _ideal(params, limits.max_vpp, config)
     f, offset, answer, band = None, 0.0, None, None
     names: dict[str, int] = {}
     try:

@@ -1,12 +1,18 @@
 """`labjoint backbone RUN...|FRF.json [--model EXPR --param NAME=VALUE ...] [--structure S.toml
-| --mass KG [--stiffness N/M]] [--sensor NAME] [--amplitudes LO:HI:N] [--modal-mass KG] [--json]`.
+| --mass KG [--stiffness N/M]] [--sensor NAME] [--amplitudes LO:HI:N] [--modal-mass KG]
+[--out BACKBONE.json] [--json]`.
 
 Measured backbones (frequency and damping ratio against the fundamental's displacement
 amplitude at the response sensor) from phase-resonance level runs, a ringdown run (the
 exciter's force removed with the phase resonance's apparent modal mass, when both are
 given), step-sine runs or an FRF set file; the model's beside them: the extended
 periodic motion concept on ``--structure`` (its joints' law, or ``--model`` with
-``--param``), or the single-DOF modal form of ``--model`` with ``--mass``.
+``--param``), or the single-DOF modal form of ``--model`` with ``--mass``. ``--model``
+may also name a JSON file: a saved model (``labjoint-model/1``), or the ``--json`` output
+of ``labjoint fit`` or ``labjoint ladder`` (its final step), whose parameters are taken
+(``--param`` overrides them). ``--out`` writes the measured backbones as a backbone file
+(``labjoint.backbone/1``, :mod:`labjoint.signal.backbone`), the input of ``labjoint
+fit|diagnose|ladder BACKBONE.json --structure S.toml``.
 JSON (design.md): {"points": [{"amplitude", "amplitude_units", "frequency_hz",
 "damping_ratio", "method", "amplitude_sd", "frequency_sd_hz", "damping_sd", ...}],
 "model": [...same fields...], "notes": [...]}.
@@ -17,13 +23,14 @@ from __future__ import annotations
 import argparse
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from labjoint.cli.output import emit_json, table
 from labjoint.cli.structure_inputs import floats
 from labjoint.errors import InputError
-from labjoint.signal.backbone import Backbone
+from labjoint.signal.backbone import Backbone, save_backbones
 
 
 def add_backbone_arguments(p: argparse.ArgumentParser) -> None:
@@ -33,7 +40,8 @@ def add_backbone_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--modal-mass", type=float, default=None, metavar="KG",
                    help="apparent modal mass between force and sensor (default: from the lowest "
                         "phase-resonance level's phase slope)")
-    p.add_argument("--model", default=None, metavar="EXPR", help="joint law, e.g. linear_stiffness+iwan")
+    p.add_argument("--model", default=None, metavar="EXPR|MODEL.json",
+                   help="joint law, e.g. linear_stiffness+iwan, or a model file / fit or ladder JSON")
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="a parameter of --model (effect.param=value), repeated")
     p.add_argument("--structure", default=None, metavar="S.toml", help="structure file: EPMC backbone")
@@ -44,6 +52,8 @@ def add_backbone_arguments(p: argparse.ArgumentParser) -> None:
                    help="single-DOF modal form: linear stiffness beside the law (default 0)")
     p.add_argument("--amplitudes", default=None, metavar="LO:HI:N",
                    help="model amplitudes (m at the sensor, log spaced; default: the measured range)")
+    p.add_argument("--out", default=None, metavar="BACKBONE.json",
+                   help="write the measured backbones as a backbone file (labjoint.backbone/1)")
 
 
 def _params(items: list[str]) -> dict[str, float]:
@@ -54,6 +64,39 @@ def _params(items: list[str]) -> dict[str, float]:
             raise InputError(f"expected NAME=VALUE, got '{item}'", field="--param")
         out[key.strip()] = floats(val, f"--param {key}")[0]
     return out
+
+
+def model_file(path: str) -> tuple[str, dict[str, float]]:
+    """(model expression, parameter values) of a JSON model: a saved model file, or the
+    ``--json`` output of fit/diagnose ({"model", "parameters": {name: {"value"}}}) or of a
+    ladder (its last step)."""
+    import json
+
+    try:
+        d = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise InputError(f"not a readable model file ({exc})", file=path, field="--model") from None
+    if isinstance(d, dict) and isinstance(d.get("steps"), list) and d["steps"]:
+        d = d["steps"][-1]
+    if not (isinstance(d, dict) and isinstance(d.get("model"), str) and isinstance(d.get("parameters"), dict)):
+        raise InputError("expected a model file or a fit/ladder JSON with 'model' and 'parameters'",
+                         file=path, field="--model")
+    vals = {}
+    for k, v in d["parameters"].items():
+        x = v.get("value") if isinstance(v, dict) else v
+        if isinstance(x, bool) or not isinstance(x, (int, float)):
+            raise InputError(f"parameter value must be a number, got {x!r}", file=path, field=k)
+        vals[k] = float(x)
+    return d["model"], vals
+
+
+def _law(args: argparse.Namespace) -> Any:
+    from labjoint.structure.law import JointLaw
+
+    expr, vals = args.model, {}
+    if expr.lower().endswith(".json"):
+        expr, vals = model_file(expr)
+    return JointLaw(expr, {**vals, **_params(args.param)}, field="--model")
 
 
 def _amplitudes(args: argparse.Namespace, meas: list[Backbone]) -> np.ndarray:
@@ -72,11 +115,9 @@ def _amplitudes(args: argparse.Namespace, meas: list[Backbone]) -> np.ndarray:
 
 def modelled(args: argparse.Namespace, meas: list[Backbone]) -> Backbone | None:
     """The model's backbone asked for by ``--structure`` / ``--model`` / ``--mass``."""
-    from labjoint.structure.law import JointLaw
-
     if args.structure is None and args.model is None:
         return None
-    law = JointLaw(args.model, _params(args.param), field="--model") if args.model else None
+    law = _law(args) if args.model else None
     A = _amplitudes(args, meas)
     if args.structure is not None:
         from labjoint.structure import load_structure
@@ -104,10 +145,15 @@ def run(args: argparse.Namespace) -> int:
 
     meas = measured_backbones(args.inputs, args.sensor, args.modal_mass)
     model = modelled(args, meas)
+    if args.out:
+        if not meas:
+            raise InputError("--out writes measured backbones: give runs or an FRF set", field="--out")
+        save_backbones(args.out, meas, args.mode)
     points = [p.to_dict(b.amplitude_units) for b in meas for p in b.points]
     res = {"points": points, "model": [] if model is None else model.to_dict()["points"],
            "notes": [n for b in meas + ([model] if model else []) for n in b.notes],
-           "sensor": (meas[0].sensor if meas else model.sensor if model else None)}
+           "sensor": (meas[0].sensor if meas else model.sensor if model else None),
+           "saved": args.out}
     if args.json:
         emit_json(res)
         return 0

@@ -2,7 +2,9 @@
 
 RUN is an HDF5 run file or a CSV file in the import format (design.md), or an FRF set
 file (JSON, format ``labjoint.frfset/1``) compared inside ``--structure STRUCTURE.toml``
-(the ``frf`` kind: the joint model in the structure's joints). With ``--json``
+(the ``frf`` kind: the joint model in the structure's joints), or a backbone file (JSON,
+``labjoint.backbone/1``, written by ``labjoint backbone --out``) inside the same structure
+(the ``backbone`` kind), alone or beside FRF sets in one comparison. With ``--json``
 each prints the JSON object of the model-comparison contract; without it, the same as
 readable tables.
 """
@@ -27,7 +29,7 @@ def _x100(x: Any) -> float | None:
 
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("runs", nargs="+", metavar="RUN",
-                   help="HDF5 run files or CSV files (import format), or FRF set files (JSON)")
+                   help="HDF5 run files or CSV files (import format), or FRF set and backbone files (JSON)")
     p.add_argument("--model", required=True, metavar="EXPR",
                    help="effects joined by '+', e.g. linear_stiffness+iwan")
     p.add_argument("--validate", nargs="+", metavar="RUN", default=None,
@@ -37,7 +39,7 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="cycles of priming for records that start in steady state ('auto')")
     p.add_argument("--seed", type=int, default=0, help="seed of the fitter's extra starts")
     p.add_argument("--structure", default=None, metavar="STRUCTURE.toml",
-                   help="FRF sets: the structure whose joints carry the model")
+                   help="FRF sets and backbones: the structure whose joints carry the model")
     p.add_argument("--modes", type=int, default=None, metavar="N",
                    help="FRF sets: Craig-Bampton kept modes (default 10)")
     p.add_argument("--harmonics", type=int, default=None, metavar="H",

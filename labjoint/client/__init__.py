@@ -211,15 +211,36 @@ class Client:
 
     # -- structures (issue 15) -----------------------------------------------------
     def backbones(self, runs: Iterable[str], modal_mass_kg: float | None = None,
-                  sensor: str | None = None) -> dict[str, Any]:
+                  sensor: str | None = None, save_as: str | None = None, mode: int = 1,
+                  overwrite: bool = False) -> dict[str, Any]:
         """Frequency and damping against amplitude of catalogued runs (phase_resonance
-        levels and ringdown, or step_sine runs): ``{"points", "notes", "sensor"}``."""
+        levels and ringdown, or step_sine runs): ``{"points", "notes", "sensor", "saved"}``;
+        ``save_as`` stores them as the backbone file ``backbones/<save_as>.json`` (of mode
+        ``mode``) for :meth:`backbone_model`."""
         body: dict[str, Any] = {"runs": list(runs)}
         if modal_mass_kg is not None:
             body["modal_mass_kg"] = modal_mass_kg
         if sensor is not None:
             body["sensor"] = sensor
+        if save_as is not None:
+            body.update(save_as=save_as, mode=mode, overwrite=overwrite)
         return self.request("POST", "/backbones", json=body)
+
+    def stored_backbones(self) -> list[str]:
+        """Names of the stored backbone files."""
+        return self.request("GET", "/backbones")["backbones"]
+
+    def stored_backbone(self, name: str) -> dict[str, Any]:
+        """A stored backbone file: {"format", "mode", "backbones": [...]}."""
+        return self.request("GET", f"/backbones/{name}")
+
+    def backbone_model(self, operation: str, structure: str, backbones: Iterable[str], model: str,
+                       frfsets: Iterable[str] = (), max_steps: int = 3, timeout: float = 3600.0,
+                       **options: Any) -> dict[str, Any]:
+        """``operation`` ("fit", "diagnose", "ladder") of a joint model inside ``structure`` on
+        stored backbones, with FRF sets judged beside them in one comparison; waited for."""
+        return self.frf_model(operation, structure, frfsets, model, max_steps, timeout,
+                              backbones=list(backbones), **options)
 
     def structures(self) -> dict[str, list[str]]:
         """Structure files and FRF sets of the data directory: {"structures", "frfsets"}."""
@@ -267,11 +288,14 @@ class Client:
                                    timeout)
 
     def frf_model(self, operation: str, structure: str, frfsets: Iterable[str], model: str,
-                  max_steps: int = 3, timeout: float = 3600.0, **options: Any) -> dict[str, Any]:
+                  max_steps: int = 3, timeout: float = 3600.0, backbones: Iterable[str] = (),
+                  **options: Any) -> dict[str, Any]:
         """``operation`` ("fit", "diagnose", "ladder") of a joint model inside ``structure`` on
-        FRF sets, waited for."""
+        FRF sets (and stored backbones beside them), waited for."""
         body = {"frfsets": list(frfsets), "model": model, "max_steps": max_steps,
                 "options": options}
+        if backbones:
+            body["backbones"] = list(backbones)
         job = self.request("POST", f"/structures/{structure}/models/{operation}", json=body)
         return self._result(self._wait(lambda: self.request("GET", f"/models/jobs/{job['id']}"),
                                        JOB_FINISHED, timeout, 0.5))

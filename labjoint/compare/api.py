@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from labjoint.compare.backbone_api import is_backbone, load_structural
 from labjoint.compare.frf_api import FRF_OPTIONS, is_frfset, load_frf, save_beside
 from labjoint.compare.diagnosis import (DiagnoseSettings, Diagnosis, diagnose_prepared,
                                        fit_asymmetry, parameters_dict)
@@ -51,7 +52,9 @@ def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | s
     """Prepared measurements of one kind (:func:`labjoint.compare.kinds.prepare`;
     validation runs named but not among ``runs`` are added) and the validation run names.
     FRF set files (or FrfSets) are prepared as the ``frf`` kind inside the structure of
-    ``frf`` (the options of :mod:`labjoint.compare.frf_api`)."""
+    ``frf`` (the options of :mod:`labjoint.compare.frf_api`); backbone files (or
+    Backbones) as the ``backbone`` kind on the same structure, judged together with FRF
+    sets given beside them (:mod:`labjoint.compare.backbone_api`)."""
     if isinstance(runs, (str, Path)) or not isinstance(runs, Iterable):
         runs = [runs]
     items = list(runs)
@@ -61,6 +64,10 @@ def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | s
     if frf.get("modal") is not None or kind == "modal":
         return load_modal(items, validate, frf)
     frf.pop("responses", None)
+    if any(is_backbone(x) for x in items):
+        if kind not in ("auto", "frf", "backbone"):
+            raise InputError(f"backbone files are the backbone kind, not {kind}", field="kind")
+        return load_structural(items, validate, frf)
     if any(is_frfset(x) for x in items) or (frf.get("structure") is not None and kind in ("auto", "frf")):
         if kind not in ("auto", "frf"):
             raise InputError(f"FRF sets are the frf kind, not {kind}", field="kind")
@@ -89,14 +96,19 @@ def _load(runs: Any, options: dict[str, Any]) -> tuple[list[Measurement], list[s
 
 
 def _measured(d: dict[str, Any], ms: Sequence[Measurement]) -> dict[str, Any]:
-    """FRF results say what their NRMSE and noise floor are (design.md's ``measurement``);
-    ``measurement_flags``: a user's likely mistakes in the data (:mod:`.flags`)."""
+    """FRF and backbone results say what their NRMSE and noise floor are (design.md's
+    ``measurement``); ``measurement_flags``: a user's likely mistakes in the data
+    (:mod:`.flags`)."""
     flags = measurement_flags(ms)
     if flags:
         d["measurement_flags"] = flags
-    if ms and ms[0].kind == "frf":
-        d["measurement"] = "frf"
-        d["error"] = "response phasors (harmonics 1..H) whitened by the FRF set's response_std"
+    kinds = {m.kind for m in ms}
+    if kinds and kinds <= {"frf", "backbone"}:
+        d["measurement"] = "+".join(k for k in ("frf", "backbone") if k in kinds)
+        d["error"] = " and ".join(
+            {"frf": "response phasors (harmonics 1..H) whitened by the FRF set's response_std",
+             "backbone": "frequency and damping ratio per amplitude whitened by the points' "
+                         "standard uncertainties"}[k] for k in ("frf", "backbone") if k in kinds)
     if ms and ms[0].kind == "modal":
         d["measurement"] = "modal"
         d["error"] = ("simulation error of the measured responses (each channel in its quantity, "
@@ -160,7 +172,7 @@ class FitReport:
 
     def to_dict(self, full: bool = False) -> dict[str, Any]:
         d: dict[str, Any] = {
-            "model": self.fit.model.expr, "kind": self.evaluation.runs[0].run.kind,
+            "model": self.fit.model.expr, "kind": kind_of(self.evaluation.runs_measured()).name,
             "parameters": parameters_dict(self.fit),
             "flags": self.fit.flags_,
             "asymmetry": fit_asymmetry(self.fit, [r.run for r in self.evaluation.runs]),
@@ -233,7 +245,7 @@ def ladder_report(runs: Any, model: str | Model, max_steps: int | None = None,
     lad = build_ladder(prepared, model, max_steps=max_steps, auto=bool(auto), validate=val,
                        settings=settings_from(options), progress=options.get("progress"))
     errors: dict[str, str] = {}
-    if save and prepared[0].kind == "frf":
+    if save and {m.kind for m in prepared} <= {"frf", "backbone"}:
         return lad, save_beside(lad.to_dict(), prepared, lad.start, "ladder"), errors
     saved = save_ladder(lad.to_dict(), [r.path for r in prepared], errors) if save else []
     return lad, saved, errors

@@ -123,8 +123,9 @@ class CandidateResult:
 
 def fit_asymmetry(fit: FitResult, runs: Sequence[Measurement]) -> list[dict[str, Any]]:
     """The even effects' asymmetry (:mod:`labjoint.models.asymmetry`) at the largest
-    displacement amplitude of the runs (none for FRF sets: their data are phasors)."""
-    if not any(n in EVEN for n in fit.model.names) or not runs or runs[0].kind == "frf":
+    displacement amplitude of the runs (none for FRF sets and backbones: their data are
+    phasors, frequencies and damping ratios)."""
+    if not any(n in EVEN for n in fit.model.names) or not runs or runs[0].kind in ("frf", "backbone"):
         return []
     if hasattr(runs[0], "displacement_amplitude"):     # modal records: the model's modal amplitude
         u = max(r.displacement_amplitude(fit.model, fit.params_) for r in runs)
@@ -176,7 +177,7 @@ class Diagnosis:
 
     def to_dict(self, full: bool = False) -> dict[str, Any]:
         d: dict[str, Any] = {
-            "model": self.model.expr, "kind": self.evaluation.runs[0].run.kind,
+            "model": self.model.expr, "kind": kind_of(self.evaluation.runs_measured()).name,
             "nrmse": self.nrmse, "noise_floor": self.noise.nrmse,
             "adequate": self.adequate, "verdict": self.verdict, "factor": self.settings.factor,
             "nrmse_validation": self.nrmse_validation,
@@ -232,7 +233,8 @@ class Baseline:
         n_samples = sum(int(np.count_nonzero(r.run.data.steady)) for r in rv)
         noise_var = self.floor ** 2 * sum(r.ssf for r in rv) / max(n_samples, 1)
         test = noise_test(np.concatenate([r.unit_sse() for r in rv]),
-                          np.concatenate([r.unit_sse() for r in cv]), dforce, noise_var)
+                          np.concatenate([r.unit_sse() for r in cv]), dforce, noise_var,
+                          known=bool(getattr(self.kind, "known_noise", False)))
         nv_base, nv = ref.nrmse(val), ev.nrmse(val)
         sig, reason = is_significant(test, nv_base, nv, self.floor, self.significance)
         maps = self.kind.maps(ev.runs, {})
@@ -358,7 +360,7 @@ def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
             cands[i] = judge(c.effect, c.fit, evaluate(model, ab.params_, runs, loops=False))
     cands.sort(key=lambda c: c.nrmse_after_validation)
     t2 = time.perf_counter()
-    mark_ties(cands, ev, val_names, floor_val, sig_s)
+    mark_ties(cands, ev, val_names, floor_val, sig_s, known=bool(getattr(kind, "known_noise", False)))
     cands.sort(key=lambda c: (not c.significant, c.nrmse_after_validation))
     cands = simpler_first(cands)
     best = next((c for c in cands if c.significant), None)

@@ -51,6 +51,9 @@ class LadderStep:
              "candidates": self.candidates}
         if self.tie:
             d["tie"] = self.tie
+        curves = getattr(getattr(self.diagnosis, "maps", None), "step_curves", None)
+        if curves is not None:           # backbones: the step's model at the measured amplitudes
+            d["backbone_curves"] = curves()
         if self.diagnosis is not None:   # per run: a step may help the set, hurt some runs
             d["runs"] = [{"run": r.name, "energy_loss_error_pct": r.energy_loss_error_pct,
                           "stiffness_error_pct": r.stiffness_error_pct}

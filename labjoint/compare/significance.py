@@ -16,7 +16,11 @@ held-out samples with white noise e of variance sigma^2 (from the noise floor), 
 difference of the two residual energies is a deterministic part plus 2 sum(e dF), dF the
 change of the model force, whose standard deviation is 2 sigma ||dF||; z = dSSE /
 (2 sigma ||dF||), one-sided normal p. The smaller of the two p values is taken and the
-reason says which test decided.
+reason says which test decided. Data whose noise is known rather than estimated (residuals
+whitened by stated uncertainties: a set with backbones, :mod:`labjoint.compare.kinds.combined`)
+take the noise test whatever the number of units (``known``): there the units are far
+from alike (a backbone band whose frequency misfit is hundreds of uncertainties beside
+FRF phasors the candidate barely moves), which the t-test reads as noise.
 
 Practical threshold (stated): a deterministic improvement repeats in every cycle, so even
 a negligible one can reach a tiny p on many cycles; a candidate is significant only if
@@ -29,7 +33,9 @@ Tie (stated): two candidates are tied when the difference of their validation NR
 within its uncertainty, max(2 standard errors of the paired per-cycle test between them,
 ``tie_tol`` x the noise floor), and what they add to the baseline's prediction is
 nearly the same on the data: correlation of the two changes of the model force above
-``tie_corr`` (default 0.95).
+``tie_corr`` (default 0.95). Where the noise is known (whitened data, above) the standard
+error of that difference is the noise's, from 2 sigma ||F_a - F_b||
+(:func:`labjoint.compare.ties.mark_ties`).
 """
 
 from __future__ import annotations
@@ -90,14 +96,15 @@ def paired_test(base: np.ndarray, cand: np.ndarray) -> PairedTest:
     return PairedTest(float(t), p, n, mean, float(se))
 
 
-def noise_test(base: np.ndarray, cand: np.ndarray, dforce_sq: float, noise_var: float
-               ) -> PairedTest:
+def noise_test(base: np.ndarray, cand: np.ndarray, dforce_sq: float, noise_var: float,
+               known: bool = False) -> PairedTest:
     """The paired test over units (:func:`paired_test`), and with fewer than ``FEW_UNITS``
-    units also the test against measurement noise (module docstring): the smaller p.
-    ``dforce_sq``: sum over the validation samples of the squared change of the model
-    force (N^2); ``noise_var``: the white-noise variance per sample (N^2)."""
+    units (or any number when the noise is ``known``) also the test against measurement
+    noise (module docstring): the smaller p. ``dforce_sq``: sum over the validation
+    samples of the squared change of the model force (N^2); ``noise_var``: the
+    white-noise variance per sample (N^2)."""
     t = paired_test(base, cand)
-    if t.n >= FEW_UNITS or not (dforce_sq > 0 and noise_var > 0):
+    if (t.n >= FEW_UNITS and not known) or not (dforce_sq > 0 and noise_var > 0):
         return t
     d_sse = float(np.sum(base) - np.sum(cand))
     sd = 2.0 * float(np.sqrt(noise_var * dforce_sq))
@@ -129,7 +136,8 @@ def is_significant(test: PairedTest, base_nrmse: float, cand_nrmse: float, floor
         return False, (f"p = {test.p:.2g}, but the improvement {100 * gain:.3g} % is below the "
                        f"practical threshold {100 * need:.3g} %")
     how = (f"over {test.n} validation cycles" if test.method == "paired t" else
-           f"against the measurement noise (only {test.n} validation units)")
+           f"against the measurement noise ({'' if test.n < FEW_UNITS else 'stated; '}"
+           f"{'only ' if test.n < FEW_UNITS else ''}{test.n} validation units)")
     return True, f"p = {test.p:.2g} {how}, improvement {100 * gain:.3g} %"
 
 

@@ -69,10 +69,16 @@ def tie_reason(a: str, b: str, nrmse_a: float, nrmse_b: float, uncertainty: floa
 
 
 def mark_ties(cands: list[Any], base_ev: Any, val: list[str], floor: float,
-              s: SignificanceSettings) -> None:
-    """Mark pairs that cannot be told apart on these data (:mod:`.significance`)."""
+              s: SignificanceSettings, known: bool = False) -> None:
+    """Mark pairs that cannot be told apart on these data (:mod:`.significance`). Where the
+    noise is ``known`` (residuals whitened by stated uncertainties) the uncertainty of the
+    difference is that noise's: the two residual energies differ by a deterministic part
+    plus 2 sum(e (F_a - F_b)), of standard deviation 2 sigma ||F_a - F_b|| (the units'
+    spread would read a backbone band's large misfit as scatter)."""
     base_f = {r.name: r.model_force for r in base_ev.subset(val)}
     ssf = sum(r.ssf for r in base_ev.subset(val))
+    n = sum(int(np.count_nonzero(r.run.data.steady)) for r in base_ev.subset(val))
+    sigma = floor * np.sqrt(ssf / max(n, 1))
 
     def added(c: Any) -> np.ndarray:
         return np.concatenate([(r.model_force - base_f[r.name])[r.run.data.steady]
@@ -84,8 +90,12 @@ def mark_ties(cands: list[Any], base_ev: Any, val: list[str], floor: float,
             test = paired_test(np.concatenate([r.unit_sse() for r in a.evaluation.subset(val)]),
                                np.concatenate([r.unit_sse() for r in bb.evaluation.subset(val)]))
             diff = abs(a.nrmse_after_validation - bb.nrmse_after_validation)
-            unc = max(2 * nrmse_se(test, a.nrmse_after_validation, bb.nrmse_after_validation, ssf),
-                      s.tie_tol * floor)
+            se = nrmse_se(test, a.nrmse_after_validation, bb.nrmse_after_validation, ssf)
+            both = a.nrmse_after_validation + bb.nrmse_after_validation
+            if known and ssf > 0 and both > 0:
+                d = added(a) - added(bb)
+                se = 2 * sigma * float(np.sqrt(d @ d)) / (ssf * both)
+            unc = max(2 * se, s.tie_tol * floor)
             if diff > unc:
                 continue
             rho = correlation(added(a), added(bb))

@@ -43,7 +43,7 @@ from typing import Iterable
 import numpy as np
 
 from labjoint.errors import InputError
-from labjoint.signal.backbone import Backbone, BackbonePoint
+from labjoint.signal.backbone import Backbone, BackbonePoint, is_backbone_file, load_backbones
 from labjoint.signal.frf_steps import frfset_from_runs, phasors
 from labjoint.signal.frfset import FrfSet
 from labjoint.signal.ringdown import ringdown_backbone
@@ -259,14 +259,18 @@ def measured_backbones(inputs: Iterable[str | Path], sensor: str | None = None,
     """Backbones of run files and FRF set files by their kind: phase_resonance levels
     (one backbone), ringdown runs (the force removed with the levels' apparent modal mass
     when there are levels or ``modal_mass``), step_sine runs (one FRF set) and FRF set
-    files (.json)."""
+    files (.json); a backbone file (``labjoint.backbone/1``, .json) gives its backbones."""
     levels, rings, steps, sets = [], [], [], []
+    stored: list[Backbone] = []
     for name in inputs:
         path = Path(name)
         if not path.exists():
             raise InputError("no such file", file=str(name))
         if path.suffix.lower() == ".json":
-            sets.append(FrfSet.load(path))
+            if is_backbone_file(path):
+                stored += load_backbones(path)[0]
+            else:
+                sets.append(FrfSet.load(path))
             continue
         with open_run(path) as rf:
             md = rf.metadata
@@ -294,4 +298,4 @@ def measured_backbones(inputs: Iterable[str | Path], sensor: str | None = None,
     if steps:
         sets.append(frfset_from_runs(steps, sensors=[sensor] if sensor else None))
     out += [frfset_backbone(s, sensor) for s in sets]
-    return out
+    return stored + out

@@ -1,13 +1,15 @@
-"""Structures: modes, stage-1 and stage-2 updating, model FRFs, and model jobs on FRF sets.
+"""Structures: modes, stage-1 and stage-2 updating, model FRFs, and model jobs on FRF sets
+and backbones.
 
 Structure files (TOML, :mod:`labjoint.structure.config`) live in the data directory's
 ``structures/`` folder, FRF set files (JSON, :mod:`labjoint.signal.frfset`) in its
 ``frf/`` folder; a request names them by file stem, which is looked up among the
 folder's files (nothing a client sends is joined into a path). Modes answer at once;
 updating, FRFs and the comparison (fit, diagnose, ladder of a joint model inside the
-structure, :mod:`labjoint.compare.frf_api`) are jobs: model jobs are listed, polled and
+structure on FRF sets and stored backbones, ``backbones/`` folder:
+:mod:`labjoint.compare.frf_api`, :mod:`labjoint.compare.backbone_api`) are jobs: model jobs are listed, polled and
 cancelled with ``/models/jobs``, the others with ``/structures/jobs``. A ladder is saved
-beside its FRF files (``<stem>.model_ladder_<key>.json``).
+beside its FRF and backbone files (``<stem>.model_ladder_<key>.json``).
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ from labjoint.compare.kinds import FRF
 from labjoint.errors import InputError
 
 router = APIRouter(prefix="/structures", tags=["structures"])
-STRUCTURES, FRFSETS = "structures", "frf"
+STRUCTURES, FRFSETS, BACKBONES = "structures", "frf", "backbones"
 #: names a file cannot have: ``/structures/jobs/{id}`` would shadow ``/structures/{name}/...``
 RESERVED = frozenset({"jobs"})
 KINDS = ("structure_update", "structure_frf", "structure_stage2", "structure_curves")
@@ -83,7 +85,9 @@ class FrfModelOptions(_In):
 
 
 class FrfModelRequest(_In):
-    frfsets: list[Name] = Field(min_length=1, max_length=20)
+    frfsets: list[Name] = Field(default_factory=list, max_length=20)
+    backbones: list[Name] = Field(default_factory=list, max_length=20,
+                                  description="stored backbone files (GET /backbones), judged with the FRF sets")
     model: str = Field("linear_stiffness", pattern=MODEL_EXPR, max_length=400)
     max_steps: int = Field(3, ge=1, le=10)
     options: FrfModelOptions = Field(default_factory=FrfModelOptions)
@@ -99,7 +103,7 @@ def named_file(request: Request, folder: str, name: str, suffix: str) -> FsPath:
         for p in base.iterdir():
             if p.is_file() and p.suffix == suffix and p.stem == name:
                 return p.resolve()
-    raise not_found(folder.rstrip("s") if folder == STRUCTURES else "frf set", name)
+    raise not_found({STRUCTURES: "structure", FRFSETS: "frf set"}.get(folder, "backbone file"), name)
 
 
 def _listing(request: Request, folder: str, suffix: str) -> list[str]:
@@ -265,13 +269,17 @@ def curves(request: Request, body: CurvesRequest, name: str = Path(pattern=RUN_N
 def model_job(request: Request, body: FrfModelRequest, name: str = Path(pattern=RUN_NAME),
               operation: Literal["fit", "diagnose", "ladder"] = Path(),
               scope: str = Depends(require_control)) -> dict[str, Any]:
-    """The comparison loop with the joint model inside the structure (the ``frf`` kind):
-    residuals over frequency x level x harmonic, candidates ranked against the FRF's
-    noise floor; poll with ``/models/jobs/{id}``."""
+    """The comparison loop with the joint model inside the structure on FRF sets (the
+    ``frf`` kind: residuals over frequency x level x harmonic), stored backbones (the
+    ``backbone`` kind: frequency and damping over amplitude) or both in one comparison;
+    candidates ranked against the data's own noise floor; poll with ``/models/jobs/{id}``."""
     from labjoint.models import Model
 
     path = named_file(request, STRUCTURES, name, ".toml")
+    if not body.frfsets and not body.backbones:
+        raise InputError("name FRF sets, backbones or both", field="frfsets")
     files = [str(named_file(request, FRFSETS, n, ".json")) for n in dict.fromkeys(body.frfsets)]
+    files += [str(named_file(request, BACKBONES, n, ".json")) for n in dict.fromkeys(body.backbones)]
     Model.parse(body.model)
     o = body.options.model_dump(by_alias=True, exclude_unset=True)
     kw: dict[str, Any] = {"structure": str(path), "modes": body.options.modes}
@@ -283,7 +291,8 @@ def model_job(request: Request, body: FrfModelRequest, name: str = Path(pattern=
     if operation == "ladder":
         kw.update(max_steps=body.max_steps, save=body.options.save)
     if body.options.validate_:
-        kw["validate"] = [named_file(request, FRFSETS, n, ".json").stem for n in body.options.validate_]
+        kw["validate"] = [named_file(request, BACKBONES if n in body.backbones else FRFSETS, n, ".json").stem
+                          for n in body.options.validate_]
     if "candidates" in kw:
         try:
             FRF.candidates(Model.parse(body.model), settings_from({"candidates": kw["candidates"]}).candidates)
@@ -296,6 +305,7 @@ def model_job(request: Request, body: FrfModelRequest, name: str = Path(pattern=
             kw.pop("progress")
         return as_result(getattr(compare, operation)(files, body.model, **kw))
 
-    req = {"operation": operation, "structure": name, "frfsets": body.frfsets, "model": body.model,
+    req = {"operation": operation, "structure": name, "frfsets": body.frfsets,
+           "backbones": body.backbones, "model": body.model,
            "max_steps": body.max_steps, "options": o}
     return _job(request, f"model_{operation}", req, scope, work, long=operation != "fit")

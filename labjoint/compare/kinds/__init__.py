@@ -12,6 +12,9 @@
 - ``modal``: records of a structure nobody can describe, inside a modal model of its
   measured modes with the joint on mode 1, judged on the measured responses
   (:mod:`.modal`, :mod:`.modal_fit`, :mod:`.modal_maps`; prepared with :func:`.modal.prepare_modal`).
+
+FRF sweeps and backbones of one structure may be judged together, in one fit and one
+diagnosis (:mod:`.combined`); any other mixture of kinds is refused.
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from labjoint.compare.kinds.backbone_maps import BACKBONE
+from labjoint.compare.kinds.combined import COMBINABLE, CombinedKind
 from labjoint.compare.kinds.frf import FrfMeasurement
 from labjoint.compare.kinds.frf_maps import FRF
 from labjoint.compare.kinds.modal_maps import MODAL
@@ -40,13 +44,18 @@ KINDS: dict[str, Kind] = {SINE.name: SINE, RECORD.name: RECORD, FRF.name: FRF, B
 
 
 def kind_of(ms: Sequence[Measurement]) -> Kind:
-    """The one kind of a set of measurements (a set mixing kinds is refused)."""
+    """The one kind of a set of measurements; FRF sweeps with backbones, the kind that
+    judges them together (:mod:`.combined`); any other mixture is refused."""
     names = sorted({m.kind for m in ms})
     if not names:
         raise InputError("no measurements given", field="runs")
     if len(names) > 1:
-        raise InputError(f"the runs mix kinds of measurement {names}; prepare them all as "
-                         "one kind (kind='record' takes any excitation)", field="runs")
+        if set(names) <= COMBINABLE:
+            return CombinedKind({n: KINDS[n] for n in names})
+        raise InputError(f"the runs mix kinds of measurement {names} that cannot be judged "
+                         f"together (only {' and '.join(sorted(COMBINABLE))} of one structure "
+                         "can); prepare them all as one kind (kind='record' takes any "
+                         "excitation)", field="runs")
     return KINDS[names[0]]
 
 

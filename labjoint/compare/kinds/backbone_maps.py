@@ -44,6 +44,22 @@ class BackboneMaps:
         return {"axes": ["amplitude_m", "quantity"], "cells": self.cells,
                 "residual_over_noise_by_quantity": self.by_quantity()}
 
+    def step_curves(self) -> list[dict[str, Any]]:
+        """The model's backbone at the measured amplitudes, one per measured backbone (its
+        even and odd parts joined, amplitude ascending): what a ladder step draws."""
+        joined: dict[str, dict[str, list[float]]] = {}
+        for c in self.cells:       # cells come in pairs (frequency, damping) per measurement
+            j = joined.setdefault(c["run"].rsplit("/", 1)[0], {})
+            if c["quantity"] == "frequency_hz":
+                j.setdefault("amplitude_m", []).extend(c["amplitude_m"])
+            j.setdefault(c["quantity"], []).extend(c["model"])
+        out = []
+        for name, j in joined.items():
+            order = np.argsort(j["amplitude_m"])
+            out.append({"backbone": name, **{k: [float(j[k][i]) for i in order]
+                                             for k in ("amplitude_m", "frequency_hz", "damping_ratio")}})
+        return out
+
 
 @dataclass(frozen=True)
 class NoCurves:

@@ -90,11 +90,14 @@ class FrfMeasurement:
         z = vector.reshape(len(self.frfset), len(self.frfset.sensors), self.frfset.harmonics, 2)
         return (z[..., 0] + 1j * z[..., 1]) * self.std / np.sqrt(2.0)
 
+    def predict_law(self, law: Any) -> np.ndarray:
+        """The whitened response of the structure with every joint's law ``law``."""
+        return whiten(self.predictor.predict(self.frfset, law, self.frfset.harmonics), self.std)
+
     def predict(self, model: Model, params: Parameters | dict) -> np.ndarray:
         """The model's whitened response at the steps (the core's model force)."""
         vals = {k: float(v.value if hasattr(v, "value") else v) for k, v in params.items()}
-        law = self.predictor.law_of(model, {k: vals[k] for k in model.param_names})
-        return whiten(self.predictor.predict(self.frfset, law, self.frfset.harmonics), self.std)
+        return self.predict_law(self.predictor.law_of(model, {k: vals[k] for k in model.param_names}))
 
     def figures(self, model_force: np.ndarray) -> dict[str, float]:
         """Peak of the harmonic-1 response of the first sensor per newton: where and how high,

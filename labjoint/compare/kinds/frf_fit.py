@@ -17,6 +17,12 @@ parameters stay within ``SCALE_RANGE`` of their start, signed ones are searched 
 of their start's magnitude. A trial point
 where harmonic balance does not converge (e.g. a joint in full macro-slip) answers
 ``NO_SOLUTION`` x the last residual, so the search steps back instead of failing.
+
+The fit measurements may include other kinds judged on the same structure's joint law
+(backbones, :mod:`labjoint.compare.kinds.backbone`): each gives its whitened prediction
+for a law (``predict_law``), their residuals are stacked with the FRF ones into one
+weighted least-squares problem, the starts still come from the FRF sweeps, and the
+Jacobian is then taken by differences (the analytic one is harmonic balance's, per step).
 """
 
 from __future__ import annotations
@@ -229,15 +235,16 @@ def fit_frf(model: Model | str, fit_ms: Sequence[FrfMeasurement],
     if bad:
         raise InputError(f"effect '{bad[0]}' cannot act in a structure's joint: {refusal(bad[0])}",
                          field="model")
-    if not fit_ms:
+    frf_ms = [m for m in fit_ms if m.kind == "frf"]
+    if not frf_ms:
         raise InputError("no FRF measurements to fit", field="runs")
-    pr = fit_ms[0].predictor
+    pr = frf_ms[0].predictor
     names = model.param_names
     last: list[np.ndarray] = []
     try:
-        start = best_start(model, fit_ms, init)
+        start = best_start(model, frf_ms, init)
     except ConvergenceError:      # judged at its neutral values, flagged: not a crash of the diagnosis
-        start, max_nfev = neutral_start(model, fit_ms, init), 1
+        start, max_nfev = neutral_start(model, frf_ms, init), 1
     law0 = pr.law_of(model, start)
     typical = {n: abs(v) for n, v in start.items() if v}
 
@@ -260,7 +267,7 @@ def fit_frf(model: Model | str, fit_ms: Sequence[FrfMeasurement],
 
     lf = fit_law(law0, names, residual, None, max_nfev=max_nfev or 12 * len(names),
                  scale_range=SCALE_RANGE, typical=typical,
-                 jacobian=jacobian if ANALYTIC_JACOBIAN else None)
+                 jacobian=jacobian if ANALYTIC_JACOBIAN and len(frf_ms) == len(fit_ms) else None)
     params = model.make_params(values=lf.values)
     for k in names:
         params[k].stderr = lf.stderr[k]
@@ -277,8 +284,8 @@ def fit_frf(model: Model | str, fit_ms: Sequence[FrfMeasurement],
 
 
 def whitened_residual(m: FrfMeasurement, law) -> np.ndarray:
-    model = whiten(m.predictor.predict(m.frfset, law, m.frfset.harmonics), m.std)
-    return model - m.data.force
+    """Model minus measured, whitened, of any measurement with ``predict_law``."""
+    return m.predict_law(law) - m.data.force
 
 
 def _sse(m: FrfMeasurement, law) -> float:

@@ -24,6 +24,7 @@ export const VIEWS = {
     'plot/svg.js'],
   reprocess: ['views/reprocess.js', 'dom.js'],
   frf: ['views/frf.js', 'dom.js', 'units.js', 'plot/plot.js', 'plot/axes.js', 'plot/svg.js'],
+  backbone: ['views/backbone.js', 'dom.js', 'units.js', 'plot/plot.js', 'plot/axes.js', 'plot/svg.js'],
 };
 // The first requests of a view that takes a while to load, asked for while its modules
 // load (the view's own identical requests take these replies; a reply the view does not

@@ -1,8 +1,10 @@
 // Line and scatter plots on linear or log axes, with horizontal reference lines.
 //
 // plotXY({series: [{name, x, y, color, mode: 'line'|'points'|'both', dash, opacity,
-//   legend}], xlabel, ylabel, title, xlog, ylog, hlines: [{y, label, color}], id,
+//   legend, err}], xlabel, ylabel, title, xlog, ylog, hlines: [{y, label, color}], id,
 //   width, height}) -> <svg data-plot=id data-points=N data-series=M>
+// A points series with `err` (one standard uncertainty per point) gets error bars y ± err
+// (on a log axis a bar reaching zero or below stops at y / 10).
 
 import { axis, drawFrame } from './axes.js';
 import { color, nextId, s } from './svg.js';
@@ -86,12 +88,22 @@ export function plotXY(o) {
       const g = s('g', { fill: sr.color, 'fill-opacity': sr.opacity ?? 1, 'data-name': sr.name || '',
         'data-drawn': sr.drawn });
       let n = 0;
+      let bars = 0;
       for (let i = 0; i < sr.x.length; i += 1) {
         if (!ok(sr.x[i], o.xlog) || !ok(sr.y[i], o.ylog)) continue;
+        const e = sr.err ? sr.err[i] : null;
+        if (e != null && Number.isFinite(e) && e > 0) {
+          const lo = sr.y[i] - e;
+          const x = xa.map(sr.x[i]).toFixed(1);
+          g.append(s('line', { x1: x, x2: x, y1: ya.map(o.ylog && lo <= 0 ? sr.y[i] / 10 : lo).toFixed(1),
+            y2: ya.map(sr.y[i] + e).toFixed(1), stroke: sr.color, 'stroke-width': 1, class: 'errbar' }));
+          bars += 1;
+        }
         g.append(s('circle', { cx: xa.map(sr.x[i]).toFixed(1), cy: ya.map(sr.y[i]).toFixed(1), r: sr.r || 3.5 }));
         n += 1;
       }
       if (sr.mode === 'points') total += n;
+      if (bars) g.setAttribute('data-bars', String(bars));
       body.append(g);
     }
   }
