@@ -16,7 +16,7 @@ import numpy as np
 from labjoint.errors import InputError
 from labjoint.structure.beam import assemble, element_matrices
 from labjoint.structure.joint import Joint
-from labjoint.structure.sections import HollowCircle, Material
+from labjoint.structure.sections import Material, Section
 
 X_TOL = 1e-9
 
@@ -26,7 +26,7 @@ class Component:
     """A straight beam from ``x_start_m`` over ``length_m`` with one section and material."""
 
     name: str
-    section: HollowCircle
+    section: Section
     material: Material
     x_start_m: float
     length_m: float
