@@ -95,3 +95,41 @@ def test_two_point_joint_refusals():
     with pytest.raises(InputError) as e:
         pair_states("cubic_stiffness", q, basis, ("s2", "s3"), drive)
     assert e.value.field == "modal.drive2"
+
+
+def _record(scale: float, name: str):
+    from labjoint.storage.channels import Channel, ChannelRecord
+    global GAIN
+    g0 = GAIN
+    GAIN = g0 * scale
+    try:
+        t, x, a = _reference()
+    finally:
+        GAIN = g0
+    rng = np.random.default_rng(int(scale * 100))
+    chans = {"v": Channel("v", scale * volts(t), "voltage", "V", "drive")}
+    for i, (nm, qty, y, unit) in enumerate((("s1", "acceleration", a[:, 0], "m/s^2"),
+                                            ("s2", "displacement", x[:, 1], "m"),
+                                            ("s3", "acceleration", a[:, 2], "m/s^2"))):
+        chans[nm] = Channel(nm, y + 1e-4 * y.std() * rng.standard_normal(y.size), qty, unit, "response")
+    return ChannelRecord(name, t, FS, chans, {})
+
+
+def test_fit_between_two_points_recovers_the_joint():
+    """Records of the physical chain at two levels (voltage drive, acceleration and
+    displacement responses, 0.01 % noise) fitted through the modal kind with the joint
+    between s2 and s3: the law (converted to mode 1's unit modal mass) and the drives come
+    back (and the relative modal masses), validated on the level not fitted."""
+    from labjoint.compare.kinds.modal import prepare_modal
+    from labjoint.compare.kinds.modal_fit import fit_modal
+    basis, truth = _basis_and_params()
+    recs = [_record(0.5, "low"), _record(1.0, "high")]
+    ms = [prepare_modal(r, basis, between=("s2", "s3")) for r in recs]
+    fit = fit_modal("quadratic_stiffness+cubic_stiffness", ms[1:], ms[:1])
+    v = fit.params_.valuesdict()
+    assert fit.nrmse_ < 1e-3 and fit.validation_nrmse_ < 1e-3
+    for k in truth:
+        assert v[k] == pytest.approx(truth[k], rel=2e-3), k
+    assert v["shaker.highpass_hz"] < 0.05
+    with pytest.raises(InputError, match="no sensor 'tip'"):
+        prepare_modal(recs[0], basis, between=("tip", "s3"))
