@@ -121,11 +121,11 @@ def test_fit_between_two_points_recovers_the_joint():
     between s2 and s3: the law (converted to mode 1's unit modal mass) and the drives come
     back (and the relative modal masses), validated on the level not fitted."""
     from labjoint.compare.kinds.modal import prepare_modal
-    from labjoint.compare.kinds.modal_fit import fit_modal
+    from labjoint.compare.kinds.modal_maps import MODAL
     basis, truth = _basis_and_params()
     recs = [_record(0.5, "low"), _record(1.0, "high")]
     ms = [prepare_modal(r, basis, between=("s2", "s3")) for r in recs]
-    fit = fit_modal("quadratic_stiffness+cubic_stiffness", ms[1:], ms[:1])
+    fit = MODAL.fit("quadratic_stiffness+cubic_stiffness", ms[1:], ms[:1])
     v = fit.params_.valuesdict()
     assert fit.nrmse_ < 1e-3 and fit.validation_nrmse_ < 1e-3
     for k in truth:

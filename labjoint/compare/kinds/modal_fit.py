@@ -144,11 +144,7 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
               start: Mapping[str, float] | None = None,
               bounds: Mapping[str, tuple[float, float]] | None = None,
               max_nfev: int | None = None) -> FitResult:
-    """Fit ``model`` on mode 1 of the records (module docstring), or between two sensors
-    when the records name them (:mod:`.modal_pair_fit`)."""
-    if fit_ms and fit_ms[0].between:
-        from labjoint.compare.kinds.modal_pair_fit import fit_modal_pair
-        return fit_modal_pair(model, fit_ms, val_ms, init, start, bounds, max_nfev)
+    """Fit ``model`` on mode 1 of the records (module docstring)."""
     model = Model.parse(model)
     check_modal_model(model)
     if not fit_ms:
