@@ -130,6 +130,8 @@ def test_fit_between_two_points_recovers_the_joint():
     assert fit.nrmse_ < 1e-3 and fit.validation_nrmse_ < 1e-3
     for k in truth:
         assert v[k] == pytest.approx(truth[k], rel=2e-3), k
+        se = fit.params_[k].stderr          # finite, and covering the small error it made
+        assert 0 < se < 2e-3 * abs(truth[k]) and abs(v[k] - truth[k]) < 10 * se, k
     assert v["shaker.highpass_hz"] < 0.05
     with pytest.raises(InputError, match="no sensor 'tip'"):
         prepare_modal(recs[0], basis, between=("tip", "s3"))

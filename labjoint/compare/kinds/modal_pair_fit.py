@@ -157,12 +157,20 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     stderr: dict[str, float] = {n: float("nan") for n in names}
     corr = np.eye(len(names))
     if sol.jac.shape[0] == r.size:
+        # standard errors of the parameters inside their bounds whose change the records
+        # see (a parameter at a bound, e.g. no high-pass, has none: NaN, flagged)
         J = sol.jac / scale[None, :]
+        free = np.array([np.linalg.norm(J[:, i]) > 0 and not (np.isclose(x[i], lo[i], rtol=1e-9, atol=1e-15)
+                                                              or np.isclose(x[i], hi[i], rtol=1e-9, atol=0))
+                         for i in range(len(names))])
+        Jf = J[:, free]
         try:
-            cov = np.linalg.inv(J.T @ J) * float(r @ r) / max(1, r.size - len(names))
+            cov = np.linalg.inv(Jf.T @ Jf) * float(r @ r) / max(1, r.size - int(free.sum()))
             e = np.sqrt(np.clip(np.diag(cov), 0, None))
-            stderr = {n: float(v) for n, v in zip(names, e)}
-            corr = cov / np.outer(np.where(e > 0, e, 1), np.where(e > 0, e, 1))
+            idx = np.flatnonzero(free)
+            for i, v in zip(idx, e):
+                stderr[names[i]] = float(v)
+            corr[np.ix_(idx, idx)] = cov / np.outer(np.where(e > 0, e, 1), np.where(e > 0, e, 1))
         except np.linalg.LinAlgError:
             pass
     params = model.make_params(values={n: vals[n] for n in model.param_names})
