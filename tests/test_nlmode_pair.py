@@ -115,6 +115,7 @@ def _record(scale: float, name: str):
     return ChannelRecord(name, t, FS, chans, {})
 
 
+@pytest.mark.slow
 def test_fit_between_two_points_recovers_the_joint():
     """Records of the physical chain at two levels (voltage drive, acceleration and
     displacement responses, 0.01 % noise) fitted through the modal kind with the joint
@@ -135,3 +136,41 @@ def test_fit_between_two_points_recovers_the_joint():
     assert v["shaker.highpass_hz"] < 0.05
     with pytest.raises(InputError, match="no sensor 'tip'"):
         prepare_modal(recs[0], basis, between=("tip", "s3"))
+
+
+@pytest.mark.slow
+def test_cli_fit_between_saves_and_predicts(tmp_path, capsys):
+    """`fit --modal MODES.json --between s2,s3 --out` then `predict` on the other level."""
+    import json
+
+    from labjoint.cli.main import main
+    from labjoint.hardware.interfaces import ChannelSpec
+    from labjoint.storage.csv_import import store_channels
+
+    basis, truth = _basis_and_params()
+    paths = []
+    for scale, name in ((1.0, "high"), (0.5, "low")):
+        rec = _record(scale, name)
+        spec = lambda n, q, u: ChannelSpec(n, "imported", q, u, 1.0, range_v=np.inf, coupling="DC")  # noqa: E731
+        paths.append(store_channels(tmp_path / f"{name}.h5", rec.time, FS,
+                                    [(spec(c.name, c.quantity, c.units), c.samples) for c in rec.channels.values()],
+                                    {"drive_channels": ["v"], "response_channels": ["s1", "s2", "s3"]},
+                                    tmp_path / "data", name=name))
+    modes = [{"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio, "shape": m.shape,
+              "reference_sensor": "s1"} for m in basis.modes]
+    mfile = tmp_path / "modes.json"
+    mfile.write_text(json.dumps({"levels": [{"level": 1.0, "modes": modes}]}))
+    out = tmp_path / "pair.json"
+    rc = main(["fit", str(paths[0]), "--modal", str(mfile), "--between", "s2,s3", "--model",
+               "quadratic_stiffness+cubic_stiffness", "--out", str(out), "--json"])
+    res = json.loads(capsys.readouterr().out)
+    assert rc == 0 and res["nrmse"] < 1e-3
+    assert res["parameters"]["cubic_stiffness.k3"]["value"] == pytest.approx(truth["cubic_stiffness.k3"], rel=2e-3)
+    assert json.loads(out.read_text())["between"] == ["s2", "s3"]
+    rc = main(["predict", str(out), str(paths[1]), "--json"])
+    pred = json.loads(capsys.readouterr().out)
+    assert rc == 0 and pred["nrmse"] < 1e-3
+    rc = main(["fit", str(paths[0]), "--modal", str(mfile), "--between", "s2,s9", "--model",
+               "cubic_stiffness", "--json"])
+    err = capsys.readouterr()
+    assert rc == 2 and "s9" in err.err and err.out == ""
