@@ -51,6 +51,11 @@ def test_rectangular_cantilever_matches_euler_bernoulli():
     s = structure_from_dict(_beam({"a": (0.0, L)}, [], ("a", L), el=0.005))
     exact = BETA_L ** 2 / (2 * np.pi * L ** 2) * np.sqrt(E * I / (RHO * A))
     assert modes(s, 3).frequencies_hz == pytest.approx(exact, rel=2e-5)
+    # pinned at both ends: (n pi)^2 / (2 pi L^2) sqrt(EI / rho A)
+    d = _beam({"a": (0.0, L)}, [], ("a", L / 3), el=0.005)
+    d["supports"] = [{"component": "a", "x_m": 0.0, "type": "pinned"}, {"component": "a", "x_m": L, "type": "pinned"}]
+    ss = (np.arange(1, 4) * np.pi) ** 2 / (2 * np.pi * L ** 2) * np.sqrt(E * I / (RHO * A))
+    assert modes(structure_from_dict(d), 3).frequencies_hz == pytest.approx(ss, rel=2e-5)
     # a general section with the rectangle's A and I (and shear coefficient) is the same beam
     kappa = 10 * 1.33 / (12 + 11 * 0.33)
     g = structure_from_dict(_beam({"a": (0.0, L)}, [], ("a", L), theory="timoshenko", section={
