@@ -235,3 +235,23 @@ def test_bert_stage1_places_modes_1_and_2_from_a_rigid_start():
     for n, v in shipped.items():
         assert r.values[n] == pytest.approx(v, rel=2e-3)
     assert modes(s, 2).frequencies_hz == pytest.approx([18.696, 97.604], rel=1e-4)
+
+
+def test_several_lap_joints_add_their_compliances():
+    """Three bars, two lap joints (one with a cubic law, whose stuck stiffness is its
+    linear part): w_tip = P L^3 / 3EI + sum_i P (L - x_i)^2 / k_r,i + sum_i P / k_t,i."""
+    ov, n = 0.03, 8
+    joints = [{"name": "j1", "type": "lap", "between": ["a", "b"], "transverse_stiffness_n_per_m": 2e6,
+               "params": {"linear_stiffness.k": 3e6}},
+              {"name": "j2", "type": "lap", "between": ["b", "c"], "transverse_stiffness_n_per_m": 5e5,
+               "model": "linear_stiffness+cubic_stiffness", "x_m": 0.49,
+               "params": {"linear_stiffness.k": 8e5, "cubic_stiffness.k3": 1e12}}]
+    comps = {"a": (0.0, 0.27), "b": (0.27 - ov, 0.27), "c": (0.54 - 2 * ov, 0.27)}
+    L = 0.81 - 2 * ov
+    s = structure_from_dict(_beam(comps, joints, ("c", L)))
+    assert [j.name for j in s.joints] == ["j1", "j2"]
+    mean_s2 = np.mean((ov * ((np.arange(n) + 0.5) / n - 0.5)) ** 2)
+    w = s.sensors[0] @ np.linalg.solve(s.stiffness(), s.force)
+    want = (L ** 3 / (3 * E * I) + (L - (0.27 - ov / 2)) ** 2 / (3e6 * mean_s2) + (L - 0.49) ** 2 / (8e5 * mean_s2)
+            + 1 / 2e6 + 1 / 5e5)
+    assert w == pytest.approx(want, rel=1e-6)
