@@ -255,3 +255,12 @@ def test_several_lap_joints_add_their_compliances():
     want = (L ** 3 / (3 * E * I) + (L - (0.27 - ov / 2)) ** 2 / (3e6 * mean_s2) + (L - 0.49) ** 2 / (8e5 * mean_s2)
             + 1 / 2e6 + 1 / 5e5)
     assert w == pytest.approx(want, rel=1e-6)
+
+
+def test_a_joint_stiffer_than_the_model_resolves_is_refused():
+    with pytest.raises(InputError) as e:            # 1e13 N/m moved mode 1 by 0.15 %: refused
+        structure_from_dict(_lap(1e13, 1e8, 0.05))
+    assert e.value.field == "joints.lap.model" and "rotational" in e.value.message
+    with pytest.raises(InputError) as e:
+        structure_from_dict(_lap(1e8, 1e15, 0.05))
+    assert e.value.field == "joints.lap.transverse_stiffness_n_per_m"
