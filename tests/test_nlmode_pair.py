@@ -174,3 +174,6 @@ def test_cli_fit_between_saves_and_predicts(tmp_path, capsys):
                "cubic_stiffness", "--json"])
     err = capsys.readouterr()
     assert rc == 2 and "s9" in err.err and err.out == ""
+    rc = main(["fit", str(paths[0]), "--between", "s2,s3", "--model", "cubic_stiffness", "--json"])
+    err = capsys.readouterr()
+    assert rc == 2 and "--modal" in err.err and err.out == ""
