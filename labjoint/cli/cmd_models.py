@@ -48,6 +48,9 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="records of a structure nobody can describe: the measured modes (the "
                         "output of `labjoint modes RUN --json`); the model acts on mode 1's "
                         "coordinate, judged by simulation error of the measured responses")
+    p.add_argument("--between", default=None, metavar="A,B",
+                   help="with --modal: the joint acts on the relative displacement of these two "
+                        "sensors of the modes (every mode carries it) instead of on mode 1")
     p.add_argument("--responses", default=None, metavar="A,B,...",
                    help="with --modal: the response channels compared (default every motion channel)")
     p.add_argument("--shaker-fit", default=None, metavar="A,B,...",
@@ -170,7 +173,7 @@ def _options(args: argparse.Namespace, judging: bool) -> dict[str, Any]:
                          "seed": args.seed, "kind": args.kind, "warmup": args.warmup,
                          "structure": args.structure, "modes": args.modes,
                          "harmonics": args.harmonics, "modal": args.modal,
-                         "responses": args.responses,
+                         "responses": args.responses, "between": args.between,
                          "plausibility": plausibility(args)}
     if judging:
         o.update(factor=args.factor, alpha=args.alpha, n_jobs=args.jobs,

@@ -66,7 +66,7 @@ def _modes(args: argparse.Namespace) -> int:
     shapes = {nm: (s.sensors[i] @ m.shapes).tolist() for i, nm in enumerate(s.sensor_names)}
     res = {"structure": s.name, "beam": s.theory, "dofs": s.n, "frequencies_hz": m.frequencies_hz.tolist(),
            "mode_shapes_at_sensors": shapes,
-           "joints": [{"name": j.name, "model": j.law.model.expr,
+           "joints": [{"name": j.name, "type": j.geometry, "model": j.law.model.expr,
                        "rotational_stiffness_nm_per_rad": j.rotational_stiffness(),
                        "transverse_stiffness_n_per_m": j.transverse_stiffness} for j in s.joints]}
     if getattr(args, "json", False):

@@ -63,6 +63,8 @@ def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | s
     frf = {k: v for k, v in (frf or {}).items() if v is not None}
     if frf.get("modal") is not None or kind == "modal":
         return load_modal(items, validate, frf)
+    if frf.pop("between", None) is not None:
+        raise InputError("names two sensors of the measured modes: it goes with --modal", field="between")
     frf.pop("responses", None)
     if any(is_backbone(x) for x in items):
         if kind not in ("auto", "frf", "backbone"):

@@ -24,7 +24,7 @@ from labjoint.errors import InputError
 from labjoint.models import FitResult, Model, Parameters
 from labjoint.structure.nlmode import ModalBasis, load_basis
 
-MODAL_OPTIONS = ("modal", "responses")
+MODAL_OPTIONS = ("modal", "responses", "between")
 FORMAT = "labjoint.modalmodel/1"
 
 
@@ -51,7 +51,10 @@ def load_modal(items: Sequence[Any], validate: Sequence[Any] | None, options: di
     resp = _responses(options.get("responses"))
     paths = [str(x) for x in items]
     extra = [str(v) for v in (validate or []) if str(v) not in paths]
-    ms = [prepare_modal(p, basis, resp) for p in paths + extra]
+    between = _responses(options.get("between"))
+    if between is not None and len(between) != 2:
+        raise InputError(f"names two sensors A,B, got {options.get('between')!r}", field="between")
+    ms = [prepare_modal(p, basis, resp, between=tuple(between) if between else None) for p in paths + extra]
     check_drives(ms)
     seen: dict[str, int] = {}
     for i, m in enumerate(ms):
@@ -89,6 +92,8 @@ def save_modal(fit: FitResult, ms: Sequence[ModalMeasurement], path: str | Path)
          "basis": ms[0].basis.to_dict(), "channels": list(ms[0].channels),
          "nrmse": fit.nrmse_, "fit_runs": list(fit.fit_runs_),
          "drive_quantity": ms[0].metadata.get("drive_quantity")}
+    if ms[0].between:
+        d["between"] = list(ms[0].between)
     p = Path(path)
     tmp = p.with_name(p.name + ".tmp")
     tmp.write_text(json.dumps(d, indent=1), encoding="utf-8")
@@ -113,7 +118,8 @@ def predict_modal(model_path: str | Path, record: str | Path) -> dict[str, Any]:
     model = Model.parse(d["model"])
     params = Parameters.from_dict(d["parameters"])
     basis = ModalBasis.from_dict(d["basis"])
-    m = prepare_modal(str(record), basis, d["channels"])
+    between = d.get("between")
+    m = prepare_modal(str(record), basis, d["channels"], between=tuple(between) if between else None)
     check_drives([m], d.get("drive_quantity"))
     pred = m.predict(model, params)
     if not np.all(np.isfinite(pred)):

@@ -20,7 +20,7 @@ from labjoint.structure.assembly import Component, Damping, Structure, X_TOL, bu
 from labjoint.structure.beam import THEORIES
 from labjoint.structure.joint import Layer, layer_params, layer_transverse_stiffness
 from labjoint.structure.law import JointLaw
-from labjoint.structure.sections import HollowCircle, Material
+from labjoint.structure.sections import SECTION_KEYS, GeneralSection, HollowCircle, Material, Rectangle
 from labjoint.tomlfile import read_toml
 
 _MISSING = object()
@@ -97,8 +97,7 @@ def structure_from_dict(d: Mapping[str, Any]) -> Structure:
     mats = {k: Material(_num(v, "E_pa", f"materials.{k}"), _num(v, "rho_kg_m3", f"materials.{k}"),
                         _num(v, "nu", f"materials.{k}", 0.3), name=k)
             for k, v in _table(d, "materials").items()}
-    secs = {k: HollowCircle(_num(v, "od_m", f"sections.{k}"), _num(v, "wall_m", f"sections.{k}"), name=k)
-            for k, v in _table(d, "sections").items()}
+    secs = {k: _section(k, v) for k, v in _table(d, "sections").items()}
     comps: dict[str, Component] = {}
     for k, v in _table(d, "components").items():
         w = f"components.{k}"
@@ -137,13 +136,43 @@ def structure_from_dict(d: Mapping[str, Any]) -> Structure:
         masses.append((c, x, _num(v, "mass_kg", w, 0.0), _num(v, "inertia_kg_m2", w, 0.0)))
     joints = [_joint(v, at, comps) for v in _list(d, "joints")]
     _connected(comps, joints)
-    ex = at(_table(d, "excitation"), "excitation")
+    ext = _table(d, "excitation")
+    ex = at(ext, "excitation")
+    moving = _num(ext, "moving_mass_kg", "excitation", 0.0)
+    if moving < 0:
+        raise InputError(f"must be >= 0 kg, got {moving:g}", field="excitation.moving_mass_kg")
+    if moving > 0:            # the shaker's armature, stinger and fixture move with the point
+        masses.append((ex[0], ex[1], moving, 0.0))
     sensors = []
     for i, v in enumerate(_list(d, "sensors")):
         nm = _str(v, "name", f"sensors[{i}]")
         sensors.append((nm, *at(v, f"sensors.{nm}")))
     return build(name, theory, list(comps.values()), el, points, supports, masses, joints, ex,
                  sensors, _damping(_table(d, "damping", required=False)))
+
+
+def _section(k: str, v: Any) -> Any:
+    """A ``[sections.NAME]`` table: hollow circle (od_m, wall_m), rectangle (b_m, h_m) or
+    general (area_m2, inertia_m4, optional torsion_m4, shear_coefficient), told apart by
+    its keys or by ``type``."""
+    w = f"sections.{k}"
+    if not isinstance(v, Mapping):
+        raise InputError("must be a table", field=w)
+    kind = _str(v, "type", w, None)
+    if kind is None:
+        kinds = [n for n, keys in SECTION_KEYS.items() if any(x in v for x in keys)]
+        if len(kinds) != 1:
+            raise InputError("give one kind of section: " + "; ".join(
+                f"{n} ({', '.join(keys)})" for n, keys in SECTION_KEYS.items()), field=w)
+        kind = kinds[0]
+    if kind not in SECTION_KEYS:
+        raise InputError(f"must be one of {', '.join(SECTION_KEYS)}, got '{kind}'", field=f"{w}.type")
+    if kind == "hollow_circle":
+        return HollowCircle(_num(v, "od_m", w), _num(v, "wall_m", w), name=k)
+    if kind == "rectangle":
+        return Rectangle(_num(v, "b_m", w), _num(v, "h_m", w), name=k)
+    return GeneralSection(_num(v, "area_m2", w), _num(v, "inertia_m4", w), _num(v, "torsion_m4", w, 0.0),
+                          _num(v, "shear_coefficient", w, 5.0 / 6.0), name=k)
 
 
 def _joint(v: Mapping[str, Any], at: Any, comps: Mapping[str, Component]) -> dict:
@@ -154,6 +183,11 @@ def _joint(v: Mapping[str, Any], at: Any, comps: Mapping[str, Component]) -> dic
         raise InputError("must name two components, e.g. [\"pipe_a\", \"coupling\"]", field=f"{w}.between")
     if between[0] == between[1]:
         raise InputError("a joint connects two different components", field=f"{w}.between")
+    kind = _str(v, "type", w, "thread")
+    if kind == "lap":
+        return _lap_joint(v, nm, between, at, comps)
+    if kind != "thread":
+        raise InputError(f"must be thread or lap, got '{kind}'", field=f"{w}.type")
     a = at({"component": between[0], "x_m": v.get("x_m")}, w)
     b = at({"component": between[1], "x_m": v.get("x_m")}, w)
     radius = _num(v, "radius_m", w, positive=True)
@@ -180,11 +214,48 @@ def _joint(v: Mapping[str, Any], at: Any, comps: Mapping[str, Component]) -> dic
         kt = _num(v, "transverse_stiffness_n_per_m", w, positive=True)
     else:
         kt = layer_transverse_stiffness(layer, radius)
+    return {"name": nm, "a": a, "b": b, "law": law, "radius_m": radius, "stations": _stations(v, w),
+            "transverse_stiffness": kt, "layer": layer}
+
+
+def _stations(v: Mapping[str, Any], w: str) -> int:
     stations = v.get("stations", 8)
     if isinstance(stations, bool) or not isinstance(stations, int):
         raise InputError(f"must be an even whole number >= 4, got {stations!r}", field=f"{w}.stations")
-    return {"name": nm, "a": a, "b": b, "law": law, "radius_m": radius, "stations": stations,
-            "transverse_stiffness": kt, "layer": layer}
+    return stations
+
+
+def _lap_joint(v: Mapping[str, Any], nm: str, between: list[str], at: Any,
+               comps: Mapping[str, Component]) -> dict:
+    """A bolted lap joint (:mod:`labjoint.structure.joint`): the two components must overlap;
+    the bolt at ``x_m`` (default: the middle of the overlap) joins them with the translational
+    stiffness ``transverse_stiffness_n_per_m`` and the law ``model`` (default
+    linear_stiffness, parameters in ``[joints.params]``, N/m of the whole interface) on the
+    relative rotation over a contact of ``contact_length_m`` (default: the overlap)."""
+    w = f"joints.{nm}"
+    ca, cb = comps[between[0]] if between[0] in comps else None, comps.get(between[1])
+    for c, name in ((ca, between[0]), (cb, between[1])):
+        if c is None:
+            raise InputError(f"no component '{name}'; components: {', '.join(comps)}", field=f"{w}.between")
+    lo, hi = max(ca.x_start_m, cb.x_start_m), min(ca.x_end_m, cb.x_end_m)
+    if not hi - lo > X_TOL:
+        raise InputError(f"a lap joint needs its components to overlap; '{between[0]}' spans "
+                         f"{ca.x_start_m:g}-{ca.x_end_m:g} m, '{between[1]}' {cb.x_start_m:g}-"
+                         f"{cb.x_end_m:g} m", field=f"{w}.between")
+    x = _num(v, "x_m", w, 0.5 * (lo + hi))
+    if not lo - X_TOL <= x <= hi + X_TOL:
+        raise InputError(f"the bolt at {x:g} m is outside the overlap {lo:g}-{hi:g} m", field=f"{w}.x_m")
+    contact = _num(v, "contact_length_m", w, hi - lo, positive=True)
+    a = at({"component": between[0], "x_m": x}, w)
+    b = at({"component": between[1], "x_m": x}, w)
+    params = {}
+    extra = _table(v, "params", w, required=False)
+    for k in extra:
+        params[k] = _num(extra, k, f"{w}.params")
+    law = JointLaw(_str(v, "model", w, "linear_stiffness"), params, field=w)
+    return {"name": nm, "a": a, "b": b, "law": law, "radius_m": 0.5 * contact, "stations": _stations(v, w),
+            "transverse_stiffness": _num(v, "transverse_stiffness_n_per_m", w, positive=True),
+            "layer": None, "geometry": "lap", "contact_length_m": contact}
 
 
 def _connected(comps: Mapping[str, Component], joints: list[dict]) -> None:

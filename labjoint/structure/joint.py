@@ -24,6 +24,15 @@ effect, including ones added to the vocabulary later, gets it. So the joint mome
 M = sum_q (1/N_q) r cos(phi_q) F(u_q) + r E[r theta]. Effects that cannot act in a
 steady periodic joint are refused by name with the reason (``REFUSED``).
 
+A bolted lap joint (``geometry = "lap"``; issue 29 item 4) has the same kinematics along a
+flat interface: two components overlap and the bolt joins them at one point; the contact
+of length L around the bolt is ``stations`` equal patches at arms s_q (uniform over
+(-L/2, L/2)). A relative rotation theta slides patch q by u_q = s_q theta in the shear
+direction of the law, and opens the interface at its edge by u_n = (L/2) theta in the
+normal direction, so M = sum_q (1/N) s_q F(s_q theta) + (L/2) E[(L/2) theta] and the stuck
+rotational stiffness is k_t mean(s_q^2) = k_t (L^2 / 12) (1 - 1/N^2). The relative
+transverse displacement is carried by the translational stiffness ``transverse_stiffness``.
+
 Seed 000 writes the law as stress against strain (Eq. 2: E_e, E_p, S_Y, n); for a layer
 of area A = 2 pi r L and thickness h this is the richard_abbott force law with
 ke = E_e A / h, kp = E_p A / h, F_y = S_Y A (:func:`layer_params`).
@@ -39,6 +48,7 @@ from labjoint.errors import InputError
 from labjoint.structure.law import JointLaw
 
 NU_LAYER = 0.3
+GEOMETRIES = ("thread", "lap")
 #: the joint's translational (transverse) stiffness as an updatable parameter, N/m
 TRANSVERSE = "transverse_stiffness_n_per_m"
 #: effects whose law is odd (F[-u] = -F[u] along mirrored histories): no normal part
@@ -114,8 +124,16 @@ class Joint:
     stations: int
     transverse_stiffness: float
     layer: Layer | None = None
+    geometry: str = "thread"           # "thread" (seed 000's layer) or "lap" (a flat interface)
+    contact_length_m: float = 0.0      # lap: the interface's length along the beam
 
     def __post_init__(self) -> None:
+        if self.geometry not in GEOMETRIES:
+            raise InputError(f"must be one of {', '.join(GEOMETRIES)}, got '{self.geometry}'",
+                             field=f"joints.{self.name}.type")
+        if self.geometry == "lap" and not self.contact_length_m > 0:
+            raise InputError(f"a lap joint needs a contact length > 0 m, got {self.contact_length_m}",
+                             field=f"joints.{self.name}.contact_length_m")
         if self.stations < 4 or self.stations % 2:
             raise InputError(f"stations must be an even number >= 4, got {self.stations}",
                              field=f"joints.{self.name}.stations")
@@ -128,23 +146,36 @@ class Joint:
         phi = 2 * np.pi * (np.arange(n // 2) + 0.5) / n
         return np.cos(phi), np.full(n // 2, 2.0 / n)
 
+    def arms(self) -> tuple[np.ndarray, np.ndarray]:
+        """Shear arm (m) of every distinct patch and its share of the law (module docstring)."""
+        if self.geometry == "lap":
+            n = self.stations
+            return self.contact_length_m * ((np.arange(n) + 0.5) / n - 0.5), np.full(n, 1.0 / n)
+        c, w = self.station_cos
+        return self.radius_m * c, w
+
+    @property
+    def normal_arm(self) -> float:
+        """Arm (m) of the normal direction: the thread's radius, or half the lap's contact."""
+        return 0.5 * self.contact_length_m if self.geometry == "lap" else self.radius_m
+
     def rotational_stiffness(self) -> float:
         """Linear (stuck) moment per relative rotation, N m/rad."""
-        c, w = self.station_cos
-        return float(self.radius_m ** 2 * np.sum(w * c * c) * self.law.initial_stiffness())
+        arm, w = self.arms()
+        return float(np.sum(w * arm * arm) * self.law.initial_stiffness())
 
     def moment_periodic(self, th: np.ndarray, thd: np.ndarray, thdd: np.ndarray, fs: float) -> np.ndarray:
         """Steady joint moment (N m) over one period of the relative rotation (rad).
 
         ``th`` etc. may be 2-D (batch, samples) for finite-difference batches."""
         th, thd, thdd = (np.atleast_2d(x) for x in (th, thd, thdd))
-        c, w = self.station_cos
-        arm = self.radius_m * c                                   # (q,)
+        arm, w = self.arms()                                      # (q,)
+        c = arm
         b = th.shape[0]
         U = (arm[None, :, None] * th[:, None, :]).reshape(b * c.size, -1)
         V = (arm[None, :, None] * thd[:, None, :]).reshape(b * c.size, -1)
         A = (arm[None, :, None] * thdd[:, None, :]).reshape(b * c.size, -1)
-        r = self.radius_m
+        r = self.normal_arm
         if not has_even_part(self.law):
             F = self.law.periodic(U, V, A, fs).reshape(b, c.size, -1)
             return np.einsum("q,bqn->bn", w * arm, F)
@@ -159,13 +190,12 @@ class Joint:
 
     def moment_step(self, reversals: np.ndarray, th: float, thd: float, thdd: float) -> float:
         """Joint moment after the past rotation ``reversals`` and a step to ``th``."""
-        c, w = self.station_cos
-        arm = self.radius_m * c
+        arm, w = self.arms()
         f = [self.law.step_force(a * reversals, a * th, np.array([a * thd]), np.array([a * thdd]))[0]
              for a in arm]
         m = float(np.sum(w * arm * np.array(f)))
         if has_even_part(self.law):
-            r = self.radius_m
+            r = self.normal_arm
             fe = [self.law.step_force(s * r * reversals, s * r * th, np.array([s * r * thd]),
                                       np.array([s * r * thdd]))[0] for s in (1.0, -1.0)]
             m += r * 0.5 * (fe[0] + fe[1])

@@ -7,7 +7,9 @@ d lambda_i / dp = phi_i^T (dK/dp) phi_i for mass-normalised phi_i, so
 d f_i / dp = phi_i^T (dK/dp) phi_i / (8 pi^2 f_i); dK/dp is the change of the joints'
 linear stiffness per unit p. Gauss-Newton steps are taken in log p (stiffnesses span
 decades) within seed 000's bounds [1e-5, 1.1] x the start value, each step at most a
-factor 10, until the relative change of p is below ``tol``.
+factor 10, until the relative change of p is below ``tol``. A parameter that ends at a
+bound, or moves without moving the frequencies, is refused by name, never returned as an
+answer (issue 29 item 4).
 """
 
 from __future__ import annotations
@@ -23,6 +25,10 @@ from labjoint.structure.joint import TRANSVERSE
 
 BOUNDS = (1e-5, 1.1)
 MAX_LOG_STEP = np.log(10.0)
+#: a parameter that moved by more than this fraction must shift a frequency by at least
+#: FREQ_MOVED (relative) on its own, else stage 1 refuses it as undetermined
+MOVED = 0.01
+FREQ_MOVED = 1e-4
 
 
 @dataclass(frozen=True)
@@ -109,6 +115,33 @@ def _with(structure: Structure, values: dict[str, float]) -> Structure:
     return s
 
 
+def _refuse_non_answers(structure: Structure, p0: dict[str, float], v: dict[str, float],
+                        bounds: dict[str, tuple[float, float]], f_test: np.ndarray, f0: np.ndarray,
+                        f: np.ndarray) -> None:
+    """Refuse (InputError naming the parameter) a stage-1 result that is no answer: a
+    parameter that ended at one of its bounds (the measured frequencies ask for more than
+    it can give), or that moved (by more than ``MOVED``) while its own change, the others
+    held at their starts, shifted no frequency by ``FREQ_MOVED`` (relative): the modes do
+    not determine it."""
+    where = (f"; modes {', '.join(f'{x:.4g}' for x in f)} Hz (from {', '.join(f'{x:.4g}' for x in f0)}) "
+             f"against the measured {', '.join(f'{x:.4g}' for x in f_test)} Hz")
+    for n, val in v.items():
+        lo, hi = bounds[n]
+        for edge, side in ((lo, "lower"), (hi, "upper")):
+            if abs(np.log(val / edge)) < 1e-9:
+                raise InputError(f"{n} ended at its {side} bound {edge:.4g} ({BOUNDS[side == 'upper']:g} x "
+                                 f"the start {p0[n]:.4g}): not an answer, the model cannot reach the "
+                                 f"measured frequencies with it{where}", field=n)
+        if abs(np.log(val / p0[n])) > np.log(1.0 + MOVED):
+            alone = modes(_with(structure, {**p0, n: val}), f_test.size).frequencies_hz
+            base = modes(_with(structure, p0), f_test.size).frequencies_hz
+            shift = float(np.max(np.abs(alone / base - 1.0)))
+            if shift < FREQ_MOVED:
+                raise InputError(f"{n} moved from {p0[n]:.4g} to {val:.4g} but left the frequencies "
+                                 f"where they were (largest change {shift:.2g}, relative): the measured "
+                                 f"modes do not determine it{where}", field=n)
+
+
 def update_stiffness(structure: Structure, measured_hz: list[float] | np.ndarray,
                      parameter: str | list[str] | None = None, max_iter: int = 50,
                      tol: float = 1e-6) -> UpdateResult:
@@ -152,7 +185,8 @@ def update_stiffness(structure: Structure, measured_hz: list[float] | np.ndarray
         history.append({"iteration": it, **p, "frequencies_hz": f.tolist(), "objective": float(r @ r)})
         dead = [n for c, n in enumerate(names) if not (J[:, c] @ J[:, c]) > 0]
         if dead:
-            raise LabjointError(f"the frequencies do not depend on {dead[0]}: cannot update it")
+            raise InputError(f"the frequencies do not depend on {dead[0]}: stage 1 cannot update it "
+                             "(it would leave them where they were)", field=dead[0])
         step = np.clip(np.linalg.lstsq(J, -r, rcond=None)[0], -MAX_LOG_STEP, MAX_LOG_STEP)
         x_new = np.clip(x + step, lo, hi)
         if np.max(np.abs(x_new - x)) < tol:
@@ -163,5 +197,6 @@ def update_stiffness(structure: Structure, measured_hz: list[float] | np.ndarray
                             f"iterations (objective {history[-1]['objective']:.3g})")
     v = dict(zip(names, np.exp(x).tolist()))
     b = {n: (float(np.exp(a)), float(np.exp(c))) for n, a, c in zip(names, lo, hi)}
+    _refuse_non_answers(structure, p0, v, b, f_test, f0, f)
     return UpdateResult(names[0], p0[names[0]], v[names[0]], b[names[0]], f_test, f0, f, history, s,
                         v, p0, b)

@@ -39,6 +39,8 @@ from labjoint.storage.channels import ChannelRecord
 from labjoint.storage.reader import read_channels
 from labjoint.structure.nlmode import (QUANTITY_ORDER, Drive, MeasuredMode, ModalBasis,
                                        linear_states, mode_states, response)
+from labjoint.structure.nlmode_pair import (differences, pair_response, pair_states,
+                                            relative_displacement)
 
 METHOD = ("per response channel the difference method on its judged samples (rms-normalized), "
           "pooled over channels")
@@ -68,6 +70,8 @@ class ModalMeasurement:
     path: str | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
     _cache: dict = field(default_factory=dict, repr=False)
+    #: the joint between these two sensors (:mod:`labjoint.structure.nlmode_pair`), else on mode 1
+    between: tuple[str, str] | None = None
 
     @property
     def frequency_hz(self) -> float | None:
@@ -97,7 +101,10 @@ class ModalMeasurement:
             self._cache.clear()
 
     def states(self, model: Model, params: Parameters | dict) -> np.ndarray:
+        """Mode 1's (n, 3) states, or every mode's (n, N, 3) with a two-point joint."""
         vals = {k: float(v.value if hasattr(v, "value") else v) for k, v in params.items()}
+        if self.between:
+            return pair_states(model, vals, self.basis, self.between, self.drive_at(vals))
         return mode_states(model, vals, self.drive_at(vals))
 
     def linear(self, vals: Mapping[str, float]) -> tuple[np.ndarray, ...]:
@@ -134,6 +141,8 @@ class ModalMeasurement:
     def displacement_amplitude(self, model: Model, params: Parameters | dict) -> float:
         """The largest |q| on the judged samples (m at the reference sensor, mode 1)."""
         q = self.states(model, {k: float(v.value if hasattr(v, "value") else v) for k, v in params.items()})
+        if self.between:
+            return float(np.nanmax(np.abs(relative_displacement(q[self.judged], self.basis, self.between))))
         return float(np.nanmax(np.abs(q[self.judged, 0])))
 
     def responses(self, model: Model, params: Parameters | dict,
@@ -142,6 +151,8 @@ class ModalMeasurement:
         vals = {k: float(v.value if hasattr(v, "value") else v) for k, v in params.items()}
         q = self.states(model, vals) if q is None else q
         out = {}
+        if self.between:           # the measured shapes read every mode (nlmode_pair)
+            return {ch: pair_response(q, self.basis, ch, qty) for ch, qty in zip(self.channels, self.quantities)}
         for ch, qty in zip(self.channels, self.quantities):
             phi = 1.0 if ch == self.basis.reference else vals[f"modal.phi1.{ch}"]
             gains = [vals[f"modal.g{j + 2}.{ch}"] for j in range(len(self.lin))]
@@ -199,8 +210,12 @@ def _drive_end(v: np.ndarray, fs: float) -> int:
 
 
 def prepare_modal(path: str | ChannelRecord, basis: ModalBasis, responses: Sequence[str] | None = None,
-                  warmup_s: float = WARMUP_S, judge_s: float = JUDGE_S) -> ModalMeasurement:
-    """A run file, CSV record or channel record as a modal measurement (module docstring)."""
+                  warmup_s: float = WARMUP_S, judge_s: float = JUDGE_S,
+                  between: tuple[str, str] | None = None) -> ModalMeasurement:
+    """A run file, CSV record or channel record as a modal measurement (module docstring);
+    ``between``: two sensors of the modes the joint acts between (else on mode 1)."""
+    if between is not None:
+        differences(basis, *between)
     rec = path if isinstance(path, ChannelRecord) else read_channels(path)
     path = rec.path if isinstance(path, ChannelRecord) else path
     drives = rec.drives
@@ -269,4 +284,5 @@ def prepare_modal(path: str | ChannelRecord, basis: ModalBasis, responses: Seque
     return ModalMeasurement(rec.name, basis, drive, tuple(names), qts, judged, np.array(scales), lin, RunData(inputs, y, np.ones(y.size, bool)),
                             _spans(n, len(names)),
                             float(level) if level is not None else None, str(path),
-                            {**rec.metadata, "drive_channel": dr.name, "drive_quantity": dr.quantity})
+                            {**rec.metadata, "drive_channel": dr.name, "drive_quantity": dr.quantity},
+                            between=tuple(between) if between else None)

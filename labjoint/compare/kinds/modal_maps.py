@@ -12,6 +12,7 @@ import numpy as np
 
 from labjoint.compare.kinds.modal import ModalMeasurement
 from labjoint.compare.kinds.modal_fit import fit_modal
+from labjoint.compare.kinds.modal_pair_fit import fit_modal_pair
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model
 from labjoint.structure.nlmode import MODAL_EFFECTS
@@ -99,6 +100,8 @@ class ModalKind:
 
     def fit(self, model: Model | str, fit_ms: Sequence[ModalMeasurement],
             val_ms: Sequence[ModalMeasurement] = (), init: Any = None) -> FitResult:
+        if fit_ms and fit_ms[0].between:        # the joint between two sensors
+            return fit_modal_pair(model, fit_ms, val_ms, init, max_nfev=self.max_nfev)
         return fit_modal(model, fit_ms, val_ms, init, max_nfev=self.max_nfev)
 
     max_nfev: int | None = None

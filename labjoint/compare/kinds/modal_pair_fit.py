@@ -1,0 +1,195 @@
+"""Simulation-error fit of the modal model with the joint between two measured points
+(:mod:`labjoint.structure.nlmode_pair`, issue 29 item 5) on records at several levels.
+
+Varied by least squares (scipy's trust-region reflective, bounded): the joint law's
+parameters (the force the joint adds to the measured modes, per unit modal mass of mode 1),
+every mode's drive per volt ``modal.drive<j>``, the relative modal masses ``modal.mass<j>``
+(j >= 2) and the shaker path's high-pass ``shaker.highpass_hz``. The sensors read the
+modes through their measured shapes (nothing per channel is fitted).
+
+Start: the drives from the linear model (no joint force: each mode's unit-gain response
+read through the measured shapes, one linear least squares over the records), masses 1,
+the law's linear terms 0 (the measured modes already hold the joint at rest); an added
+effect's parameters from the single-mode fit's physical starts
+(:func:`labjoint.compare.kinds.modal_fit._starts`) on the scale k = w_1^2 / D_1^2 (the
+stiffness that would double mode 1's) at the largest relative displacement the linear
+model gives; from ``init`` (a smaller fitted model) its values. A trial whose simulation
+diverges is rejected; a fit that ends diverged is refused naming the parameters.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from labjoint.compare.kinds.modal import ModalMeasurement
+from labjoint.compare.kinds.modal_fit import HIGHPASS_RANGE, PENALTY, _bounds, _starts
+from labjoint.errors import InputError
+from labjoint.models import FitResult, Model
+from labjoint.models.scores import nrmse_from_sums, pooled_nrmse
+from labjoint.structure.nlmode import QUANTITY_ORDER, check_modal_model, linear_states
+from labjoint.structure.nlmode_pair import differences
+
+MASS_RANGE = (1e-3, 1e3)
+LINEAR_TERMS = ("linear_stiffness.k", "viscous.c")
+
+
+def _linear_drives(fit_ms: Sequence[ModalMeasurement], d: np.ndarray) -> tuple[dict[str, float], float]:
+    """Every mode's drive per volt from the linear model and the largest |u| it gives."""
+    basis = fit_ms[0].basis
+    cols, ys, us = [], [], []
+    for m in fit_ms:
+        p = [linear_states(mode, m.drive) for mode in basis.modes]          # unit gain
+        j = m.judged
+        blocks = []
+        for ch, qty, sc in zip(m.channels, m.quantities, m.scales):
+            o = QUANTITY_ORDER[qty]
+            blocks.append(np.column_stack([mode.shape[ch] * (x[j, o] - x[j, o].mean()) / sc
+                                           for mode, x in zip(basis.modes, p)]))
+        cols.append(np.vstack(blocks))
+        ys.append(m.data.force)
+        us.append(np.column_stack([x[j, 0] for x in p]) * d[None, :])
+    A, y = np.vstack(cols), np.concatenate(ys)
+    if not np.all(np.isfinite(A)):
+        raise InputError("the linear modes diverge (check the modes file)", field="modal")
+    g = np.linalg.lstsq(A, y, rcond=None)[0]
+    amp = max(float(np.max(np.abs(u @ g))) for u in us)
+    return {f"modal.drive{i + 1}": float(v) for i, v in enumerate(g)}, amp
+
+
+def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
+                   val_ms: Sequence[ModalMeasurement] = (), init: Any = None,
+                   start: Mapping[str, float] | None = None,
+                   bounds: Mapping[str, tuple[float, float]] | None = None,
+                   max_nfev: int | None = None) -> FitResult:
+    """Fit ``model`` as the joint between the records' two sensors (module docstring)."""
+    model = Model.parse(model)
+    check_modal_model(model)
+    if "inertia" in model.names:
+        raise InputError("inertia cannot act between two points of the modal model", field="model")
+    basis, between = fit_ms[0].basis, fit_ms[0].between
+    nm = len(basis.modes)
+    d = differences(basis, *between)
+    drives = [f"modal.drive{j}" for j in range(1, nm + 1)]
+    masses = [f"modal.mass{j}" for j in range(2, nm + 1)]
+    known: dict[str, float] = {}
+    if init is not None:
+        prev = init.params_.valuesdict() if hasattr(init, "params_") else dict(init)
+        known = {k: float(v) for k, v in prev.items() if k in model.param_names
+                 or k.startswith(("modal.drive", "modal.mass", "shaker."))}
+    for n in LINEAR_TERMS:
+        if n in model.param_names:
+            known.setdefault(n, 0.0)
+    bnd = _bounds(model, bounds and {k: v for k, v in bounds.items() if k in model.param_names})
+    bnd.pop("modal.drive", None)
+    for n in drives:
+        bnd[n] = (-np.inf, np.inf)
+    for n in masses:
+        bnd[n] = MASS_RANGE
+    bnd["shaker.highpass_hz"] = HIGHPASS_RANGE
+    for n, (lo, hi) in (bounds or {}).items():
+        if n not in bnd:
+            raise InputError(f"unknown parameter; the model has {sorted(bnd)}", field=f"bound.{n}")
+        bnd[n] = (lo, hi)
+    for n, v in (start or {}).items():
+        if n not in bnd:
+            raise InputError(f"unknown parameter; the model has {sorted(bnd)}", field=f"start.{n}")
+        if not bnd[n][0] <= v <= bnd[n][1]:
+            raise InputError(f"start {v:g} is outside the bounds {bnd[n]}", field=f"start.{n}")
+        known[n] = float(v)
+    g, amp = _linear_drives(fit_ms, d)
+    for n, v in g.items():
+        known.setdefault(n, v)
+    for n in masses:
+        known.setdefault(n, 1.0)
+    w1 = 2 * np.pi * basis.modes[0].frequency_hz
+    k_ref = w1 * w1 / max(d[0] ** 2, float(np.max(d ** 2)) * 1e-3)
+    names = [*model.param_names, *drives, *masses, "shaker.highpass_hz"]
+
+    def residual_of(vals: Mapping[str, float]) -> np.ndarray | None:
+        out = []
+        for m in fit_ms:
+            try:
+                q = m.states(model, vals)
+            except InputError:
+                return None
+            if not np.all(np.isfinite(q)):
+                return None
+            out.append(m.normalized(m.responses(model, vals, q)) - m.data.force)
+        return np.concatenate(out)
+
+    best, best_cost = None, np.inf
+    for cand in _starts(model, {**known, "linear_stiffness.k": k_ref}, amp):
+        if "linear_stiffness.k" in known:
+            cand["linear_stiffness.k"] = known["linear_stiffness.k"]
+        x = np.array([np.clip(cand.get(n, 0.0), *bnd[n]) for n in names])
+        r = residual_of(dict(zip(names, x)))
+        if r is not None and float(r @ r) < best_cost:
+            best, best_cost = x, float(r @ r)
+    if best is None:
+        raise InputError(f"every start of {model.expr} between {between[0]} and {between[1]} "
+                         "diverges on the records", field="model")
+    size = best_cost ** 0.5
+    last = [np.zeros(0)]
+
+    def fun(x: np.ndarray) -> np.ndarray:
+        r = residual_of(dict(zip(names, x)))
+        if r is None:
+            n = max(1, last[0].size)
+            return np.full(n, PENALTY * size / n ** 0.5)
+        last[0] = r
+        return r
+
+    fun(best)
+    lo = np.array([bnd[n][0] for n in names])
+    hi = np.array([bnd[n][1] for n in names])
+    scale = np.maximum(np.abs(best), 1e-12)
+    sol = least_squares(lambda z: fun(z * scale), best / scale, bounds=(lo / scale, hi / scale),
+                        max_nfev=max_nfev or 40 * len(names), x_scale=1.0, diff_step=1e-4)
+    x = sol.x * scale
+    vals = dict(zip(names, x))
+    r = residual_of(vals)
+    if r is None:
+        raise InputError(f"the fitted model diverges on the records ({vals})", field="model")
+    stderr: dict[str, float] = {n: float("nan") for n in names}
+    corr = np.eye(len(names))
+    if sol.jac.shape[0] == r.size:
+        # standard errors of the parameters inside their bounds whose change the records
+        # see (a parameter at a bound, e.g. no high-pass, has none: NaN, flagged)
+        J = sol.jac / scale[None, :]
+        free = np.array([np.linalg.norm(J[:, i]) > 0 and not (np.isclose(x[i], lo[i], rtol=1e-9, atol=1e-15)
+                                                              or np.isclose(x[i], hi[i], rtol=1e-9, atol=0))
+                         for i in range(len(names))])
+        Jf = J[:, free]
+        try:
+            cov = np.linalg.inv(Jf.T @ Jf) * float(r @ r) / max(1, r.size - int(free.sum()))
+            e = np.sqrt(np.clip(np.diag(cov), 0, None))
+            idx = np.flatnonzero(free)
+            for i, v in zip(idx, e):
+                stderr[names[i]] = float(v)
+            corr[np.ix_(idx, idx)] = cov / np.outer(np.where(e > 0, e, 1), np.where(e > 0, e, 1))
+        except np.linalg.LinAlgError:
+            pass
+    params = model.make_params(values={n: vals[n] for n in model.param_names})
+    for n in drives:
+        params.add(n, vals[n], unit="m/s^2 per V")
+    for n in masses:
+        params.add(n, vals[n], lower=MASS_RANGE[0], upper=MASS_RANGE[1], unit="1")
+    params.add("shaker.highpass_hz", vals["shaker.highpass_hz"], lower=0.0, upper=HIGHPASS_RANGE[1], unit="Hz")
+    for k, e in stderr.items():
+        params[k].stderr = e
+    sse, ssf = {}, {}
+    for m in (*fit_ms, *val_ms):
+        e = m.predict(model, params) - m.data.force
+        sse[m.name] = float(e @ e) if np.all(np.isfinite(e)) else float("inf")
+        ssf[m.name] = float(m.data.force @ m.data.force)
+    fn, vn = [m.name for m in fit_ms], [m.name for m in val_ms]
+    return FitResult(model, params, tuple(names), stderr, corr,
+                     pooled_nrmse([sse[n] for n in fn], [ssf[n] for n in fn]),
+                     {n: nrmse_from_sums(sse[n], ssf[n]) for n in fn},
+                     pooled_nrmse([sse[n] for n in vn], [ssf[n] for n in vn]) if vn else None,
+                     {n: nrmse_from_sums(sse[n], ssf[n]) for n in vn}, int(sol.nfev), bool(sol.success),
+                     str(sol.message), int(r.size), float(r @ r), (), tuple(fn), tuple(vn))
