@@ -2,11 +2,23 @@
 
 from __future__ import annotations
 
+import os
 from typing import Iterator
 
 import pytest
 
-import pg_server
+# One BLAS thread per test process: `make test` runs one xdist worker per core, and a
+# BLAS that adds its own threads oversubscribes the cores; its threads then spin waiting
+# for each other (an SVD of a fit's tall Jacobian: 6x slower at load 11 on 2 cores).
+# The variable reaches the CLI subprocesses; the limit, the BLAS already loaded here.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+import numpy  # noqa: E402,F401  (loads the BLAS the limit applies to)
+import scipy.linalg  # noqa: E402,F401
+from threadpoolctl import threadpool_limits  # noqa: E402
+
+_ONE_BLAS_THREAD = threadpool_limits(limits=1, user_api="blas")
+
+import pg_server  # noqa: E402
 
 
 @pytest.fixture(scope="session")

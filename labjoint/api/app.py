@@ -22,6 +22,7 @@ from starlette.routing import compile_path
 from labjoint import __version__
 from labjoint.api.docs import install_docs
 from labjoint.api.errors import install_error_handlers
+from labjoint.api.fastpath import RunSummaryFastPath
 from labjoint.api.hosts import HostCheck, OriginCheck
 from labjoint.api.jobs import JobRunner, JobStore
 from labjoint.api.limits import BodySizeLimit
@@ -78,6 +79,8 @@ def create_app(settings: ApiSettings, daemon: Any = None, queue: Any = None,
     st.shutdown_hooks = []  # callables run when the server shuts down
 
     install_error_handlers(app)
+    # innermost: the run summary answered before the router (every check below applies)
+    app.add_middleware(RunSummaryFastPath, state=st, prefix=API_PREFIX)
     # scripts, styles and JSON compressed for clients that accept gzip (issue 17 item 12)
     app.add_middleware(GZipMiddleware, minimum_size=GZIP_MIN_BYTES, compresslevel=GZIP_LEVEL,
                        exclude_content_types=NOT_GZIPPED)

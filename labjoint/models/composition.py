@@ -39,6 +39,9 @@ from labjoint.vocabulary import EFFECTS
 
 PICARD_MAX = 100
 PICARD_TOL = 1e-10
+#: Hysteretic force histories a model keeps for reuse (:meth:`Model._simulated`): one per
+#: effect and run of a fitted set.
+HISTORY_CACHE = 256
 
 
 def _inputs(x: ModelInputs | RunData) -> ModelInputs:
@@ -184,7 +187,7 @@ class Model:
         hyst = [e for e in self.effects if isinstance(e, HystereticEffect)]
         u = x.u_hist
         if len(hyst) <= 1 or mods.inv_ew == 0.0:
-            return {e.name: e.simulate(vals[e.name], u, mods)[0] for e in hyst}
+            return {e.name: self._simulated(e, vals[e.name], u, mods) for e in hyst}
         energies = {e.name: np.zeros_like(u) for e in hyst}
         forces = {e.name: np.zeros_like(u) for e in hyst}
         for _ in range(PICARD_MAX):
@@ -200,6 +203,33 @@ class Model:
             if change < PICARD_TOL:
                 break
         return forces
+
+    def _simulated(self, e: HystereticEffect, vals: Mapping[str, float], u: np.ndarray,
+                   mods: SlipModifiers) -> np.ndarray:
+        """``e``'s force history along ``u``, reused while its parameters, the modifiers
+        and the history array are the same: a fit's finite-difference Jacobian moves one
+        parameter at a time, so every other effect's history is the one already computed
+        (the effects are independent here: no wear couples them). Kept per history array
+        (a run; its values compared, a few microseconds against a simulation's
+        milliseconds), at most :data:`HISTORY_CACHE` of them; read-only, never changed."""
+        key = (e.name, id(u))
+        p = tuple(vals.values())
+        cache = self.__dict__.setdefault("_history_cache", {})
+        hit = cache.get(key)
+        if hit is not None and hit[1] == mods and hit[2] == p and np.array_equal(hit[0], u):
+            return hit[3]
+        f = e.simulate(vals, u, mods)[0]
+        f.flags.writeable = False
+        if len(cache) >= HISTORY_CACHE:
+            cache.clear()
+        cache[key] = (u.copy(), mods, p, f)     # a copy: ``u`` compared by value, so a
+        return f                                # buffer refilled in place is never stale
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled (to a worker, in a fit result) without the cached histories."""
+        state = dict(self.__dict__)
+        state.pop("_history_cache", None)
+        return state
 
     def _histories(self, vals: Mapping[str, Mapping[str, float]], inputs: ModelInputs,
                    solve: frozenset[str] = frozenset()

@@ -8,12 +8,13 @@ from typing import Any, Callable, Literal
 
 import numpy as np
 from fastapi import APIRouter, Depends, Path, Query, Request
-from fastapi.responses import FileResponse, JSONResponse
+from fastapi.responses import FileResponse, JSONResponse, Response
 from pydantic import ValidationError
 
 from labjoint.api.auth import require_read
 from labjoint.api.decimate import CHUNK_SAMPLES, decimate
 from labjoint.api.errors import ApiError, errors_doc
+from labjoint.api.fastpath import summary, summary_body
 from labjoint.api.jobs import json_safe
 from labjoint.api.loops import steady_loops
 from labjoint.api.resolve import RunResolver, roles
@@ -60,13 +61,6 @@ def _results(catalog: Any, names: list[str]) -> dict[str, dict[str, Any]]:
     return out
 
 
-def summary(rec: RunRecord) -> dict[str, Any]:
-    """A catalog record as the API shows it (the server's file path left out)."""
-    d = {k: getattr(rec, k) for k in RunSummary.model_fields if k != "metadata"}
-    d["metadata"] = rec.metadata
-    return json_safe(d)
-
-
 @router.get("", response_model=RunList, responses=errors_doc(), summary="List runs")
 def list_runs(
     request: Request,
@@ -108,8 +102,9 @@ async def get_run(request: Request, name: str = NamePath) -> JSONResponse:
     """The run's catalog entry: conditions (SI), status and every other metadata key.
 
     Async and answered directly: one indexed SQLite lookup (well under a millisecond)
-    costs less than a thread-pool hop."""
-    return JSONResponse(summary(resolver(request).record(name)))
+    costs less than a thread-pool hop. The body is cached per catalog version
+    (:mod:`labjoint.api.fastpath`, which answers most of these before the router)."""
+    return Response(summary_body(request.app.state, name), media_type="application/json")
 
 
 @router.get("/{name}/channels", response_model=RunChannels, responses=errors_doc(),

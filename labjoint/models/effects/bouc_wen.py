@@ -37,17 +37,24 @@ def bw_rate(z, sg_h, k0, al, be, n):  # pragma: no cover - numba
 
 
 @njit(cache=True)
-def bw_bound(z, k0, al, be, n):  # pragma: no cover - numba
-    """The largest |z| the exact solution can reach from z (saturating law), else Z_CAP."""
+def bw_saturation(k0, al, be, n):  # pragma: no cover - numba
+    """F_sat = (k0 / (alpha + beta))^(1/n) of a saturating law, else Z_CAP."""
     if al + be > 0.0:
-        return min(max(abs(z), (k0 / (al + be)) ** (1.0 / n)), Z_CAP)
+        return (k0 / (al + be)) ** (1.0 / n)
     return Z_CAP
 
 
 @njit(cache=True)
-def bw_step(z, du, k0, al, be, n):  # pragma: no cover - numba
+def bw_bound(z, sat):  # pragma: no cover - numba
+    """The largest |z| the exact solution can reach from z: max(|z|, F_sat) for a
+    saturating law (``sat`` from :func:`bw_saturation`), else Z_CAP."""
+    return min(max(abs(z), sat), Z_CAP) if sat < Z_CAP else Z_CAP
+
+
+@njit(cache=True)
+def bw_step(z, du, k0, al, be, n, sat):  # pragma: no cover - numba
     """z after a displacement step du (RK4 with the module's substep rule)."""
-    zmax = bw_bound(z, k0, al, be, n)
+    zmax = bw_bound(z, sat)
     zr = min(abs(z) + k0 * abs(du), zmax)
     lam = n * (abs(al) + abs(be)) * max(zr, 1e-300) ** (n - 1.0)
     m = 1 + int(min(2.0 * lam * abs(du), MAX_SUBSTEPS - 1.0))
@@ -73,6 +80,8 @@ def bouc_wen_force(u, k0, al0, be0, n, asym, inv_ew, e_other):  # pragma: no cov
     ed = 0.0
     out[0] = 0.0
     ed_out[0] = 0.0
+    f_last = np.nan                  # the slip scaling of the last step, and its F_sat
+    sat = Z_CAP
     for i in range(1, m_out):
         du = u[i] - u[i - 1]
         if du == 0.0:
@@ -83,9 +92,12 @@ def bouc_wen_force(u, k0, al0, be0, n, asym, inv_ew, e_other):  # pragma: no cov
         if inv_ew != 0.0:
             s = np.exp(-(ed + e_other[i - 1]) * inv_ew)
         s *= (1.0 + asym) if du > 0.0 else (1.0 - asym)
-        f = s ** (-n)
+        f = 1.0 if s == 1.0 else s ** (-n)          # pow(1, y) is 1: the same number
+        if f != f_last:                              # F_sat only changes with f
+            sat = bw_saturation(k0, al0 * f, be0 * f, n)
+            f_last = f
         z_old = z
-        z = bw_step(z, du, k0, al0 * f, be0 * f, n)
+        z = bw_step(z, du, k0, al0 * f, be0 * f, n, sat)
         work += 0.5 * (z_old + z) * du
         ed = work - z * z / (2.0 * k0)
         out[i] = z
