@@ -43,10 +43,10 @@ from numba import njit
 from labjoint.errors import InputError
 from labjoint.identify.contact import ContactPressure, horner, invert_loads
 from labjoint.identify.friction import (DEFAULT_TORQUE_TO_NORMAL_N_PER_NM, RATIO_KEY, normal_force,
-                                        shear_layer_stiffness, slip_travel_fraction,
-                                        stick_branch_stiffness)
+                                        shear_layer_stiffness)
 from labjoint.identify.identified import Identified
 from labjoint.identify.quarters import band_limited_peaks, period_mean, rising_quarters
+from labjoint.identify.sliding import MACRO_SLIP_TRAVEL, slip_travel_fraction, stick_branch_stiffness
 from labjoint.signal import validate
 from labjoint.signal.clipping import refuse_clipped
 from labjoint.signal.excitation import detect_excitation, require_sine
@@ -60,11 +60,6 @@ BASIS = ("model-based: seed 002 Eqs. 6-9 with K_t, mu and the contact law; in mi
          "W = 2 K_t U^2 and C = K / (pi omega) with K = 2 K_t, so they follow from K_t "
          "(the loop slope), U and omega and do not measure dissipation independently")
 
-
-#: A measured loop that makes at least this share of its travel on a sliding plateau
-#: (the friction test's own threshold, :func:`labjoint.identify.friction.sliding_force`)
-#: slides as a whole: K_t then comes from its stick branches, not its overall slope.
-MACRO_SLIP_TRAVEL = 0.25
 
 #: Friction coefficients taken: far below (above) any dry contact's; as mu -> 0 the loads
 #: K_t u / (mu N) of Eq. 6 overflow.
@@ -285,11 +280,8 @@ class StickSlipIdentifier:
     ``stiffness_method``); contact geometry (None: run metadata, else defaults);
     ``torque_to_normal_n_per_nm`` when the run gives only a torque (None: the run's
     metadata ``torque_to_normal_n_per_nm``, else seed 002's 478 N/Nm).
-    ``loop_slope``: K_t already taken from the same run's loop slope (the loop method's),
-    used in place of ``stiffness_method`` unless the loop slides as a whole; a loop that
-    makes :data:`MACRO_SLIP_TRAVEL` of its travel on sliding plateaus gets K_t from its
-    stick branches (:func:`~labjoint.identify.friction.stick_branch_stiffness`), since
-    its overall slope averages the plateaus in.
+    ``loop_slope``: K_t from the loop method's slope, used unless the loop slides as a
+    whole; such a loop gets K_t from its stick branches (:mod:`labjoint.identify.sliding`).
     After :meth:`fit`, ``result_`` holds a :class:`StickSlipResult`.
     """
 
@@ -300,13 +292,10 @@ class StickSlipIdentifier:
                  sigma_s_mode: str = "force", torque_to_normal_n_per_nm: float | None = None,
                  stiffness_method: str = "lsq", cutoff_hz: float | None = PAPER_CUTOFF_HZ,
                  rel_tol: float = 0.01, loop_slope: float | Identified | None = None) -> None:
-        self.friction_coefficient = friction_coefficient
-        self.loop_slope = loop_slope
+        self.friction_coefficient, self.loop_slope = friction_coefficient, loop_slope
         self.shear_stiffness = shear_stiffness
-        self.bolt_radius_m = bolt_radius_m
-        self.contact_radius_m = contact_radius_m
-        self.inner_radius_m = inner_radius_m
-        self.head_radius_m = head_radius_m
+        self.bolt_radius_m, self.contact_radius_m = bolt_radius_m, contact_radius_m
+        self.inner_radius_m, self.head_radius_m = inner_radius_m, head_radius_m
         self.sigma_s_mode = sigma_s_mode
         self.torque_to_normal_n_per_nm = torque_to_normal_n_per_nm
         self.stiffness_method = stiffness_method
@@ -380,14 +369,13 @@ class StickSlipIdentifier:
             a = int(np.floor(q.crossing_sample[k[0]]))
             b = int(min(u.size, np.ceil(q.crossing_sample[k[-1]] + fs / f) + 1))
             Ff = lowpass(F - F.mean(), fs, cutoff) if cutoff is not None else F - F.mean()
-            if slip_travel_fraction(uf[a:b], Ff[a:b], fs, f) >= MACRO_SLIP_TRAVEL:
-                # the measured loop slides on plateaus: its overall slope averages them
-                # in (slope 0) and is not the shear layer's (Eq. 4); its stick branches are
-                kt = stick_branch_stiffness(uf[a:b], Ff[a:b], fs, f, source=name or "record")
+            src = name or "record"
+            if slip_travel_fraction(uf[a:b], Ff[a:b], fs, f) >= MACRO_SLIP_TRAVEL:  # slides
+                kt = stick_branch_stiffness(uf[a:b], Ff[a:b], fs, f, source=src)
             elif self.loop_slope is not None:
                 kt = _as_identified(self.loop_slope, "shear_stiffness", "N/m", "loop_slope")
             else:
-                kt = shear_layer_stiffness(uf[a:b], Ff[a:b], fs, f, source=name or "record",
+                kt = shear_layer_stiffness(uf[a:b], Ff[a:b], fs, f, source=src,
                                            method=self.stiffness_method)
         else:
             kt = _as_identified(self.shear_stiffness, "shear_stiffness", "N/m", "shear_stiffness")
