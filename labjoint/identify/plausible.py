@@ -32,6 +32,8 @@ MAX_FREQUENCY_MISMATCH = 0.005
 #: A joint's relative tangential displacement beyond this amplitude (m) is not one: the
 #: column is in other units, or holds the force (displacement and force swapped).
 MAX_DISPLACEMENT_AMPLITUDE_M = 0.01
+#: Below this amplitude (m) no sensor resolves a displacement (and W / U^2 underflows).
+MIN_DISPLACEMENT_AMPLITUDE_M = 1e-15
 
 
 def refuse_impossible(s: dict[str, Any]) -> None:
@@ -40,12 +42,7 @@ def refuse_impossible(s: dict[str, Any]) -> None:
     force (or displacement) sensor of inverted sign. A negative W with a positive
     stiffness stays a flagged result (``below_resolution``): an uncorrected phase lag
     between the channels gives it too (:mod:`labjoint.identify.resolution`)."""
-    u_amp = s["displacement_amplitude_m"]
-    if u_amp > MAX_DISPLACEMENT_AMPLITUDE_M:
-        raise InputError(f"amplitude {u_amp:.4g} m is not a joint's relative displacement "
-                         f"(above {MAX_DISPLACEMENT_AMPLITUDE_M:g} m): the column must be in "
-                         "metres (SI), and displacement and force may be swapped",
-                         field="displacement")
+    refuse_far_amplitude(s)
     w, k = s["energy_loss_j"], s["stiffness_n_per_m"]
     if w < -COVERAGE * s["energy_loss_j_uncertainty"] and k < 0:
         raise InputError(f"runs against the displacement: energy loss {w:.4g} J < 0 (the "
@@ -54,6 +51,21 @@ def refuse_impossible(s: dict[str, Any]) -> None:
                          "displacement's) is inverted; force and displacement must be positive "
                          "in the same direction (a passive joint dissipates energy)",
                          field="force")
+
+
+def refuse_far_amplitude(s: dict[str, Any]) -> None:
+    """Refuse a displacement amplitude of centimetres or more (before anything squares it:
+    a column in other units can hold 1e295 "m")."""
+    u_amp = s["displacement_amplitude_m"]
+    if 0 < u_amp < MIN_DISPLACEMENT_AMPLITUDE_M:
+        raise InputError(f"amplitude {u_amp:.3g} m is below {MIN_DISPLACEMENT_AMPLITUDE_M:g} m "
+                         "(a femtometre): no displacement a sensor resolves; check the "
+                         "column's units", field="displacement")
+    if not u_amp <= MAX_DISPLACEMENT_AMPLITUDE_M:
+        raise InputError(f"amplitude {u_amp:.4g} m is not a joint's relative displacement "
+                         f"(above {MAX_DISPLACEMENT_AMPLITUDE_M:g} m): the column must be in "
+                         "metres (SI), and displacement and force may be swapped",
+                         field="displacement")
 
 
 def refuse_unresolved(f: float, fs: float, cutoff: float | None, order: int) -> None:

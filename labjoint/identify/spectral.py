@@ -203,8 +203,8 @@ def distortion_run(path: str, args: Any) -> dict[str, Any]:
     rec = load(path)
     d = rec.drive(args.drive)
     u = rec.channels[d][2]
-    exc = detect_excitation(u, rec.fs)
     try:
+        exc = detect_excitation(u, rec.fs)
         if exc.kind == "multisine" and exc.period_s:
             n = int(round(exc.period_s * rec.fs))
             chans = {name: {"quantity": q, "units": unit, "harmonics": [],   # no single fundamental

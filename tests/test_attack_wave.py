@@ -1,0 +1,52 @@
+"""Issue 33's attack pass on this wave's commands: numbers no measurement in SI units
+holds (a column in other units: 1e295 "m", 1e302 "N", 1e-305 "m") went through
+`import` and then ended `analyze`, `fit` and `distortion` in tracebacks (OverflowError,
+IndexError, ZeroDivisionError) or in numpy warnings. Each must be one line naming the
+file and the channel, exit 2."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from labjoint.cli.main import main
+from labjoint.storage import import_csv
+
+FS, F_HZ = 2000.0, 50.0
+
+
+def _csv(path, u_scale=1.0, f_scale=1.0):
+    t = np.arange(4000) / FS
+    u = 1e-5 * np.sin(2 * np.pi * F_HZ * t)
+    F = 1e7 * u + 5 * np.cos(2 * np.pi * F_HZ * t)
+    with open(path, "w") as fh:
+        fh.write(f"# frequency_hz: {F_HZ}\n# sample_rate_hz: {FS}\n")
+        fh.write("time_s,displacement_m,force_N\n")
+        np.savetxt(fh, np.column_stack([t, u * u_scale, F * f_scale]), fmt="%.10g",
+                   delimiter=",")
+    return path
+
+
+CASES = {"huge_displacement": ({"u_scale": 1e300}, "displacement", "too large to square"),
+         "huge_force": ({"f_scale": 1e300}, "force", "too large to square"),
+         "tiny_displacement": ({"u_scale": 1e-300}, "displacement", "femtometre")}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+@pytest.mark.parametrize("command", [["analyze"], ["fit", "--model", "linear_stiffness+viscous"],
+                                     ["distortion"]])
+def test_a_column_in_other_units_is_one_line_and_exit_2(tmp_path, capsys, case, command):
+    scale, channel, words = CASES[case]
+    csv = _csv(tmp_path / f"{case}.csv", **scale)
+    h5 = import_csv(csv, tmp_path / "data")
+    if command == ["distortion"] and case == "tiny_displacement":
+        pytest.skip("a femtometre-scale displacement's harmonic ratios are still ratios")
+    code = main([command[0], str(h5), *command[1:], "--json"])
+    out = capsys.readouterr()
+    assert code == 2, out
+    assert out.out == ""
+    lines = out.err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in out.err, out.err
+    assert str(h5) in lines[0] and words in lines[0], lines[0]
+    if command[0] != "distortion":       # distortion names the drive's channel ('signal')
+        assert channel in lines[0]
