@@ -50,3 +50,47 @@ def test_a_column_in_other_units_is_one_line_and_exit_2(tmp_path, capsys, case, 
     assert str(h5) in lines[0] and words in lines[0], lines[0]
     if command[0] != "distortion":       # distortion names the drive's channel ('signal')
         assert channel in lines[0]
+
+
+def _bert_like(path, dtype_laser=None):
+    import h5py
+    t = np.arange(4000) / FS
+    x = np.sin(2 * np.pi * 20 * t)
+    with h5py.File(path, "w") as f:
+        g = f.create_group("T1")
+        g.attrs["sample_rate_hz"] = FS
+        g["time_s"], g["input_V"] = t, x
+        g["laser_m_per_s"] = np.array([b"a"] * t.size) if dtype_laser == "S" else 1e-3 * x
+        for k in range(1, 5):
+            g[f"acc{k}_m_per_s2"] = x
+    return path
+
+
+def _map(tmp_path, quantity="velocity"):
+    from pathlib import Path
+    text = Path(__file__).resolve().parents[1].joinpath("configs", "maps", "bert.toml").read_text()
+    text = text.replace('include = ["Sine_*", "Rand_*"]', 'include = ["T*"]')
+    text = text.replace('quantity = "velocity"', f'quantity = "{quantity}"', 1)
+    p = tmp_path / "map.toml"
+    p.write_text(text)
+    return p
+
+
+def test_a_misspelt_quantity_with_a_known_unit_is_refused_not_stored_unconverted(tmp_path, capsys):
+    # 'velocty' with m/s was kept as an unknown quantity in its unit as given
+    src = _bert_like(tmp_path / "t.h5")
+    code = main(["import", str(src), "--map", str(_map(tmp_path, "velocty")),
+                 "--out", str(tmp_path / "out"), "--json"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1
+    assert "velocty" in err[0] and "write quantity = 'velocity'" in err[0]
+    assert not list((tmp_path / "out").glob("*.h5"))
+
+
+def test_a_text_channel_is_not_called_complex(tmp_path, capsys):
+    src = _bert_like(tmp_path / "t.h5", dtype_laser="S")
+    code = main(["import", str(src), "--map", str(_map(tmp_path)), "--out",
+                 str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1
+    assert "laser_m_per_s" in err[0] and "complex" not in err[0] and "not real numbers" in err[0]

@@ -77,9 +77,11 @@ WORSE_RATIO = 1.5
 
 
 def run_errors(ev: Evaluation) -> list[dict[str, Any]]:
-    """Each run's energy-loss and stiffness error (%) of an evaluation with figures."""
-    return [{"run": r.name, "energy_loss_error_pct": r.energy_loss_error_pct,
-             "stiffness_error_pct": r.stiffness_error_pct} for r in ev.runs]
+    """Each run's energy-loss and stiffness error (%) of an evaluation with figures
+    (none for a kind without energy figures: FRFs, backbones)."""
+    out = [{"run": r.name, "energy_loss_error_pct": r.energy_loss_error_pct,
+            "stiffness_error_pct": r.stiffness_error_pct} for r in ev.runs]
+    return out if any(np.isfinite(r["energy_loss_error_pct"]) for r in out) else []
 
 
 def worsened(before: list[dict[str, Any]], after: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -156,6 +158,8 @@ def _next(dg: Diagnosis, step: LadderStep, runs: Sequence[Measurement]
           ) -> CandidateResult | None:
     """The best significant candidate that makes no run's energy loss worse; the ones
     refused on the way are recorded in ``step.refused``."""
+    if not step.run_errors:
+        return dg.best                    # a kind without energy figures (FRF, backbone)
     for cand in (c for c in dg.candidates if c.significant):
         worse = worsened(step.run_errors,
                          run_errors(evaluate(cand.fit.model, cand.fit.params_, runs)))
@@ -229,7 +233,7 @@ def build_ladder(runs: Sequence[Measurement], model: Model | str, *, max_steps: 
                                        base_fit=fit, noise=noise, progress=progress)
                 steps.append(_step(dg, added))
             else:
-                ev = evaluate(m, fit.params_, runs)
+                ev = evaluate(m, fit.params_, runs, loops=runs[0].kind in ("sine", "record"))
                 steps.append(LadderStep(m.expr, added, ev.nrmse(), ev.nrmse(val_names),
                                         ev.nrmse() <= settings.factor * noise.nrmse,
                                         parameters_dict(fit), run_errors=run_errors(ev)))

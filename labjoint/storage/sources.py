@@ -215,8 +215,9 @@ def _hdf5(path: Path, patterns: list[str], options: dict[str, Any]) -> list[Sour
                 with h5py.File(path, "r") as fh:
                     ds = fh[where][k]              # checked as declared, before it is read
                     if ds.dtype.kind not in "biuf":
-                        raise InputError(f"dataset {k!r} holds {ds.dtype} values, not real "
-                                         "numbers (a complex channel is refused, not truncated)",
+                        what = ("complex values (a complex channel is refused, not "
+                                "truncated)" if ds.dtype.kind == "c" else f"{ds.dtype} values")
+                        raise InputError(f"dataset {k!r} holds {what}, not real numbers",
                                          file=str(path), field=k)
                     if ds.size > MAX_IMPORT_SAMPLES:
                         raise InputError(f"dataset {k!r} declares {ds.size:.3g} values; at most "
