@@ -94,3 +94,15 @@ def test_a_text_channel_is_not_called_complex(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1
     assert "laser_m_per_s" in err[0] and "complex" not in err[0] and "not real numbers" in err[0]
+
+
+@pytest.mark.parametrize("where", ["dir", "missing"])
+def test_frf_out_that_cannot_be_written_is_refused_before_any_work(tmp_path, capsys, where):
+    # `frf --out /tmp` ended in IsADirectoryError after writing '/.tmp.tmp' beside it;
+    # a missing directory in FileNotFoundError
+    out = tmp_path if where == "dir" else tmp_path / "no" / "x.json"
+    code = main(["frf", str(tmp_path / "any.h5"), "--out", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "Traceback" not in err[0]
+    assert ("is a directory" if where == "dir" else "does not exist") in err[0]
+    assert not list(tmp_path.parent.glob(".*.tmp"))
