@@ -106,3 +106,16 @@ def test_frf_out_that_cannot_be_written_is_refused_before_any_work(tmp_path, cap
     assert code == 2 and len(err) == 1 and "Traceback" not in err[0]
     assert ("is a directory" if where == "dir" else "does not exist") in err[0]
     assert not list(tmp_path.parent.glob(".*.tmp"))
+
+
+def test_a_garbage_tdms_file_is_one_line_naming_it_unreadable(tmp_path, capsys):
+    # nptdms logged two warnings to stderr and the file was then "no test matches"
+    src = tmp_path / "g.tdms"
+    src.write_bytes(b"TDSm" + bytes(range(256)) * 2)
+    text = _map(tmp_path).read_text().replace('format = "hdf5"', 'format = "tdms"')
+    (tmp_path / "map.toml").write_text(text)
+    code = main(["import", str(src), "--map", str(tmp_path / "map.toml"), "--out",
+                 str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, err
+    assert "not a readable TDMS file" in err[0] and str(src) in err[0]
