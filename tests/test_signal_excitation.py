@@ -87,7 +87,7 @@ def test_two_incommensurate_tones_are_not_a_sine():
 
 
 def test_too_short_is_an_error():
-    with pytest.raises(InputError, match="x"):
+    with pytest.raises(InputError, match="signal"):
         detect_excitation(np.ones(5), FS)
 
 

@@ -33,11 +33,18 @@ MAX_MESSAGES = 100_000
 _REF = "reference"
 
 
-def _ideal(params: Mapping[str, Any], max_vpp: float, config: RigConfig | None = None) -> Any:
-    """Answers of a rig that is always steady and delivers the force asked for, on its
-    reference channel and every channel of ``config``; the plan's ``response_channel`` (a
-    phase-resonance loop's) at its target phase against the force."""
+def _ideal(params: Mapping[str, Any], config: RigConfig) -> Any:
+    """Answers of a rig that is always steady and delivers the force asked for, on every
+    channel of the config; a phase-locked plan finds its response in quadrature at once
+    (so its records are checked too, not only its first measurement)."""
     force = float(params.get("force_amplitude_n", 1.0) or 1.0)
+    max_vpp = config.limits.max_vpp
+    ref = str(params.get("force_channel") or config.rig.reference_force_channel or _REF)
+    names = {c.name for c in config.daq.channels} | {ref}
+    target = (math.radians(TARGET_DEG.get(str(params.get("response_quantity", "acceleration")),
+                                          0.0)) if "response_channel" in params else 0.0)
+    amplitude = {n: force for n in names}
+    phase = {n: 0.0 if n == ref else target for n in names}
     state = {"f": 1.0}
     names = [c.name for c in config.daq.channels] if config is not None else []
     ref = (config.rig.reference_force_channel if config is not None else None) or _REF
@@ -53,7 +60,7 @@ def _ideal(params: Mapping[str, Any], max_vpp: float, config: RigConfig | None =
         if isinstance(msg, WaitSteady):
             return SteadyResult(True, msg.window, 0.0)
         if isinstance(msg, Measure):
-            return Measurement(state["f"], dict(amp), dict(phase), ref, max_vpp)
+            return Measurement(state["f"], dict(amplitude), dict(phase), ref, max_vpp)
         return None
 
     return respond
@@ -73,7 +80,7 @@ def check_plan(plan: Mapping[str, Any], config: RigConfig) -> None:
             except LimitTrip as trip:
                 gen.close()
                 raise InputError(f"{trip} (the rig's limit)", field=key) from None
-    respond = _ideal(params, limits.max_vpp, config)
+    respond = _ideal(params, config)
     f, offset, answer, band = None, 0.0, None, None
     names: dict[str, int] = {}
     try:

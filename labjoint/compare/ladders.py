@@ -5,6 +5,13 @@ not adequate and a candidate improves it significantly, add the best one (its wa
 becomes the next step's fit) and diagnose again, up to ``max_steps`` additions. A tie
 for best is broken by the lower validation NRMSE and recorded in the step.
 
+A step may lower the set's NRMSE while moving some runs' dissipation away from the
+measurement (issue 33: the 1 Vpp runs' energy-loss error -2.9 % -> -12.3 %). The
+automatic ladder does not take such a step: a significant candidate that makes any
+run's energy-loss error worse (:func:`worsened`) is refused, named in the step's
+``refused`` list, and the next significant candidate is tried; when every one is
+refused the ladder stops and says which runs each would have made worse.
+
 Manual mode: the steps are the successive prefixes of the given expression (``a``,
 ``a+b``, ``a+b+c``; prefixes that are not valid models, e.g. a modifier before any
 hysteretic effect, are skipped), each fitted warm from the one before; the last step is
@@ -19,11 +26,13 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from labjoint.compare.diagnosis import (DiagnoseSettings, Diagnosis, diagnose_prepared,
-                                       judged_runs, parameters_dict)
+import numpy as np
+
+from labjoint.compare.diagnosis import (CandidateResult, DiagnoseSettings, Diagnosis,
+                                       diagnose_prepared, judged_runs, parameters_dict)
 from labjoint.compare.kinds import kind_of
 from labjoint.compare.measurement import Measurement, noise_floor
-from labjoint.compare.metrics import evaluate
+from labjoint.compare.metrics import Evaluation, evaluate
 from labjoint.compare.runs import split_by_names
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model, ModelFitter
@@ -43,6 +52,9 @@ class LadderStep:
     tie: dict[str, Any] | None = None
     candidates: list[dict[str, Any]] = field(default_factory=list)
     diagnosis: Diagnosis | None = None
+    refused: list[dict[str, Any]] = field(default_factory=list)
+    worse: list[dict[str, Any]] = field(default_factory=list)
+    run_errors: list[dict[str, Any]] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         d = {"model": self.model, "added": self.added, "nrmse": self.nrmse,
@@ -54,11 +66,45 @@ class LadderStep:
         curves = getattr(getattr(self.diagnosis, "maps", None), "step_curves", None)
         if curves is not None:           # backbones: the step's model at the measured amplitudes
             d["backbone_curves"] = curves()
-        if self.diagnosis is not None:   # per run: a step may help the set, hurt some runs
-            d["runs"] = [{"run": r.name, "energy_loss_error_pct": r.energy_loss_error_pct,
-                          "stiffness_error_pct": r.stiffness_error_pct}
-                         for r in self.diagnosis.evaluation.runs]
+        if self.run_errors:              # per run: a step may help the set, hurt some runs
+            d["runs"] = self.run_errors
+        d["refused"] = self.refused
+        d["worse"] = self.worse
         return d
+
+
+#: A run's energy-loss error is made worse when its magnitude grows by more than this
+#: many percentage points and by more than ``WORSE_RATIO`` (the page's rule, modelplots.js).
+WORSE_POINTS = 2.0
+WORSE_RATIO = 1.5
+
+
+def run_errors(ev: Evaluation) -> list[dict[str, Any]]:
+    """Each run's energy-loss and stiffness error (%) of an evaluation with figures
+    (none for a kind without energy figures: FRFs, backbones)."""
+    out = [{"run": r.name, "energy_loss_error_pct": r.energy_loss_error_pct,
+            "stiffness_error_pct": r.stiffness_error_pct} for r in ev.runs]
+    return out if any(np.isfinite(r["energy_loss_error_pct"]) for r in out) else []
+
+
+def worsened(before: list[dict[str, Any]], after: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Runs whose energy-loss error the step makes worse: [{run, before_pct, after_pct}]."""
+    prev = {r["run"]: r["energy_loss_error_pct"] for r in before}
+    out = []
+    for r in after:
+        a, b = prev.get(r["run"]), r["energy_loss_error_pct"]
+        if a is None or not (np.isfinite(a) and np.isfinite(b)):
+            continue
+        if abs(b) > abs(a) + WORSE_POINTS and abs(b) > WORSE_RATIO * abs(a):
+            out.append({"run": r["run"], "before_pct": float(a), "after_pct": float(b)})
+    return out
+
+
+def describe_worse(effect: str, worse: list[dict[str, Any]]) -> str:
+    """One phrase: + effect would make these runs' energy-loss error worse (a -> b %)."""
+    runs = ", ".join(f"{w['run']} ({w['before_pct']:+.1f} % -> {w['after_pct']:+.1f} %)"
+                     for w in worse)
+    return f"+ {effect} makes the energy-loss error worse on {runs}"
 
 
 @dataclass
@@ -107,7 +153,24 @@ def _step(dg: Diagnosis, added: str | None) -> LadderStep:
     tie = ({"effects": [best.effect, *best.tie_with], "reason": best.tie_reason}
            if best is not None and best.tie_with else None)
     return LadderStep(dg.model.expr, added, dg.nrmse, dg.nrmse_validation, dg.adequate,
-                      parameters_dict(dg.base), dg.verdict, tie, _summary(dg), dg)
+                      parameters_dict(dg.base), dg.verdict, tie, _summary(dg), dg,
+                      run_errors=run_errors(dg.evaluation))
+
+
+def _next(dg: Diagnosis, step: LadderStep, runs: Sequence[Measurement]
+          ) -> CandidateResult | None:
+    """The best significant candidate that makes no run's energy loss worse; the ones
+    refused on the way are recorded in ``step.refused``."""
+    if not step.run_errors:
+        return dg.best                    # a kind without energy figures (FRF, backbone)
+    for cand in (c for c in dg.candidates if c.significant):
+        worse = worsened(step.run_errors,
+                         run_errors(evaluate(cand.fit.model, cand.fit.params_, runs)))
+        if not worse:
+            return cand
+        step.refused.append({"effect": cand.effect, "runs": worse,
+                             "reason": describe_worse(cand.effect, worse)})
+    return None
 
 
 def prefixes(expr: str | Model) -> list[Model]:
@@ -148,9 +211,10 @@ def build_ladder(runs: Sequence[Measurement], model: Model | str, *, max_steps: 
             if dg.adequate:
                 stop = "adequate"
                 break
-            best = dg.best
+            best = _next(dg, steps[-1], runs)
             if best is None:
-                stop = dg.verdict
+                stop = dg.verdict if not steps[-1].refused else (
+                    "no candidate taken: " + "; ".join(r["reason"] for r in steps[-1].refused))
                 break
             if max_steps is not None and len(steps) - 1 >= int(max_steps):
                 stop = f"max_steps ({max_steps}) reached; next would be + {best.effect}"
@@ -172,11 +236,16 @@ def build_ladder(runs: Sequence[Measurement], model: Model | str, *, max_steps: 
                                        base_fit=fit, noise=noise, progress=progress)
                 steps.append(_step(dg, added))
             else:
-                ev = evaluate(m, fit.params_, runs, loops=False)
+                ev = evaluate(m, fit.params_, runs, loops=runs[0].kind in ("sine", "record"))
                 steps.append(LadderStep(m.expr, added, ev.nrmse(), ev.nrmse(val_names),
                                         ev.nrmse() <= settings.factor * noise.nrmse,
-                                        parameters_dict(fit)))
+                                        parameters_dict(fit), run_errors=run_errors(ev)))
+            if i:                 # the user asked for this step: taken, and flagged
+                steps[-1].worse = worsened(steps[-2].run_errors, steps[-1].run_errors)
         stop = "end of the given expression"
+        flagged = [describe_worse(s.added or s.model, s.worse) for s in steps if s.worse]
+        if flagged:
+            stop += "; " + "; ".join(flagged)
     final = steps[-1]
     floor_val = noise.over(runs, val_names)
     return Ladder(model.expr, steps, noise.nrmse, floor_val, final.adequate, stop,

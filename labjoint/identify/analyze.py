@@ -18,8 +18,8 @@ import numpy as np
 
 from labjoint.errors import InputError
 from labjoint.identify.loop import DEFAULT_STIFFNESS, PER_CYCLE, LoopResult, loop_metrics, summarize
-from labjoint.identify.plausible import (Plausibility, refuse_frequency_mismatch, refuse_impossible,
-                                         refuse_unresolved)
+from labjoint.identify.plausible import (Plausibility, refuse_far_amplitude, refuse_frequency_mismatch,
+                                         refuse_impossible, refuse_unresolved)
 from labjoint.identify.resolution import correct_phase, resolution, sensor_phase
 from labjoint.signal import validate
 from labjoint.signal.clipping import refuse_clipped
@@ -301,6 +301,10 @@ def _assemble(per_cycle: dict[str, np.ndarray], bounds: np.ndarray, fs: float, f
         raise InputError(f"has only {int(valid.sum())} usable cycles of {n} (duration "
                          f"within {PERIOD_RANGE} periods, non-zero amplitude); at least "
                          f"{min_cycles} are needed", field="displacement")
+    # before anything divides by U^2 or squares it (a column in other units)
+    refuse_far_amplitude({"displacement_amplitude_m":
+                          float(np.median(per_cycle["displacement_amplitude"][valid]))},
+                         plausibility)
     phase = np.angle(per_cycle["force_harmonics"][:, 0]
                      * np.conj(per_cycle["displacement_harmonics"][:, 0]))
     steady = detect_steady(per_cycle["displacement_amplitude"], per_cycle["force_amplitude"],

@@ -178,16 +178,10 @@ def sliding_force(displacement: np.ndarray, force: np.ndarray, sample_rate_hz: f
         raise InputError("record holds no whole cycle", field="displacement")
     dfdt = np.gradient(f) * sample_rate_hz
     vel = np.gradient(u) * sample_rate_hz
-    dudt = np.abs(vel)
     m = lab >= 0
-    rate_max = np.zeros(n)
-    np.maximum.at(rate_max, lab[m], np.abs(dfdt[m]))
     f_mid = _per_cycle_mean(f, lab, m, n)[0]
     safe = np.maximum(lab, 0)
-    flat = m & (np.abs(dfdt) < rate_fraction * rate_max[safe])
-    travel_flat = np.bincount(lab[flat], weights=dudt[flat], minlength=n)
-    travel = np.bincount(lab[m], weights=dudt[m], minlength=n)
-    slip_fraction = float(np.nanmedian(travel_flat / travel))
+    slip_fraction, flat = _slip_travel(u, f, lab, n, sample_rate_hz, rate_fraction)
     if not slip_fraction >= min_slip_fraction:
         raise InputError(
             f"no sliding plateau: the joint slid over only {slip_fraction:.0%} of its travel "
@@ -217,6 +211,23 @@ def sliding_force(displacement: np.ndarray, force: np.ndarray, sample_rate_hz: f
                        "offset_n": float(np.nanmean((tip_hi + tip_lo) / 2)),
                        "tip_force_n": float(np.nanmean((tip_hi - tip_lo) / 2)),
                        "plateau_mean_n": float(np.nanmean((f_up - f_lo) / 2)), **fit}
+
+
+def _slip_travel(u: np.ndarray, f: np.ndarray, lab: np.ndarray, n: int, fs: float,
+                 rate_fraction: float) -> tuple[float, np.ndarray]:
+    """Median over cycles of the share of the displacement travel made on a plateau
+    (|dF/dt| below ``rate_fraction`` of the cycle's largest force rate), and the mask of
+    those flat samples."""
+    dfdt = np.abs(np.gradient(f)) * fs
+    dudt = np.abs(np.gradient(u)) * fs
+    m = lab >= 0
+    rate_max = np.zeros(n)
+    np.maximum.at(rate_max, lab[m], dfdt[m])
+    flat = m & (dfdt < rate_fraction * rate_max[np.maximum(lab, 0)])
+    travel_flat = np.bincount(lab[flat], weights=dudt[flat], minlength=n)
+    travel = np.bincount(lab[m], weights=dudt[m], minlength=n)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return float(np.nanmedian(travel_flat / travel)), flat
 
 
 def _plateau_fit(f: np.ndarray, vel: np.ndarray, dfdt: np.ndarray, lab: np.ndarray, n: int,

@@ -89,7 +89,7 @@ def analyze_one(run: Any, method: str = "both", *, friction: Identified | float 
                              "Python) or give it (`--friction MU`)", field="friction")
         settings = dict(stickslip_settings)
         if settings.get("shear_stiffness") is None and loop is not None:
-            settings["shear_stiffness"] = _loop_stiffness_identified(loop.summary, run.name,
+            settings["loop_slope"] = _loop_stiffness_identified(loop.summary, run.name,
                                                                      stiffness)
         est = StickSlipIdentifier(friction, stiffness_method=stiffness, **settings).fit(run)
         ss = est.result_
@@ -110,6 +110,7 @@ def analyze_one(run: Any, method: str = "both", *, friction: Identified | float 
             "shear_stiffness_n_per_m": ss.shear_stiffness.value,
             "shear_stiffness_uncertainty_n_per_m": ss.shear_stiffness.uncertainty,
             "shear_stiffness_source": ss.shear_stiffness.source,
+            "shear_stiffness_method": ss.shear_stiffness.method,
             "stickslip_basis": STICKSLIP_BASIS,
         })
         if method == "both":

@@ -38,6 +38,8 @@ MAX_FREQUENCY_MISMATCH = 0.005
 MAX_DISPLACEMENT_AMPLITUDE_M = 0.01
 OVERRIDE = ("override: --max-displacement M, or the rig config's [plausibility] "
             "max_displacement_amplitude_m")
+#: Below this amplitude (m) no sensor resolves a displacement (and W / U^2 underflows).
+MIN_DISPLACEMENT_AMPLITUDE_M = 1e-15
 
 
 @dataclass(frozen=True)
@@ -98,7 +100,7 @@ def refuse_impossible(s: dict[str, Any], limits: Plausibility | None = None) -> 
     force (or displacement) sensor of inverted sign. A negative W with a positive
     stiffness stays a flagged result (``below_resolution``): an uncorrected phase lag
     between the channels gives it too (:mod:`labjoint.identify.resolution`)."""
-    refuse_large_displacement(s["displacement_amplitude_m"], limits)
+    refuse_far_amplitude(s, limits)
     w, k = s["energy_loss_j"], s["stiffness_n_per_m"]
     if w < -COVERAGE * s["energy_loss_j_uncertainty"] and k < 0:
         raise InputError(f"runs against the displacement: energy loss {w:.4g} J < 0 (the "
@@ -107,6 +109,20 @@ def refuse_impossible(s: dict[str, Any], limits: Plausibility | None = None) -> 
                          "displacement's) is inverted; force and displacement must be positive "
                          "in the same direction (a passive joint dissipates energy)",
                          field="force")
+
+
+def refuse_far_amplitude(s: dict[str, Any], limits: Plausibility | None = None) -> None:
+    """Refuse a displacement amplitude below a femtometre or above the cap (before anything
+    squares it: a column in other units can hold 1e295 "m")."""
+    u_amp = s["displacement_amplitude_m"]
+    if 0 < u_amp < MIN_DISPLACEMENT_AMPLITUDE_M:
+        raise InputError(f"amplitude {u_amp:.3g} m is below {MIN_DISPLACEMENT_AMPLITUDE_M:g} m "
+                         "(a femtometre): no displacement a sensor resolves; check the "
+                         "column's units", field="displacement")
+    if not np.isfinite(u_amp):
+        raise InputError(f"amplitude {u_amp!r} m is not a number: check the column's units",
+                         field="displacement")
+    refuse_large_displacement(u_amp, limits)
 
 
 def refuse_unresolved(f: float, fs: float, cutoff: float | None, order: int,

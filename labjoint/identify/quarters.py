@@ -55,6 +55,32 @@ def rising_quarters(displacement_m: np.ndarray, sample_rate_hz: float,
     return Quarters(flat, starts, i - frac, peak)
 
 
+def period_mean(u: np.ndarray, sample_rate_hz: float, frequency_hz: float) -> np.ndarray:
+    """The running mean of ``u`` over one period (fractional, centred on each sample).
+
+    A whole-period average removes the fundamental and every harmonic, leaving the
+    cycle's own centre: subtracting it keeps a sliding joint's slow drift out of each
+    quarter's u_i and U (seed 002 Eq. 5 measures u from the cycle's centre). Where the
+    window would leave the record the nearest whole window's mean is used.
+
+    >>> fs, f = 1000.0, 30.0
+    >>> t = np.arange(2000) / fs
+    >>> u = np.sin(2 * np.pi * f * t) + 0.2 * t          # a sine on a drift
+    >>> bool(np.allclose(period_mean(u, fs, f)[200:1800], 0.2 * t[200:1800], atol=1e-3))
+    True
+    """
+    u = np.asarray(u, dtype=float)
+    period = sample_rate_hz / frequency_hz
+    if u.size < period + 2:
+        return np.full(u.shape, u.mean() if u.size else 0.0)
+    # C(x): integral of the sample-and-hold signal from 0 to x (samples)
+    c = np.concatenate(([0.0], np.cumsum(u)))
+    x = np.arange(u.size) + 0.5
+    lo = np.clip(x - period / 2, 0.0, u.size - period)
+    grid = np.arange(c.size, dtype=float)
+    return (np.interp(lo + period, grid, c) - np.interp(lo, grid, c)) / period
+
+
 @njit(cache=True)
 def _peaks(u, first, win):  # pragma: no cover
     """Index of the maximum of u in [first_k, first_k + win) for every k."""
@@ -80,13 +106,14 @@ def _gather(u, first, peak, starts, flat):  # pragma: no cover
 
 
 #: Harmonics (of the drive frequency) the band-limited peak fit may use.
-MAX_PEAK_HARMONICS = 5
+MAX_PEAK_HARMONICS = 15
 #: Points per sample on which the fitted cycle is searched for its maximum.
 _GRID_PER_SAMPLE = 64
 
 
 def band_limited_peaks(u: np.ndarray, peak: np.ndarray, sample_rate_hz: float,
-                       frequency_hz: float, max_hz: float | None = None) -> np.ndarray:
+                       frequency_hz: float, max_hz: float | None = None, *,
+                       half_range: bool = False) -> np.ndarray:
     """Each cycle's maximum U of the band-limited displacement, not of its samples.
 
     The largest sample of a cycle falls short of the waveform's peak by up to
@@ -96,7 +123,9 @@ def band_limited_peaks(u: np.ndarray, peak: np.ndarray, sample_rate_hz: float,
     analysis low-pass; at most :data:`MAX_PEAK_HARMONICS`, and below 0.45 fs), and the
     maximum of that series within a sample of ``peak[k]`` is returned. Windows are the
     same sample offsets for every cycle, so one pseudo-inverse serves them all; a window
-    cut by the record's ends is shifted inside it.
+    cut by the record's ends is shifted inside it. ``half_range``: half the fitted
+    cycle's peak-to-peak instead (its minimum searched over the whole period), the
+    amplitude of a cycle whose maximum and minimum are not symmetric about its mean.
 
     >>> fs, f = 8000.0, 400.0                     # 20 samples per cycle
     >>> t = np.arange(400) / fs
@@ -126,6 +155,12 @@ def band_limited_peaks(u: np.ndarray, peak: np.ndarray, sample_rate_hz: float,
         return np.hstack([np.ones((tau.size, 1)), np.cos(ph), np.sin(ph)])
 
     grid = np.linspace(-1.0, 1.0, 2 * _GRID_PER_SAMPLE + 1)
+    whole = np.linspace(offsets[0], offsets[-1], 8 * (offsets.size - 1) + 1)
+
+    def value(coef: np.ndarray) -> np.ndarray:
+        top = (design(grid) @ coef).max(axis=0)
+        return (top - (design(whole) @ coef).min(axis=0)) / 2 if half_range else top
+
     out = np.empty(peak.size)
     lo = peak + offsets[0]
     hi = peak + offsets[-1]
@@ -133,11 +168,11 @@ def band_limited_peaks(u: np.ndarray, peak: np.ndarray, sample_rate_hz: float,
     if inside.any():
         coef = np.linalg.pinv(design(offsets.astype(float))) @ u[peak[inside][None, :]
                                                                   + offsets[:, None]]
-        out[inside] = (design(grid) @ coef).max(axis=0)
+        out[inside] = value(coef)
     for k in np.flatnonzero(~inside):                      # windows at the record's ends
         start = int(min(max(lo[k], 0), u.size - offsets.size))
         tau = np.arange(start, start + offsets.size) - peak[k]
         coef = np.linalg.lstsq(design(tau.astype(float)), u[start:start + offsets.size],
                                rcond=None)[0]
-        out[k] = float((design(grid) @ coef).max())
+        out[k] = float(value(coef))
     return out

@@ -203,8 +203,8 @@ def distortion_run(path: str, args: Any) -> dict[str, Any]:
     rec = load(path)
     d = rec.drive(args.drive)
     u = rec.channels[d][2]
-    exc = detect_excitation(u, rec.fs)
     try:
+        exc = detect_excitation(u, rec.fs)
         if exc.kind == "multisine" and exc.period_s:
             n = int(round(exc.period_s * rec.fs))
             chans = {name: {"quantity": q, "units": unit, "harmonics": [],   # no single fundamental
@@ -235,8 +235,9 @@ def distortion_run(path: str, args: Any) -> dict[str, Any]:
 def frf_out(paths: list[str], out: str | Path, args: Any, progress: Any = None) -> dict[str, Any]:
     """FRFs of ``paths`` (one level each) written to ``out`` as one FrfSet JSON (written
     whole or not at all): `labjoint frf --json`'s answer."""
-    from labjoint.signal.frfset import concat
+    from labjoint.signal.frfset import concat, writable_path
 
+    writable_path(out)                    # before the FRFs are computed
     levels = frf_levels(paths, args, progress)
     merged = concat(levels)
     merged.metadata.update(levels=[{k: v for k, v in s.metadata.items()} for s in levels])

@@ -15,9 +15,9 @@ For each rising quarter cycle u_1 = 0 < u_2 < ... < u_n = U (Eq. 5):
   (pi/4)(2 pi f / fs) relative (3-4 % at 50 kS/s, 400 Hz) and makes W depend on the
   sample rate; the integral does not.
 - Eq. 8: C_i = W(u_i) / (pi omega u_i^2); C_1 = 0 (no sliding at u = 0).
-- U = u_n (Eq. 5) is the band-limited cycle maximum (harmonic fit around the largest
-  sample, :func:`~labjoint.identify.quarters.band_limited_peaks`), not the largest
-  sample, which falls short by up to 1 - cos(pi f / fs): 2.4 % in W at 20 samples per cycle.
+- U = u_n (Eq. 5) is the band-limited cycle's half peak-to-peak (harmonic fit around
+  the largest sample, :func:`~labjoint.identify.quarters.band_limited_peaks`), each cycle
+  centred on its own one-period mean (a sliding joint drifts), not the largest sample, which falls short by up to 1 - cos(pi f / fs): 2.4 % in W at 20 samples per cycle.
 - Eq. 9: K_i = F_i / u_i with F_i = f_stk + f_sld = 2 K_t u_i while part of the contact
   sticks (Eqs. 4, 6); in macro-slip (c_i at the inner radius) nothing sticks, the whole
   contact carries f_sld = f_max once, and K_i = f_max / u_i.
@@ -45,7 +45,8 @@ from labjoint.identify.contact import ContactPressure, horner, invert_loads
 from labjoint.identify.friction import (DEFAULT_TORQUE_TO_NORMAL_N_PER_NM, RATIO_KEY, normal_force,
                                         shear_layer_stiffness)
 from labjoint.identify.identified import Identified
-from labjoint.identify.quarters import band_limited_peaks, rising_quarters
+from labjoint.identify.quarters import band_limited_peaks, period_mean, rising_quarters
+from labjoint.identify.sliding import MACRO_SLIP_TRAVEL, slip_travel_fraction, stick_branch_stiffness
 from labjoint.signal import validate
 from labjoint.signal.clipping import refuse_clipped
 from labjoint.signal.excitation import detect_excitation, require_sine
@@ -279,6 +280,8 @@ class StickSlipIdentifier:
     ``stiffness_method``); contact geometry (None: run metadata, else defaults);
     ``torque_to_normal_n_per_nm`` when the run gives only a torque (None: the run's
     metadata ``torque_to_normal_n_per_nm``, else seed 002's 478 N/Nm).
+    ``loop_slope``: K_t from the loop method's slope, used unless the loop slides as a
+    whole; such a loop gets K_t from its stick branches (:mod:`labjoint.identify.sliding`).
     After :meth:`fit`, ``result_`` holds a :class:`StickSlipResult`.
     """
 
@@ -288,13 +291,11 @@ class StickSlipIdentifier:
                  inner_radius_m: float | None = None, head_radius_m: float | None = None,
                  sigma_s_mode: str = "force", torque_to_normal_n_per_nm: float | None = None,
                  stiffness_method: str = "lsq", cutoff_hz: float | None = PAPER_CUTOFF_HZ,
-                 rel_tol: float = 0.01) -> None:
-        self.friction_coefficient = friction_coefficient
+                 rel_tol: float = 0.01, loop_slope: float | Identified | None = None) -> None:
+        self.friction_coefficient, self.loop_slope = friction_coefficient, loop_slope
         self.shear_stiffness = shear_stiffness
-        self.bolt_radius_m = bolt_radius_m
-        self.contact_radius_m = contact_radius_m
-        self.inner_radius_m = inner_radius_m
-        self.head_radius_m = head_radius_m
+        self.bolt_radius_m, self.contact_radius_m = bolt_radius_m, contact_radius_m
+        self.inner_radius_m, self.head_radius_m = inner_radius_m, head_radius_m
         self.sigma_s_mode = sigma_s_mode
         self.torque_to_normal_n_per_nm = torque_to_normal_n_per_nm
         self.stiffness_method = stiffness_method
@@ -345,14 +346,15 @@ class StickSlipIdentifier:
         cutoff, _rule = analysis_cutoff(fs, self.cutoff_hz)
         u = u - u.mean()
         uf = lowpass(u, fs, cutoff) if cutoff is not None else u
+        uf = uf - period_mean(uf, fs, f)       # u_i from each cycle's centre, drift removed
         q = rising_quarters(uf, fs, f)
         if q.starts.size < 2:
             raise InputError(f"holds {q.starts.size} rising quarter cycles at {f:g} Hz; "
                              "need at least 2", field="displacement")
         ends = np.append(q.starts[1:], q.displacement_m.size) - 1
         # u_n = U of Eq. 5 band-limited, not the largest sample (rate-independent W)
-        q.displacement_m[ends] = band_limited_peaks(uf - uf.mean(), q.peak_sample, fs, f,
-                                                    cutoff)
+        q.displacement_m[ends] = band_limited_peaks(uf, q.peak_sample, fs, f, cutoff,
+                                                    half_range=True)
         steady = detect_steady(q.displacement_m[ends], rel_tol=self.rel_tol).mask
         if not steady.any():
             raise InputError("no steady quarter cycles", field="displacement")
@@ -367,8 +369,14 @@ class StickSlipIdentifier:
             a = int(np.floor(q.crossing_sample[k[0]]))
             b = int(min(u.size, np.ceil(q.crossing_sample[k[-1]] + fs / f) + 1))
             Ff = lowpass(F - F.mean(), fs, cutoff) if cutoff is not None else F - F.mean()
-            kt = shear_layer_stiffness(uf[a:b], Ff[a:b], fs, f, source=name or "record",
-                                       method=self.stiffness_method)
+            src = name or "record"
+            if slip_travel_fraction(uf[a:b], Ff[a:b], fs, f) >= MACRO_SLIP_TRAVEL:  # slides
+                kt = stick_branch_stiffness(uf[a:b], Ff[a:b], fs, f, source=src)
+            elif self.loop_slope is not None:
+                kt = _as_identified(self.loop_slope, "shear_stiffness", "N/m", "loop_slope")
+            else:
+                kt = shear_layer_stiffness(uf[a:b], Ff[a:b], fs, f, source=src,
+                                           method=self.stiffness_method)
         else:
             kt = _as_identified(self.shear_stiffness, "shear_stiffness", "N/m", "shear_stiffness")
         curves = stick_slip_curves(q.displacement_m, q.starts, shear_stiffness_n_per_m=kt.value,
@@ -387,7 +395,8 @@ class StickSlipIdentifier:
                        stiffness_n_per_m_std=float(np.std(k_end, ddof=ddof)),
                        macro_slip_fraction=float(np.mean(tot["macro_slip"][steady])),
                        cycles=n_st, friction_coefficient=mu.value,
-                       shear_stiffness_n_per_m=kt.value, basis=BASIS)
+                       shear_stiffness_n_per_m=kt.value,
+                       shear_stiffness_method=kt.method, basis=BASIS)
         w = tot["energy_loss_j"]
         idx = np.flatnonzero(steady)
         rep = int(idx[np.argsort(w[idx])[idx.size // 2]])

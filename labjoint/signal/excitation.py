@@ -104,7 +104,7 @@ def detect_excitation(x: np.ndarray, fs: float, metadata: dict[str, Any] | None 
     'a steady sine at 400 Hz'
     """
     fs = validate.sample_rate(fs)
-    x = validate.signal(x, "x", min_samples=16)
+    x = validate.signal(x, "signal", min_samples=16)
     x = x - np.mean(x)
     if not np.any(x):
         return Excitation("none", evidence="the signal is constant")

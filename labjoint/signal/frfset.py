@@ -220,10 +220,16 @@ class FrfSet:
         the standard encoder took most of `labjoint frf`'s time on a 10-minute record)."""
         import orjson
 
-        p = Path(path)
+        p = writable_path(path)
         tmp = p.with_name(f".{p.name}.tmp")
-        tmp.write_bytes(orjson.dumps(self.to_dict(arrays=True), option=orjson.OPT_SERIALIZE_NUMPY))
-        os.replace(tmp, p)
+        try:
+            tmp.write_bytes(orjson.dumps(self.to_dict(arrays=True),
+                                         option=orjson.OPT_SERIALIZE_NUMPY))
+            os.replace(tmp, p)
+        except OSError as exc:
+            tmp.unlink(missing_ok=True)
+            raise InputError(f"cannot write the FRF set ({exc.strerror})", file=str(p),
+                             field="out") from None
         return p
 
     @classmethod
@@ -283,3 +289,15 @@ def concat(sets: "list[FrfSet]") -> FrfSet:
                   runs=tuple(r for s in sets for r in s.runs) if all(s.runs for s in sets) else (),
                   drive_quantity=sets[0].drive_quantity,
                   estimator=est.pop(), coherence=coh, alternatives=alts)
+
+
+def writable_path(path: str | Path) -> Path:
+    """``path`` as a file to write: not a directory, in an existing directory (InputError
+    naming it otherwise, before anything is computed or written)."""
+    p = Path(path)
+    if p.is_dir():
+        raise InputError("is a directory: give a file name (e.g. frf.json)", file=str(p),
+                         field="out")
+    if not p.parent.is_dir():
+        raise InputError(f"directory {str(p.parent)!r} does not exist", file=str(p), field="out")
+    return p

@@ -43,6 +43,14 @@ def signal(x: object, name: str, *, min_samples: int = 1, ndim: tuple[int, ...] 
         if bad_samples.size:
             raise InputError(f"has a non-finite value (NaN or inf) at sample "
                              f"{int(bad_samples[0])}", field=name)
+    # every analysis squares its signals (power, RMS, loop area): values whose squares
+    # overflow (|x| ~ 1e154 and up) are no measurement in SI units
+    flat = arr.reshape(-1)
+    with np.errstate(over="ignore"):
+        square = flat @ flat if flat.size else 0.0
+    if not np.isfinite(square):
+        raise InputError(f"values reach {float(np.max(np.abs(flat))):.3g}: too large to square "
+                         "in floating point, not a measurement in SI units", field=name)
     return arr
 
 

@@ -68,15 +68,21 @@ def to_si(quantity: str, unit: str, *, channel: str, file: str | None = None) ->
     """Factor bringing samples in ``unit`` to the SI unit of ``quantity``, and that unit.
 
     A known quantity needs a unit of that quantity (InputError naming ``channel``
-    otherwise); any other quantity keeps its unit as given (factor 1).
+    otherwise); any other quantity keeps its unit as given (factor 1), unless that unit
+    is one of a known quantity's (a misspelt quantity).
     """
     q = str(quantity).strip().lower()
     if not q or not q.replace("_", "").isalnum():
         raise InputError(f"quantity {quantity!r} must be a word (e.g. one of {sorted(SI_UNITS)})",
                          file=file, field=channel)
-    if q not in SI_UNITS:
-        return 1.0, str(unit).strip()
     parsed = parse_unit(unit)
+    if q not in SI_UNITS:
+        if parsed is not None:             # a typo ('velocty') would keep m/s unconverted
+            raise InputError(f"quantity {quantity!r} is not one labjoint knows, but unit "
+                             f"{unit!r} is a{'n' if parsed[0][0] in 'aeiou' else ''} "
+                             f"{parsed[0]}: write quantity = {parsed[0]!r}",
+                             file=file, field=channel)
+        return 1.0, str(unit).strip()
     if parsed is None:
         raise InputError(f"unknown unit {unit!r} for a {q}; write one of "
                          f"{', '.join(k for k, v in SPELLINGS.items() if v[0] == q)}",

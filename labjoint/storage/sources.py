@@ -215,8 +215,9 @@ def _hdf5(path: Path, patterns: list[str], options: dict[str, Any]) -> list[Sour
                 with h5py.File(path, "r") as fh:
                     ds = fh[where][k]              # checked as declared, before it is read
                     if ds.dtype.kind not in "biuf":
-                        raise InputError(f"dataset {k!r} holds {ds.dtype} values, not real "
-                                         "numbers (a complex channel is refused, not truncated)",
+                        what = ("complex values (a complex channel is refused, not "
+                                "truncated)" if ds.dtype.kind == "c" else f"{ds.dtype} values")
+                        raise InputError(f"dataset {k!r} holds {what}, not real numbers",
                                          file=str(path), field=k)
                     if ds.size > MAX_IMPORT_SAMPLES:
                         raise InputError(f"dataset {k!r} declares {ds.size:.3g} values; at most "
@@ -233,12 +234,29 @@ def _hdf5(path: Path, patterns: list[str], options: dict[str, Any]) -> list[Sour
 
 # -- TDMS ------------------------------------------------------------------------------
 def _tdms(path: Path, patterns: list[str], options: dict[str, Any]) -> list[SourceTest]:
+    import logging
+
     from nptdms import TdmsFile
 
+    # nptdms logs (to stderr) what it could not parse and carries on: collect it instead,
+    # and refuse a file whose header it does not recognise
+    seen: list[str] = []
+    grab = logging.Handler(logging.WARNING)
+    grab.emit = lambda record: seen.append(record.getMessage())  # type: ignore[method-assign]
+    logs = [logging.getLogger(n) for n in ("nptdms", "nptdms.reader")]
+    old = [(g.propagate, list(g.handlers)) for g in logs]
+    for g in logs:
+        g.handlers, g.propagate = [grab] if g.name == "nptdms" else [], g.name != "nptdms"
     try:
         f = TdmsFile.read(path)
     except Exception as exc:  # nptdms raises ValueError, KeyError, struct errors ...
         raise InputError(f"not a readable TDMS file: {exc}", file=str(path)) from None
+    finally:
+        for g, (prop, handlers) in zip(logs, old):
+            g.propagate, g.handlers = prop, handlers
+    if any("version" in m.lower() or "incomplete" in m.lower() for m in seen):
+        raise InputError(f"not a readable TDMS file: {'; '.join(dict.fromkeys(seen))}",
+                         file=str(path))
     groups = f.groups() if not patterns else [g for g in f.groups() if _pick([g.name], patterns)]
     everything = not patterns
     out = []

@@ -35,7 +35,8 @@ from labjoint.compare.measurement import Kind, Measurement
 from labjoint.compare.prepared import PreparedRun
 from labjoint.compare.runs import prepare_run
 from labjoint.errors import InputError
-from labjoint.signal.excitation import detect_excitation
+from labjoint.signal import validate
+from labjoint.signal.excitation import Excitation, detect_excitation
 from labjoint.storage import Run, read_any
 from labjoint.storage.roles import channel_roles
 
@@ -84,6 +85,27 @@ def check_quantities(run: Run) -> None:
                                  field=name)
 
 
+def _check_signals(r: Run) -> None:
+    """Finite signals whose squares do not overflow, named with the run (before the mains
+    filter and the fits square them)."""
+    for name in ("displacement", "force", "excitation"):
+        x = getattr(r, name, None)
+        if x is None:
+            continue
+        try:
+            validate.signal(x, name)
+        except InputError as e:
+            raise InputError(f"run '{r.name}': {e.message}", file=r.path, field=name) from None
+
+
+def _excitation(r: Run) -> Excitation:
+    try:
+        return detect_excitation(r.excitation, r.sample_rate_hz, dict(r.metadata))
+    except InputError as e:
+        raise InputError(f"run '{r.name}': {e.message}", file=r.path,
+                         field="excitation") from None
+
+
 def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str = "auto",
             warmup: str | float = "auto", plausibility: Plausibility | None = None) -> list[Measurement]:
     """Measurements of one kind from run-file or CSV paths, Runs or prepared measurements
@@ -112,7 +134,8 @@ def prepare(runs: Iterable[Any], *, kind: str = "auto", prime_cycles: int | str 
     for r in items:
         if isinstance(r, Run):
             check_quantities(r)
-    found = {id(r): detect_excitation(r.excitation, r.sample_rate_hz, dict(r.metadata))
+            _check_signals(r)
+    found = {id(r): _excitation(r)
              for r in items if isinstance(r, Run) and kind in ("auto", "sine")}
     if kind == "sine":
         for r in items:
