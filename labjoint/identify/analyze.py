@@ -58,10 +58,10 @@ def analyze_blocks(blocks: Iterable[Any], fs: float, frequency_hz: float | None 
     ``phase_correction_rad`` rotates the force's fundamental (the force sensor's
     calibrated phase lead over the displacement's); ``phase_uncertainty_rad`` is that
     phase's standard uncertainty, propagated into W and C with the noise
-    (:mod:`labjoint.identify.resolution`). ``plausibility``: the limits of
-    :mod:`labjoint.identify.plausible` (its defaults when None). ``threads=False`` keeps the whole pipeline
-    in the calling thread (a batch that runs one record per core); by default reading
-    and filtering overlap the loop measurements in helper threads.
+    (:mod:`labjoint.identify.resolution`). ``plausibility``: the limits of :mod:`.plausible`
+    (None: its defaults). ``threads=False`` keeps the whole pipeline in the calling thread
+    (a batch that runs one record per core); by default reading and filtering overlap the
+    loop measurements in helper threads.
 
     Each block is a pair of equal-length 1-D arrays or a (2, n) array. Without
     ``frequency_hz`` the frequency is estimated from the first ``PROBE_SAMPLES``. The
@@ -301,10 +301,8 @@ def _assemble(per_cycle: dict[str, np.ndarray], bounds: np.ndarray, fs: float, f
         raise InputError(f"has only {int(valid.sum())} usable cycles of {n} (duration "
                          f"within {PERIOD_RANGE} periods, non-zero amplitude); at least "
                          f"{min_cycles} are needed", field="displacement")
-    # before anything divides by U^2 or squares it (a column in other units)
-    refuse_far_amplitude({"displacement_amplitude_m":
-                          float(np.median(per_cycle["displacement_amplitude"][valid]))},
-                         plausibility)
+    u_med = float(np.median(per_cycle["displacement_amplitude"][valid]))
+    refuse_far_amplitude({"displacement_amplitude_m": u_med}, plausibility)  # before any U^2
     phase = np.angle(per_cycle["force_harmonics"][:, 0]
                      * np.conj(per_cycle["displacement_harmonics"][:, 0]))
     steady = detect_steady(per_cycle["displacement_amplitude"], per_cycle["force_amplitude"],
@@ -324,9 +322,7 @@ def _assemble(per_cycle: dict[str, np.ndarray], bounds: np.ndarray, fs: float, f
     span = bounds[steady.stop] - bounds[steady.start]
     measured = float(fs * (steady.stop - steady.start) / span) if span > 0 else float("nan")
     refuse_frequency_mismatch(f, measured, meta["frequency_source"], plausibility)
-    warnings = []
-    if steady.n_steady < 0.5 * n:
-        warnings.append(f"only {steady.n_steady} of {n} cycles are steady")
+    warnings = [f"only {steady.n_steady} of {n} cycles are steady"] if steady.n_steady < 0.5 * n else []
     result.metadata = {
         **meta, "frequency_measured_hz": measured,
         "amplitude_estimator": "half peak-to-peak of the filtered cycle",

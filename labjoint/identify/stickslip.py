@@ -14,19 +14,17 @@ For each rising quarter cycle u_1 = 0 < u_2 < ... < u_n = U (Eq. 5):
   (u > u*). The paper's sum takes f_sld at the end of each step, which adds about
   (pi/4)(2 pi f / fs) relative (3-4 % at 50 kS/s, 400 Hz) and makes W depend on the
   sample rate; the integral does not.
-- Eq. 8: C_i = W(u_i) / (pi omega u_i^2); C_1 = 0 (no sliding at u = 0).
-- U = u_n (Eq. 5) is the band-limited cycle's half peak-to-peak (harmonic fit around
-  the largest sample, :func:`~labjoint.identify.quarters.band_limited_peaks`), each cycle
-  centred on its own one-period mean (a sliding joint drifts), not the largest sample, which falls short by up to 1 - cos(pi f / fs): 2.4 % in W at 20 samples per cycle.
-- Eq. 9: K_i = F_i / u_i with F_i = f_stk + f_sld = 2 K_t u_i while part of the contact
-  sticks (Eqs. 4, 6); in macro-slip (c_i at the inner radius) nothing sticks, the whole
-  contact carries f_sld = f_max once, and K_i = f_max / u_i.
+- Eq. 8: C_i = W(u_i) / (pi omega u_i^2); C_1 = 0 (no sliding at u = 0). Eq. 9: K_i = F_i /
+  u_i with F_i = f_stk + f_sld = 2 K_t u_i while part of the contact sticks (Eqs. 4, 6); in
+  macro-slip (c_i at the inner radius) the whole contact carries f_max: K_i = f_max / u_i.
+- U = u_n (Eq. 5): the band-limited cycle's half peak-to-peak (harmonic fit, each cycle
+  on its own one-period mean: a sliding joint drifts; :func:`~.quarters.band_limited_peaks`),
+  not the largest sample (short by up to 1 - cos(pi f / fs): 2.4 % in W at 20 per cycle).
 
 What these numbers are (model values, not measurements): while no macro-slip occurs,
 Eq. 6 makes f_sld = K_t u exactly, so W = 2 K_t U^2 and C = W / (pi omega U^2) =
 2 K_t / (pi omega) = K / (pi omega) with K = 2 K_t (Eq. 9), whatever mu and the pressure
-law are (they only set c(u) and the macro-slip limit). With K_t taken from the loop
-slope, the stick-slip W and C follow from the loop's stiffness, U and omega: their
+law are (they only set c(u) and the macro-slip limit): with K_t from the loop, their
 closeness to the loop's W and C is not an independent confirmation. Every stick-slip C
 in seed 002's Tables 2-4 equals 1.031 K / (pi omega): its right-endpoint sum
 (1 + (pi/4) 2 pi f / fs at about 160 samples per cycle) times the exact K / (pi omega).
@@ -60,9 +58,7 @@ BASIS = ("model-based: seed 002 Eqs. 6-9 with K_t, mu and the contact law; in mi
          "W = 2 K_t U^2 and C = K / (pi omega) with K = 2 K_t, so they follow from K_t "
          "(the loop slope), U and omega and do not measure dissipation independently")
 
-
-#: Friction coefficients taken: far below (above) any dry contact's; as mu -> 0 the loads
-#: K_t u / (mu N) of Eq. 6 overflow.
+#: Friction coefficients taken: far below (above) any dry contact's (mu -> 0: Eq. 6 overflows)
 MIN_FRICTION, MAX_FRICTION = 1e-3, 5.0
 
 
@@ -72,7 +68,7 @@ def check_friction(mu: float, field: str = "friction_coefficient") -> float:
     if not (np.isfinite(mu) and MIN_FRICTION <= mu <= MAX_FRICTION):
         raise InputError(f"friction coefficient must be between {MIN_FRICTION:g} and "
                          f"{MAX_FRICTION:g}, got {mu:g}", field=field)
-    return mu
+    return float(mu)
 
 
 def _check_inputs(k_t: float, mu: float, frequency_hz: float) -> None:
