@@ -8,10 +8,12 @@ x(t) = X_0 + sum_{k=1..H} (X_ck cos k w t + X_sk sin k w t); the unknowns are st
 with G the Fourier coefficients of the elements' forces: each element's coordinate is
 sampled over one period (``samples`` points), its steady force computed in time along
 the hysteretic history (:meth:`labjoint.structure.law.JointLaw.periodic`) and projected
-back (AFT). The Jacobian of the linear part is exact; the elements' part dG/dQ is a
-forward finite difference per Fourier coefficient of the element coordinate (2H+1 law
-evaluations per element, batched), which works for every effect. The excitation is
-F cos(w t) on the system's force shape.
+back (AFT). The Jacobian of the linear part is exact; the elements' part dG/dQ is
+exact (forward mode through the law's rules, :meth:`JointLaw.periodic_tangent`) for
+slider and Masing laws (coulomb, iwan, richard_abbott), and otherwise a forward finite
+difference per Fourier coefficient of the element coordinate (2H+1 law evaluations per
+element, batched), which works for every effect. The excitation is F cos(w t) on the
+system's force shape.
 
 Phasor convention: harmonic k of a coordinate is Re(X_k exp(i k w t)) with
 X_k = X_ck - i X_sk (X_0 real).
@@ -61,10 +63,20 @@ class HarmonicBalance:
             D[2 * kk, 2 * kk - 1] = -kk                      # sin coeff = -k X_c
         self.D = D
         self.m = 2 * self.H + 1
+        # samples of q, dq/d(wt), d2q/d(wt)2 from coefficients, as one matrix each
+        self._to_q, self._to_qd, self._to_qdd = E.T.copy(), (E @ D).T.copy(), (E @ D @ D).T.copy()
+        S = np.atleast_2d(system.selectors)
+        self._S = S
+        # s_e s_e^T of every element, flattened: the elements' Jacobian block in one product
+        self._SS = np.einsum("ei,ej->eij", S, S).reshape(S.shape[0], -1)
+        self._Z: tuple[float, np.ndarray] | None = None
 
     # -- pieces ---------------------------------------------------------------------------
     def linear_matrix(self, w: float, dw: bool = False) -> np.ndarray:
-        """Dense matrix of the linear part (or its derivative in w) on the flattened unknowns."""
+        """Dense matrix of the linear part (or its derivative in w) on the flattened unknowns
+        (the last one at a given w is kept: Newton and the Jacobians ask again at one w)."""
+        if not dw and self._Z is not None and self._Z[0] == w:
+            return self._Z[1]
         s, n = self.sys, self.sys.n
         Z = np.zeros((self.m * n, self.m * n))
         if not dw:
@@ -74,6 +86,9 @@ class HarmonicBalance:
             A = -2 * kk * kk * w * s.M if dw else s.K - (kk * w) ** 2 * s.M
             B = kk * s.C if dw else kk * w * s.C
             Z[c, c], Z[si, si], Z[c, si], Z[si, c] = A, A, B, -B
+        if not dw:
+            Z.flags.writeable = False
+            self._Z = (w, Z)
         return Z
 
     def external(self, F: float) -> np.ndarray:
@@ -81,44 +96,63 @@ class HarmonicBalance:
         f[1] = F * self.sys.force
         return f.ravel()
 
-
     def _forces(self, e: int, Q: np.ndarray, w: float) -> np.ndarray:
         """(batch, 2H+1) force coefficients of element e for coordinate coefficients Q."""
         Q = np.atleast_2d(Q)
-        q = Q @ self.E.T
-        qd = (Q @ self.D.T) @ self.E.T * w
-        qdd = (Q @ (self.D @ self.D).T) @ self.E.T * w * w
         fs = self.N * w / (2 * np.pi)
-        g = self.sys.elements[e].periodic(q, qd, qdd, fs)
+        g = self.sys.elements[e].periodic(Q @ self._to_q, (Q @ self._to_qd) * w,
+                                          (Q @ self._to_qdd) * (w * w), fs)
         return g @ self.P.T
+
+    def element_forces(self, x: np.ndarray, w: float, jacobian: bool = False
+                       ) -> tuple[np.ndarray, np.ndarray | None]:
+        """The elements' force coefficients G (2H+1, n_e) at x and, if asked, their
+        derivatives dG_k / dQ_l (n_e, 2H+1, 2H+1) in the element's own coefficients Q
+        (forward differences, every element of a group and every perturbation in one law call)."""
+        m = self.m
+        Qall = x.reshape(m, self.sys.n) @ self._S.T              # (2H+1, n_e)
+        G = np.empty((m, Qall.shape[1]))
+        dG = np.empty((Qall.shape[1], m, m)) if jacobian else None
+        for group in self.groups:
+            Qs = Qall[:, group].T                                # (g, 2H+1)
+            if not jacobian:
+                G[:, group] = self._forces(group[0], Qs, w).T
+                continue
+            hs = FD_REL * np.maximum(np.linalg.norm(Qs, axis=1), 1e-12)
+            T = (self._to_q.T, self._to_qd.T * w, self._to_qdd.T * (w * w))
+            g, dg = self.sys.elements[group[0]].periodic_tangent(
+                Qs @ self._to_q, (Qs @ self._to_qd) * w, (Qs @ self._to_qdd) * (w * w),
+                self.N * w / (2 * np.pi), T, hs)
+            G[:, group] = (g @ self.P.T).T
+            dG[group] = self.P @ dg                              # (g, 2H+1, 2H+1): dG_k / dQ_l
+        return G, dG
 
     def residual(self, x: np.ndarray, w: float, F: float, jacobian: bool = False
                  ) -> tuple[np.ndarray, np.ndarray | None]:
         """R(x, w) and, if asked, dR/dx (dense)."""
-        n = self.sys.n
-        Z = self.linear_matrix(w)
-        R = Z @ x - self.external(F)
-        J = Z if jacobian else None
-        X = x.reshape(self.m, n)
-        sel = self.sys.selectors
-        for group in self.groups:
-            Qs = [X @ sel[e] for e in group]
-            if not jacobian:
-                rows = [Q[None, :] for Q in Qs]
-            else:
-                hs = [FD_REL * max(np.linalg.norm(Q), 1e-12) for Q in Qs]
-                rows = [np.vstack([Q, Q + h * np.eye(self.m)]) for Q, h in zip(Qs, hs)]
-            Gall = self._forces(group[0], np.vstack(rows), w)      # one law call per group
-            k = 0
-            for i, e in enumerate(group):
-                Gb = Gall[k:k + rows[i].shape[0]]
-                k += rows[i].shape[0]
-                G = Gb[0]
-                if jacobian:
-                    dG = ((Gb[1:] - G) / hs[i]).T                # (2H+1, 2H+1): dG_k / dQ_l
-                    J = J + np.kron(dG, np.outer(sel[e], sel[e]))
-                R = R + np.outer(G, sel[e]).ravel()
+        R, J, _ = self.residual_forces(x, w, F, jacobian)
         return R, J
+
+    def residual_forces(self, x: np.ndarray, w: float, F: float, jacobian: bool = False
+                        ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+        """:meth:`residual` and the elements' force coefficients G (2H+1, n_e) in it."""
+        n, m = self.sys.n, self.m
+        Z = self.linear_matrix(w)
+        R = Z @ x
+        R[n:2 * n] -= F * self.sys.force
+        if not self.sys.elements:
+            return R, (Z.copy() if jacobian else None), np.zeros((m, 0))
+        G, dG = self.element_forces(x, w, jacobian)
+        R += self.spread(G)
+        if not jacobian:
+            return R, None, G
+        # sum_e dG_e (x) s_e s_e^T, laid out on the (harmonic, DOF) unknowns
+        Jn = (dG.reshape(dG.shape[0], m * m).T @ self._SS).reshape(m, m, n, n)
+        return R, Z + Jn.transpose(0, 2, 1, 3).reshape(m * n, m * n), G
+
+    def spread(self, G: np.ndarray) -> np.ndarray:
+        """Elements' force coefficients (2H+1, n_e) as generalised forces on the unknowns."""
+        return (G @ self._S).ravel()
 
     @property
     def groups(self) -> list[list[int]]:

@@ -32,6 +32,7 @@ ke = E_e A / h, kp = E_p A / h, F_y = S_Y A (:func:`layer_params`).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -121,12 +122,20 @@ class Joint:
                              field=f"joints.{self.name}.stations")
         check_structure_law(self.law, field=f"joints.{self.name}.model")
 
-    @property
+    @cached_property
     def station_cos(self) -> tuple[np.ndarray, np.ndarray]:
         """Distinct cos(phi_q) of the patches and their weights (phi and -phi coincide)."""
         n = self.stations
         phi = 2 * np.pi * (np.arange(n // 2) + 0.5) / n
         return np.cos(phi), np.full(n // 2, 2.0 / n)
+
+    @cached_property
+    def _arms(self) -> tuple[np.ndarray, np.ndarray, bool]:
+        """Lever arms r cos(phi_q), their moment weights w_q r cos(phi_q), and whether the
+        law has an even part (computed once: the harmonic balance asks per evaluation)."""
+        c, w = self.station_cos
+        arm = self.radius_m * c
+        return arm, w * arm, has_even_part(self.law)
 
     def rotational_stiffness(self) -> float:
         """Linear (stuck) moment per relative rotation, N m/rad."""
@@ -138,24 +147,46 @@ class Joint:
 
         ``th`` etc. may be 2-D (batch, samples) for finite-difference batches."""
         th, thd, thdd = (np.atleast_2d(x) for x in (th, thd, thdd))
-        c, w = self.station_cos
-        arm = self.radius_m * c                                   # (q,)
-        b = th.shape[0]
-        U = (arm[None, :, None] * th[:, None, :]).reshape(b * c.size, -1)
-        V = (arm[None, :, None] * thd[:, None, :]).reshape(b * c.size, -1)
-        A = (arm[None, :, None] * thdd[:, None, :]).reshape(b * c.size, -1)
+        arm, wa, even = self._arms
+        b, q, ns = th.shape[0], arm.size, th.shape[1]
+        U, V, A = ((arm[None, :, None] * x[:, None, :]).reshape(b * q, ns) for x in (th, thd, thdd))
         r = self.radius_m
-        if not has_even_part(self.law):
-            F = self.law.periodic(U, V, A, fs).reshape(b, c.size, -1)
-            return np.einsum("q,bqn->bn", w * arm, F)
+        if not even:
+            F = self.law.periodic(U, V, A, fs).reshape(b, q, ns)
+            return np.einsum("q,bqn->bn", wa, F)
         # the normal direction: the fibre's opening r theta and its mirror, in one batch
         n = np.vstack([U, r * th, -r * th])
         nd = np.vstack([V, r * thd, -r * thd])
         ndd = np.vstack([A, r * thdd, -r * thdd])
         F = self.law.periodic(n, nd, ndd, fs)
-        shear = np.einsum("q,bqn->bn", w * arm, F[:b * c.size].reshape(b, c.size, -1))
-        even = 0.5 * (F[b * c.size:b * c.size + b] + F[b * c.size + b:])
+        shear = np.einsum("q,bqn->bn", wa, F[:b * q].reshape(b, q, ns))
+        even = 0.5 * (F[b * q:b * q + b] + F[b * q + b:])
         return shear + r * even
+
+    def moment_periodic_tangent(self, th: np.ndarray, thd: np.ndarray, thdd: np.ndarray, fs: float,
+                                T: tuple[np.ndarray, np.ndarray, np.ndarray], h: np.ndarray
+                                ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`moment_periodic` (b, n) and its derivative (b, n, m) in each row's period
+        coefficients c, the rotation's samples being T_u c (rates T_v c, T_a c);
+        :meth:`labjoint.structure.law.JointLaw.periodic_tangent` with h the steps in c."""
+        th, thd, thdd = (np.atleast_2d(x) for x in (th, thd, thdd))
+        arm, wa, even = self._arms
+        b, q, ns = th.shape[0], arm.size, th.shape[1]
+        U, V, A = ((arm[None, :, None] * x[:, None, :]).reshape(b * q, ns) for x in (th, thd, thdd))
+        sc = np.tile(arm, b)
+        hh = np.repeat(h, q)
+        r = self.radius_m
+        if not even:
+            F, dF = self.law.periodic_tangent(U, V, A, fs, sc, T, hh)
+            return (np.einsum("q,bqn->bn", wa, F.reshape(b, q, ns)),
+                    np.einsum("q,bqnm->bnm", wa, dF.reshape(b, q, ns, -1)))
+        F, dF = self.law.periodic_tangent(np.vstack([U, r * th, -r * th]), np.vstack([V, r * thd, -r * thd]),
+                                          np.vstack([A, r * thdd, -r * thdd]), fs,
+                                          np.concatenate([sc, np.full(b, r), np.full(b, -r)]), T,
+                                          np.concatenate([hh, h, h]))
+        k = b * q
+        return (np.einsum("q,bqn->bn", wa, F[:k].reshape(b, q, ns)) + r * (0.5 * (F[k:k + b] + F[k + b:])),
+                np.einsum("q,bqnm->bnm", wa, dF[:k].reshape(b, q, ns, -1)) + r * (0.5 * (dF[k:k + b] + dF[k + b:])))
 
     def moment_step(self, reversals: np.ndarray, th: float, thd: float, thdd: float) -> float:
         """Joint moment after the past rotation ``reversals`` and a step to ``th``."""

@@ -191,6 +191,12 @@ class HystereticEffect(Effect):
         f, _ = self.simulate(params, inputs.u_hist, modifiers)
         return f[inputs.n_prime:]
 
+    def steady_term(self, params: Mapping[str, float]) -> tuple[int, np.ndarray] | None:
+        """This effect without modifiers as a term of the batched steady-state kernel
+        (:mod:`labjoint.models.effects._steady`): (code, parameter vector) giving the same
+        force as :meth:`simulate`, or None if the effect has no such term."""
+        return None
+
 
 class ModifierEffect(Effect):
     """Scales the hysteretic part's slip strengths; contributes no force of its own."""
