@@ -37,7 +37,8 @@ from functools import cached_property
 import numpy as np
 
 from labjoint.errors import InputError
-from labjoint.structure.law import JointLaw
+from labjoint.structure.joint_kernel import moment_batch, moment_tangent
+from labjoint.structure.law import PRIME_PERIODS, JointLaw
 
 NU_LAYER = 0.3
 #: the joint's translational (transverse) stiffness as an updatable parameter, N/m
@@ -148,9 +149,12 @@ class Joint:
         ``th`` etc. may be 2-D (batch, samples) for finite-difference batches."""
         th, thd, thdd = (np.atleast_2d(x) for x in (th, thd, thdd))
         arm, wa, even = self._arms
+        r = self.radius_m
+        terms = self.law.kernel_terms
+        if terms is not None:                   # the whole joint in one numba call
+            return moment_batch(th, thd, thdd, arm, wa, r, even, terms[0], terms[1], PRIME_PERIODS)
         b, q, ns = th.shape[0], arm.size, th.shape[1]
         U, V, A = ((arm[None, :, None] * x[:, None, :]).reshape(b * q, ns) for x in (th, thd, thdd))
-        r = self.radius_m
         if not even:
             F = self.law.periodic(U, V, A, fs).reshape(b, q, ns)
             return np.einsum("q,bqn->bn", wa, F)
@@ -171,6 +175,10 @@ class Joint:
         :meth:`labjoint.structure.law.JointLaw.periodic_tangent` with h the steps in c."""
         th, thd, thdd = (np.atleast_2d(x) for x in (th, thd, thdd))
         arm, wa, even = self._arms
+        terms = self.law.kernel_terms
+        if terms is not None:                   # the whole joint in one numba call
+            return moment_tangent(th, thd, thdd, arm, wa, self.radius_m, even, terms[0], terms[1],
+                                  PRIME_PERIODS, T[0], T[1], T[2])
         b, q, ns = th.shape[0], arm.size, th.shape[1]
         U, V, A = ((arm[None, :, None] * x[:, None, :]).reshape(b * q, ns) for x in (th, thd, thdd))
         sc = np.tile(arm, b)

@@ -70,11 +70,17 @@ class JointLaw:
         self._vals = self.model.values(self.params)
         self._direct = all(e.kind == "hysteretic" for e in self.model.effects)
         self._memoryless = all(e.kind in ("force", "elastic") for e in self.model.effects)
-        # a hysteretic part whose every effect is a term of the batched kernel: the whole
-        # batch of histories in one numba call (issue 32 item 6)
-        terms = ([e.steady_term(self._vals[e.name]) for e in self.model.effects]
-                 if self._direct else [None])
+        # a law whose every effect is a term of the batched kernel (no modifier, no input
+        # effect): the whole batch of histories in one numba call (issue 32 item 6)
+        plain = all(e.kind in ("force", "elastic", "hysteretic") for e in self.model.effects)
+        terms = [e.steady_term(self._vals[e.name]) for e in self.model.effects] if plain else [None]
         self._terms = term_matrix(terms) if all(t is not None for t in terms) else None
+
+    @property
+    def kernel_terms(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(codes, parameter matrix) of the batched steady-state kernel, or None if some
+        effect of the law has no kernel term (:mod:`labjoint.models.effects._steady`)."""
+        return self._terms
 
     def _split(self) -> tuple[JointLaw | None, JointLaw | None]:
         """The memoryless part (force effects, evaluated for a whole batch of histories in
@@ -108,12 +114,12 @@ class JointLaw:
         """
         u, v, a = (np.atleast_2d(np.asarray(x, float)) for x in (u, v, a))
         rows, n = u.shape
+        if self._terms is not None:
+            return steady_batch(u, v, a, self._terms[0], self._terms[1], PRIME_PERIODS)
         if self._free is not None:
             return self._free.periodic(u, v, a, fs) + self._mem.periodic(u, v, a, fs)
         if self._memoryless:                       # every term elementwise: one pass
             return self._elementwise(u, v, a, fs)
-        if self._terms is not None:
-            return steady_batch(u, self._terms[0], self._terms[1], PRIME_PERIODS)
         # every row started at its maximum (index arithmetic for the whole batch at once:
         # a roll and a tile per row had cost more than the law itself)
         i0 = np.argmax(u, axis=1)
@@ -140,13 +146,13 @@ class JointLaw:
         Exact (forward mode, :func:`steady_tangent`) for a memory part of slider and Masing
         laws; otherwise forward differences of step h[r] in c, every coefficient in one batch."""
         u, v, a = (np.atleast_2d(np.asarray(x, float)) for x in (u, v, a))
+        if self._terms is not None:
+            return steady_tangent(u, v, a, np.asarray(s, float), T[0], T[1], T[2], self._terms[0],
+                                  self._terms[1], PRIME_PERIODS)
         if self._free is not None:
             F1, d1 = self._free.periodic_tangent(u, v, a, fs, s, T, h)
             F2, d2 = self._mem.periodic_tangent(u, v, a, fs, s, T, h)
             return F1 + F2, d1 + d2
-        if self._terms is not None:
-            return steady_tangent(u, np.asarray(s, float), T[0], self._terms[0], self._terms[1],
-                                  PRIME_PERIODS)
         rows, n = u.shape
         m = T[0].shape[1]
         if self._memoryless:        # elementwise: chain rule through dF/du, dF/dv, dF/da

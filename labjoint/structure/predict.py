@@ -52,7 +52,8 @@ class FrfPredictor:
         self.samples = int(max(samples, 8 * self.harmonics))
         self.law = structure.joints[0].law
         self._natural: np.ndarray | None = None
-        self._warm: dict[tuple, np.ndarray] = {}
+        self._warm: dict[tuple, tuple[tuple, np.ndarray]] = {}
+        self._slopes: tuple | None = None
         self.tol = TOL
 
     def natural_frequencies(self, n: int = 2) -> np.ndarray:
@@ -81,17 +82,39 @@ class FrfPredictor:
         return np.array([names.index(s) for s in sensors])
 
     def _steps(self, frfset: FrfSet, law: JointLaw | None, H: int, warm: bool):
-        """(step index, w, force phasor, HBM solution, solver) in sweep order per sweep."""
+        """(step index, w, force phasor, HBM solution, solver) in sweep order per sweep.
+
+        With ``warm``, a step solved before with the same law is not solved again, and a
+        step of a law whose parameter derivatives :meth:`predict_jacobian` made starts from
+        the first-order prediction x + dx/dp (p - p0) (the search's next trial is near)."""
         hb = HarmonicBalance(self.system_with(law), H, max(self.samples, 8 * H))
+        sig = _signature(law)
+        dp, slopes = self._prediction(law, H) if warm else (None, {})
         for (_, d), idx in frfset.groups():
             x = None
             for k in idx:
                 f, F = frfset.frequencies_hz[k], frfset.force[k]
                 key = (H, d, float(f), float(abs(F)))
-                x = hb.solve(2 * np.pi * f, float(abs(F)), x0=self._warm.get(key, x) if warm else x,
-                             tol=self.tol)
-                self._warm[key] = x
+                old = self._warm.get(key) if warm else None
+                if old is not None and old[0] == sig:
+                    x = old[1]
+                else:
+                    x0 = x if old is None else old[1]
+                    if key in slopes:
+                        x0 = slopes[key][0] + slopes[key][1] @ dp
+                    x = hb.solve(2 * np.pi * f, float(abs(F)), x0=x0, tol=self.tol)
+                    self._warm[key] = (sig, x)
                 yield k, 2 * np.pi * f, F, x, hb
+
+    def _prediction(self, law: JointLaw | None, H: int) -> tuple[np.ndarray | None, dict]:
+        """The parameter change from the last :meth:`predict_jacobian`'s law, and its
+        per-step (x, dx/dp), if ``law`` differs from it only in those parameters."""
+        if law is None or self._slopes is None:
+            return None, {}
+        expr, names, p0, fixed, H0, slopes = self._slopes
+        if H0 != H or law.model.expr != expr or any(law.params[n] != v for n, v in fixed.items()):
+            return None, {}
+        return np.array([law.params[n] for n in names]) - p0, slopes
 
     def predict(self, frfset: FrfSet, law: JointLaw | None = None,
                 harmonics: int | None = None, warm: bool = True) -> np.ndarray:
@@ -127,6 +150,7 @@ class FrfPredictor:
                 for n, d in zip(names, steps)]
         out = np.zeros((len(frfset), len(frfset.sensors), H_out), complex)
         dout = np.zeros(out.shape + (len(names),), complex)
+        slopes: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         for k, w, F, x, hb in self._steps(frfset, law, H, True):
             _, J, G0 = hb.residual_forces(x, w, float(abs(F)), jacobian=True)
             dR = np.column_stack([hb.spread(hbj.element_forces(x, w)[0] - G0) / d
@@ -135,11 +159,17 @@ class FrfPredictor:
             # one right-hand side at a time: a multi-column solve goes to level-3 BLAS, whose
             # threads spin on a shared machine (44 ms against 0.1 ms per step, measured)
             dx = -np.column_stack([lu_solve(lu, dR[:, j]) for j in range(len(names))])
+            slopes[(H, frfset.direction[k], float(frfset.frequencies_hz[k]), float(abs(F)))] = (x, dx)
             rot = np.exp(1j * hh * np.angle(F))[:, None]
             out[k, :, :hh.size] = convert(hb.phasors(x, rows)[hh] * rot, hh * w, frfset.quantity).T
             for j in range(len(names)):
                 dph = hb.phasors(dx[:, j], rows)[hh] * rot
                 dout[k, :, :hh.size, j] = convert(dph, hh * w, frfset.quantity).T
+        same = self._slopes is not None and self._slopes[:2] == (law.model.expr, tuple(names)) \
+            and np.array_equal(self._slopes[2], [law.params[n] for n in names]) and self._slopes[4] == H
+        self._slopes = (law.model.expr, tuple(names), np.array([law.params[n] for n in names]),
+                        {n: v for n, v in law.params.items() if n not in names}, H,
+                        {**(self._slopes[5] if same else {}), **slopes})
         return out, dout
 
     def predict_rows(self, frfset: FrfSet, law: JointLaw | None, rows: np.ndarray) -> np.ndarray:
@@ -149,6 +179,11 @@ class FrfPredictor:
         for k, _, F, x, hb in self._steps(frfset, law, 1, True):
             out[k] = hb.phasors(x, rows)[1] * np.exp(1j * np.angle(F))
         return out
+
+
+def _signature(law: JointLaw | None) -> tuple:
+    """What makes two laws the same law (None: the structure's own)."""
+    return (None,) if law is None else (law.model.expr, tuple(law.params.values()))
 
 
 def convert(ph: np.ndarray, hw: np.ndarray, quantity: str) -> np.ndarray:

@@ -12,7 +12,8 @@ cost far more than the laws: issue 32 item 6).
 A term is (code, parameter vector) as :meth:`HystereticEffect.steady_term` gives it:
 ``MASING_IWAN`` / ``MASING_RA`` (the backbone's vector, :mod:`._masing`), ``JENKINS``
 (k, f_s: one element of :func:`population_force`), ``LINEAR`` (k: k (u - u[0])),
-``NONE`` (no force).
+``NONE`` (no force), and the memoryless force terms (``U_LINEAR`` ... ``CONTACT``: force
+and elastic effects, evaluated on the period's samples of u, v, a).
 
 :func:`steady_tangent` gives the same forces and their exact derivatives with respect to
 the coefficients c of each row's period (the row's samples being u = s_r T c): forward
@@ -34,14 +35,39 @@ MASING_RA = RICHARD_ABBOTT
 JENKINS = 10
 LINEAR = 11
 NONE = 12
+#: memoryless terms p0 x f(sample): p0 u, p0 v, p0 a, p0 u^3, p0, p0 u^2, p0 max(u, 0),
+#: and a contact p0 max(p1 u - p2, 0) (p1 = sgn p0)
+U_LINEAR, V_LINEAR, A_LINEAR, U_CUBE, CONST, U_SQUARE, U_RAMP, CONTACT = range(20, 28)
 #: width of a term's parameter vector (the longest backbone vector)
 WIDTH = 5
 
 
 @njit(cache=True)
-def steady_batch(u, codes, P, prime):  # pragma: no cover - numba
+def memoryless(c, p, u, v, a):  # pragma: no cover - numba
+    """Force of a memoryless term at one sample and its partial derivatives in u, v, a."""
+    if c == U_LINEAR:
+        return p[0] * u, p[0], 0.0, 0.0
+    if c == V_LINEAR:
+        return p[0] * v, 0.0, p[0], 0.0
+    if c == A_LINEAR:
+        return p[0] * a, 0.0, 0.0, p[0]
+    if c == U_CUBE:
+        return p[0] * u ** 3, 3.0 * p[0] * u * u, 0.0, 0.0
+    if c == CONST:
+        return p[0], 0.0, 0.0, 0.0
+    if c == U_SQUARE:
+        return p[0] * u ** 2, 2.0 * p[0] * u, 0.0, 0.0
+    if c == U_RAMP:
+        return p[0] * max(u, 0.0), (p[0] if u > 0.0 else 0.0), 0.0, 0.0
+    x = p[1] * u - p[2]
+    return p[0] * max(x, 0.0), (p[0] * p[1] if x > 0.0 else 0.0), 0.0, 0.0
+
+
+@njit(cache=True)
+def steady_batch(u, v, a, codes, P, prime):  # pragma: no cover - numba
     """(rows, n) steady force of the sum of the terms (``codes``, rows of ``P``) along each
-    row of ``u`` (one period, n samples) after the priming described in the module."""
+    row of ``u`` (one period, n samples; rates ``v``, ``a``) after the priming described in
+    the module."""
     rows, n = u.shape
     out = np.zeros((rows, n))
     m = 1 + prime * n
@@ -63,6 +89,11 @@ def steady_batch(u, codes, P, prime):  # pragma: no cover - numba
         for t in range(codes.size):
             c = codes[t]
             if c == NONE:
+                continue
+            if c >= U_LINEAR:
+                for j in range(n):
+                    jj = (j + i0) % n
+                    tot[j] += memoryless(c, P[t], u[r, jj], v[r, jj], a[r, jj])[0]
                 continue
             if c == LINEAR:
                 for j in range(n):
@@ -167,9 +198,9 @@ def masing_tangent(u, du, kind, p, f, df):  # pragma: no cover - numba
 
 
 @njit(cache=True)
-def steady_tangent(u, s, T, codes, P, prime):  # pragma: no cover - numba
+def steady_tangent(u, v, a, s, T, Tv, Ta, codes, P, prime):  # pragma: no cover - numba
     """:func:`steady_batch` and its derivative (rows, n, m) in each row's coefficients c,
-    row r's samples being u[r] = s[r] T c (T: (n, m))."""
+    row r's samples being u[r] = s[r] T c, v[r] = s[r] Tv c, a[r] = s[r] Ta c (T: (n, m))."""
     rows, n = u.shape
     m = T.shape[1]
     out = np.zeros((rows, n))
@@ -196,6 +227,13 @@ def steady_tangent(u, s, T, codes, P, prime):  # pragma: no cover - numba
         for t in range(codes.size):
             c = codes[t]
             if c == NONE:
+                continue
+            if c >= U_LINEAR:
+                for j in range(n):
+                    fu, du, dv, da = memoryless(c, P[t], u[r, j], v[r, j], a[r, j])
+                    out[r, j] += fu
+                    for k in range(m):
+                        dout[r, j, k] += s[r] * (du * T[j, k] + dv * Tv[j, k] + da * Ta[j, k])
                 continue
             if c == LINEAR:
                 for j in range(n):
