@@ -21,8 +21,10 @@ X_k = X_ck - i X_sk (X_0 real).
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
-from scipy.linalg import lu_factor, lu_solve
+from scipy.linalg.lapack import dgetrf, dgetrs
 
 from labjoint.errors import InputError, LabjointError
 from labjoint.structure.system import NonlinearSystem
@@ -31,6 +33,45 @@ DEFAULT_SAMPLES = 256
 NEWTON_MAX = 40
 REL_TOL = 1e-9
 FD_REL = 1e-6
+
+
+@lru_cache(maxsize=32)
+def _bases(H: int, N: int) -> tuple[np.ndarray, ...]:
+    """E (coefficients -> samples), P (samples -> coefficients), D (d/d(wt) on the
+    coefficients) and the samples of q, dq/d(wt), d2q/d(wt)^2 from the coefficients (one
+    matrix each), read-only and shared by every solver of the same H and N."""
+    tau = 2 * np.pi * np.arange(N) / N
+    k = np.arange(1, H + 1)
+    E = np.ones((N, 2 * H + 1))
+    E[:, 1::2] = np.cos(np.outer(tau, k))
+    E[:, 2::2] = np.sin(np.outer(tau, k))
+    P = E.T * (2.0 / N)
+    P[0] /= 2.0
+    D = np.zeros((2 * H + 1, 2 * H + 1))
+    for kk in k:
+        D[2 * kk - 1, 2 * kk] = kk                           # cos coeff of derivative = k X_s
+        D[2 * kk, 2 * kk - 1] = -kk                          # sin coeff = -k X_c
+    out = (E, P, D, E.T.copy(), (E @ D).T.copy(), (E @ D @ D).T.copy())
+    for a in out:
+        a.flags.writeable = False
+    return out
+
+
+def lu_factor(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """LU factors of a dense Jacobian (LAPACK getrf without scipy's per-call checks, which
+    had cost as much as the factorisation at these sizes); ValueError if J is not finite,
+    LinAlgError if it is singular."""
+    if not np.isfinite(J).all():
+        raise ValueError("the harmonic-balance Jacobian is not finite")
+    lu, piv, info = dgetrf(J)
+    if info > 0:
+        raise np.linalg.LinAlgError(f"singular harmonic-balance Jacobian (pivot {info})")
+    return lu, piv
+
+
+def lu_solve(f: tuple[np.ndarray, np.ndarray], b: np.ndarray) -> np.ndarray:
+    """Solve with :func:`lu_factor`'s factors."""
+    return dgetrs(f[0], f[1], b)[0]
 
 
 class ConvergenceError(LabjointError):
@@ -49,22 +90,8 @@ class HarmonicBalance:
         self.N = int(samples or max(DEFAULT_SAMPLES, 8 * self.H))
         if self.N < 2 * self.H + 2:
             raise InputError(f"need more than {2 * self.H + 1} samples per period", field="samples")
-        tau = 2 * np.pi * np.arange(self.N) / self.N
-        k = np.arange(1, self.H + 1)
-        E = np.ones((self.N, 2 * self.H + 1))
-        E[:, 1::2] = np.cos(np.outer(tau, k))
-        E[:, 2::2] = np.sin(np.outer(tau, k))
-        self.E = E                                           # coefficients -> samples
-        self.P = E.T * (2.0 / self.N)                        # samples -> coefficients
-        self.P[0] /= 2.0
-        D = np.zeros((2 * self.H + 1, 2 * self.H + 1))       # d/d(w t) on coefficients
-        for kk in k:
-            D[2 * kk - 1, 2 * kk] = kk                       # cos coeff of derivative = k X_s
-            D[2 * kk, 2 * kk - 1] = -kk                      # sin coeff = -k X_c
-        self.D = D
+        self.E, self.P, self.D, self._to_q, self._to_qd, self._to_qdd = _bases(self.H, self.N)
         self.m = 2 * self.H + 1
-        # samples of q, dq/d(wt), d2q/d(wt)2 from coefficients, as one matrix each
-        self._to_q, self._to_qd, self._to_qdd = E.T.copy(), (E @ D).T.copy(), (E @ D @ D).T.copy()
         S = np.atleast_2d(system.selectors)
         self._S = S
         # s_e s_e^T of every element, flattened: the elements' Jacobian block in one product
@@ -113,7 +140,10 @@ class HarmonicBalance:
         Qall = x.reshape(m, self.sys.n) @ self._S.T              # (2H+1, n_e)
         G = np.empty((m, Qall.shape[1]))
         dG = np.empty((Qall.shape[1], m, m)) if jacobian else None
-        for group in self.groups:
+        groups = self.groups
+        if len(groups) == 1 and not jacobian:                    # every element in one law call
+            return self._forces(groups[0][0], Qall.T, w).T, None
+        for group in groups:
             Qs = Qall[:, group].T                                # (g, 2H+1)
             if not jacobian:
                 G[:, group] = self._forces(group[0], Qs, w).T
@@ -218,10 +248,14 @@ class HarmonicBalance:
                                f"(tolerance {tol:.1g})")
 
     def phasors(self, x: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
-        """Complex phasors (H+1, n_rows) of x mapped by ``rows`` (default: the outputs)."""
+        """Complex phasors (H+1, n_rows) of x mapped by ``rows`` (default: the outputs);
+        x may be (unknowns, k) for k solutions at once: (H+1, n_rows, k)."""
         rows = self.sys.outputs if rows is None else rows
-        Y = x.reshape(self.m, self.sys.n) @ np.atleast_2d(rows).T
-        out = np.empty((self.H + 1, Y.shape[1]), complex)
+        if x.ndim == 2:
+            Y = np.einsum("hnk,rn->hrk", x.reshape(self.m, self.sys.n, -1), np.atleast_2d(rows))
+        else:
+            Y = x.reshape(self.m, self.sys.n) @ np.atleast_2d(rows).T
+        out = np.empty((self.H + 1,) + Y.shape[1:], complex)
         out[0] = Y[0]
         out[1:] = Y[1::2] - 1j * Y[2::2]
         return out

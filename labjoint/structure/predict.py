@@ -17,14 +17,13 @@ from collections.abc import Mapping
 from dataclasses import replace
 
 import numpy as np
-from scipy.linalg import lu_factor, lu_solve
 
 from labjoint.errors import InputError
 from labjoint.models import Model
 from labjoint.signal.frfset import FrfSet
 from labjoint.structure.assembly import Structure
 from labjoint.structure.frf import DEFAULT_MODES, system_of
-from labjoint.structure.hbm import HarmonicBalance
+from labjoint.structure.hbm import HarmonicBalance, lu_factor, lu_solve
 from labjoint.structure.law import JointLaw
 from labjoint.structure.modal import modes as modal_modes
 from labjoint.structure.system import JointElement, NonlinearSystem
@@ -161,10 +160,10 @@ class FrfPredictor:
             dx = -np.column_stack([lu_solve(lu, dR[:, j]) for j in range(len(names))])
             slopes[(H, frfset.direction[k], float(frfset.frequencies_hz[k]), float(abs(F)))] = (x, dx)
             rot = np.exp(1j * hh * np.angle(F))[:, None]
-            out[k, :, :hh.size] = convert(hb.phasors(x, rows)[hh] * rot, hh * w, frfset.quantity).T
-            for j in range(len(names)):
-                dph = hb.phasors(dx[:, j], rows)[hh] * rot
-                dout[k, :, :hh.size, j] = convert(dph, hh * w, frfset.quantity).T
+            ph = hb.phasors(np.column_stack([x, dx]), rows)[hh] * rot[:, :, None]   # (h, S, 1+P)
+            c = convert(ph.reshape(hh.size, -1), hh * w, frfset.quantity).reshape(ph.shape)
+            out[k, :, :hh.size] = c[:, :, 0].T
+            dout[k, :, :hh.size] = c[:, :, 1:].transpose(1, 0, 2)
         same = self._slopes is not None and self._slopes[:2] == (law.model.expr, tuple(names)) \
             and np.array_equal(self._slopes[2], [law.params[n] for n in names]) and self._slopes[4] == H
         self._slopes = (law.model.expr, tuple(names), np.array([law.params[n] for n in names]),
