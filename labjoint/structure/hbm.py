@@ -27,6 +27,8 @@ import numpy as np
 from scipy.linalg.lapack import dgetrf, dgetrs
 
 from labjoint.errors import InputError, LabjointError
+from labjoint.structure import hbm_kernel as hk
+from labjoint.structure.law import PRIME_PERIODS
 from labjoint.structure.system import NonlinearSystem
 
 DEFAULT_SAMPLES = 256
@@ -92,11 +94,27 @@ class HarmonicBalance:
             raise InputError(f"need more than {2 * self.H + 1} samples per period", field="samples")
         self.E, self.P, self.D, self._to_q, self._to_qd, self._to_qdd = _bases(self.H, self.N)
         self.m = 2 * self.H + 1
+        self._force = np.ascontiguousarray(system.force, dtype=float)
         S = np.atleast_2d(system.selectors)
         self._S = S
         # s_e s_e^T of every element, flattened: the elements' Jacobian block in one product
         self._SS = np.einsum("ei,ej->eij", S, S).reshape(S.shape[0], -1)
         self._Z: tuple[float, np.ndarray] | None = None
+        self._fast = self._kernel_args()
+
+    def _kernel_args(self) -> tuple | None:
+        """The compiled path's arguments (:mod:`labjoint.structure.hbm_kernel`) when every
+        element is a joint of one group whose law has kernel terms; otherwise None."""
+        els = self.sys.elements
+        joints = [getattr(e, "joint", None) for e in els]
+        if not els or any(j is None for j in joints) or len(self.groups) != 1:
+            return None
+        terms = joints[0].law.kernel_terms
+        if terms is None:
+            return None
+        arm, wa, even = joints[0]._arms
+        return (np.ascontiguousarray(self._S, dtype=float), self._to_q, self._to_qd, self._to_qdd,
+                self.P, arm, wa, float(joints[0].radius_m), bool(even), terms[0], terms[1], PRIME_PERIODS)
 
     # -- pieces ---------------------------------------------------------------------------
     def linear_matrix(self, w: float, dw: bool = False) -> np.ndarray:
@@ -137,6 +155,10 @@ class HarmonicBalance:
         derivatives dG_k / dQ_l (n_e, 2H+1, 2H+1) in the element's own coefficients Q
         (forward differences, every element of a group and every perturbation in one law call)."""
         m = self.m
+        if self._fast is not None:
+            G, dG = hk.joint_forces(np.ascontiguousarray(x, dtype=float), self.sys.n, float(w),
+                                    *self._fast, jacobian)
+            return G.T, (dG if jacobian else None)
         Qall = x.reshape(m, self.sys.n) @ self._S.T              # (2H+1, n_e)
         G = np.empty((m, Qall.shape[1]))
         dG = np.empty((Qall.shape[1], m, m)) if jacobian else None
@@ -168,6 +190,10 @@ class HarmonicBalance:
         """:meth:`residual` and the elements' force coefficients G (2H+1, n_e) in it."""
         n, m = self.sys.n, self.m
         Z = self.linear_matrix(w)
+        if self._fast is not None:
+            R, J, G = hk.residual(np.ascontiguousarray(x, dtype=float), float(w), float(F), Z,
+                                  self._force, *self._fast, jacobian)
+            return R, (J if jacobian else None), G.T
         R = Z @ x
         R[n:2 * n] -= F * self.sys.force
         if not self.sys.elements:
@@ -225,6 +251,14 @@ class HarmonicBalance:
         """Newton (with backtracking) at fixed w; ConvergenceError says where and why."""
         x = self.linear_solution(w, F) if x0 is None else np.array(x0, float)
         scale = max(np.linalg.norm(self.external(F)), 1e-300)
+        if self._fast is not None:                  # the same Newton, compiled
+            x, r = hk.newton(x, float(w), float(F), float(tol), float(scale), NEWTON_MAX,
+                             self.linear_matrix(w), self._force, *self._fast)
+            if r < 1e3 * tol:
+                return x
+            raise ConvergenceError(f"harmonic balance did not converge at {w / (2 * np.pi):.6g} Hz: "
+                                   f"relative residual {r:.3g} after {NEWTON_MAX} Newton iterations "
+                                   f"(tolerance {tol:.1g})")
         R, _ = self.residual(x, w, F)
         r = np.linalg.norm(R) / scale
         for it in range(NEWTON_MAX):
