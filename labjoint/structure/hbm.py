@@ -21,6 +21,7 @@ X_k = X_ck - i X_sk (X_0 real).
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from functools import lru_cache
 
 import numpy as np
@@ -57,6 +58,26 @@ def _bases(H: int, N: int) -> tuple[np.ndarray, ...]:
     for a in out:
         a.flags.writeable = False
     return out
+
+
+#: linear matrices kept per system (the last ``LINEAR_CACHE_SYSTEMS`` systems' M, C, K) and w
+LINEAR_CACHE_SYSTEMS, LINEAR_CACHE_W = 8, 4096
+_LINEAR: OrderedDict[tuple, tuple[tuple, dict]] = OrderedDict()
+
+
+def _linear_cache(sys: NonlinearSystem, H: int) -> dict:
+    """The linear matrices by w of a system's M, C, K at H harmonics: a predictor's
+    solvers differ only in the joints' law, and the measured steps repeat (the arrays are
+    held with their entry, so their ids cannot be reused while it exists)."""
+    key = (id(sys.M), id(sys.C), id(sys.K), H)
+    hit = _LINEAR.get(key)
+    if hit is None:
+        hit = _LINEAR[key] = ((sys.M, sys.C, sys.K), {})
+        if len(_LINEAR) > LINEAR_CACHE_SYSTEMS:
+            _LINEAR.popitem(last=False)
+    else:
+        _LINEAR.move_to_end(key)
+    return hit[1]
 
 
 def lu_factor(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -122,6 +143,10 @@ class HarmonicBalance:
         (the last one at a given w is kept: Newton and the Jacobians ask again at one w)."""
         if not dw and self._Z is not None and self._Z[0] == w:
             return self._Z[1]
+        cache = _linear_cache(self.sys, self.H) if not dw else None
+        if cache is not None and w in cache:
+            self._Z = (w, cache[w])
+            return cache[w]
         s, n = self.sys, self.sys.n
         Z = np.zeros((self.m * n, self.m * n))
         if not dw:
@@ -134,6 +159,8 @@ class HarmonicBalance:
         if not dw:
             Z.flags.writeable = False
             self._Z = (w, Z)
+            if len(cache) < LINEAR_CACHE_W:
+                cache[w] = Z
         return Z
 
     def external(self, F: float) -> np.ndarray:

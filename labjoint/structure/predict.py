@@ -127,9 +127,15 @@ class FrfPredictor:
         rows = self.system.outputs[self.rows(frfset.sensors)]
         out = np.zeros((len(frfset), len(frfset.sensors), H_out), complex)
         h = np.arange(1, min(H, H_out) + 1)
-        for k, w, F, x, hb in self._steps(frfset, law, H, warm):
-            ph = hb.phasors(x, rows)[h] * np.exp(1j * h * np.angle(F))[:, None]   # (h, S) displacement
-            out[k, :, :h.size] = convert(ph, h * w, frfset.quantity).T
+        steps = list(self._steps(frfset, law, H, warm))
+        if not steps:
+            return out
+        ks, ws, Fs, xs, hbs = zip(*steps)
+        ws, Fs = np.array(ws), np.array(Fs)
+        # every step's phasors at once: (steps, h, S) displacement, rotated by the force's phase
+        Y = np.stack(xs).reshape(len(xs), hbs[0].m, hbs[0].sys.n) @ rows.T
+        ph = (Y[:, 2 * h - 1] - 1j * Y[:, 2 * h]) * np.exp(1j * h[None, :] * np.angle(Fs)[:, None])[:, :, None]
+        out[np.array(ks), :, :h.size] = convert(ph, h[None, :] * ws[:, None], frfset.quantity).transpose(0, 2, 1)
         return out
 
     def predict_jacobian(self, frfset: FrfSet, law: JointLaw, names: tuple[str, ...],
@@ -186,11 +192,11 @@ def _signature(law: JointLaw | None) -> tuple:
 
 
 def convert(ph: np.ndarray, hw: np.ndarray, quantity: str) -> np.ndarray:
-    """Displacement phasors (rows at angular frequencies ``hw``) to ``quantity``."""
+    """Displacement phasors (rows at angular frequencies ``hw``; any leading axes) to ``quantity``."""
     if quantity == "acceleration":
-        return -(hw ** 2)[:, None] * ph
+        return -(hw ** 2)[..., None] * ph
     if quantity == "velocity":
-        return 1j * hw[:, None] * ph
+        return 1j * hw[..., None] * ph
     return ph
 
 
