@@ -103,3 +103,26 @@ def newton(x0, w, F, tol, scale, newton_max, Z, force, S, to_q, to_qd, to_qdd, P
             lam /= 2
         x, R, rr = xn, Rn, rn
     return x, rr
+
+
+@njit(cache=True)
+def sensitivity(x, w, F, d, Pms, Z, force, S, to_q, to_qd, to_qdd, P, arm, wa, r, even, codes, Pm,
+                prime):  # pragma: no cover - numba
+    """dx/dp (m n, n_p) at the solution x by the implicit function theorem:
+    -(dR/dx)^-1 dR/dp, dR/dp the change of the joints' forces at fixed x when the law's
+    parameter matrix is ``Pms[j]`` (parameter j moved by ``d[j]``)."""
+    n = force.size
+    m = to_q.shape[0]
+    _, J, G0 = residual(x, w, F, Z, force, S, to_q, to_qd, to_qdd, P, arm, wa, r, even, codes, Pm,
+                        prime, True)
+    E = S.shape[0]
+    dR = np.zeros((x.size, d.size))
+    for j in range(d.size):
+        Gj = joint_forces(x, n, w, S, to_q, to_qd, to_qdd, P, arm, wa, r, even, codes, Pms[j], prime,
+                          False)[0]
+        for k in range(m):
+            for e in range(E):
+                g = (Gj[e, k] - G0[e, k]) / d[j]
+                for i in range(n):
+                    dR[k * n + i, j] += g * S[e, i]
+    return -np.linalg.solve(J, dR)

@@ -37,6 +37,10 @@ from labjoint.models.effects.base import ElasticEffect
 NO_MODIFIERS = SlipModifiers()
 
 PRIME_PERIODS = 3
+#: evaluate laws of kernel terms with the batched numba kernels (:mod:`._steady`) and let
+#: joints and harmonic balance use their compiled paths; False: the Python path throughout
+#: (the benchmark times both in one process)
+KERNEL = True
 #: effects whose force depends on the rate of the history, not only on its path
 RATE_EFFECTS = frozenset({"viscous", "inertia", "channel_delay"})
 
@@ -74,7 +78,7 @@ class JointLaw:
         # effect): the whole batch of histories in one numba call (issue 32 item 6)
         plain = all(e.kind in ("force", "elastic", "hysteretic") for e in self.model.effects)
         terms = [e.steady_term(self._vals[e.name]) for e in self.model.effects] if plain else [None]
-        self._terms = term_matrix(terms) if all(t is not None for t in terms) else None
+        self._terms = term_matrix(terms) if KERNEL and all(t is not None for t in terms) else None
 
     @property
     def kernel_terms(self) -> tuple[np.ndarray, np.ndarray] | None:

@@ -23,7 +23,7 @@ from labjoint.models import Model
 from labjoint.signal.frfset import FrfSet
 from labjoint.structure.assembly import Structure
 from labjoint.structure.frf import DEFAULT_MODES, system_of
-from labjoint.structure.hbm import HarmonicBalance, lu_factor, lu_solve
+from labjoint.structure.hbm import HarmonicBalance
 from labjoint.structure.law import JointLaw
 from labjoint.structure.modal import modes as modal_modes
 from labjoint.structure.system import JointElement, NonlinearSystem
@@ -32,6 +32,9 @@ MAX_HARMONICS = 5
 SAMPLES = 64
 #: relative residual of the harmonic balance solves (a measured phasor is known to ~1e-3)
 TOL = 1e-7
+#: start a step from the first-order prediction of the last parameter derivatives (and
+#: reuse a step solved with the same law); False: from the last solution (benchmarks compare)
+SLOPE_START = True
 #: relative step of a law parameter in dR/dp (the floor for parameters at zero)
 FD_PARAM, FD_FLOOR = 1e-6, 1e-12
 
@@ -88,14 +91,14 @@ class FrfPredictor:
         the first-order prediction x + dx/dp (p - p0) (the search's next trial is near)."""
         hb = HarmonicBalance(self.system_with(law), H, max(self.samples, 8 * H))
         sig = _signature(law)
-        dp, slopes = self._prediction(law, H) if warm else (None, {})
+        dp, slopes = self._prediction(law, H) if warm and SLOPE_START else (None, {})
         for (_, d), idx in frfset.groups():
             x = None
             for k in idx:
                 f, F = frfset.frequencies_hz[k], frfset.force[k]
                 key = (H, d, float(f), float(abs(F)))
                 old = self._warm.get(key) if warm else None
-                if old is not None and old[0] == sig:
+                if old is not None and old[0] == sig and SLOPE_START:
                     x = old[1]
                 else:
                     x0 = x if old is None else old[1]
@@ -157,13 +160,7 @@ class FrfPredictor:
         dout = np.zeros(out.shape + (len(names),), complex)
         slopes: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         for k, w, F, x, hb in self._steps(frfset, law, H, True):
-            _, J, G0 = hb.residual_forces(x, w, float(abs(F)), jacobian=True)
-            dR = np.column_stack([hb.spread(hbj.element_forces(x, w)[0] - G0) / d
-                                  for hbj, d in zip(pert, steps)])
-            lu = lu_factor(J)
-            # one right-hand side at a time: a multi-column solve goes to level-3 BLAS, whose
-            # threads spin on a shared machine (44 ms against 0.1 ms per step, measured)
-            dx = -np.column_stack([lu_solve(lu, dR[:, j]) for j in range(len(names))])
+            dx = hb.sensitivity(x, w, float(abs(F)), pert, steps)
             slopes[(H, frfset.direction[k], float(frfset.frequencies_hz[k]), float(abs(F)))] = (x, dx)
             rot = np.exp(1j * hh * np.angle(F))[:, None]
             ph = hb.phasors(np.column_stack([x, dx]), rows)[hh] * rot[:, :, None]   # (h, S, 1+P)
