@@ -36,6 +36,8 @@ DEFAULT_SAMPLES = 256
 NEWTON_MAX = 40
 REL_TOL = 1e-9
 FD_REL = 1e-6
+#: position of the law's parameter matrix in the compiled path's arguments
+KERNEL_PM = 10
 
 
 @lru_cache(maxsize=32)
@@ -133,7 +135,7 @@ class HarmonicBalance:
         terms = joints[0].law.kernel_terms
         if terms is None:
             return None
-        arm, wa, even = joints[0]._arms
+        arm, wa, even = joints[0].arms
         return (np.ascontiguousarray(self._S, dtype=float), self._to_q, self._to_qd, self._to_qdd,
                 self.P, arm, wa, float(joints[0].radius_m), bool(even), terms[0], terms[1], PRIME_PERIODS)
 
@@ -239,8 +241,8 @@ class HarmonicBalance:
         -(dR/dx)^-1 dR/dp, where ``perturbed[j]`` is this system with parameter j of the
         law moved by ``steps[j]`` (dR/dp: the change of the elements' forces at fixed x)."""
         if self._fast is not None and all(p._fast is not None for p in perturbed):
-            Pms = np.stack([p._fast[10] for p in perturbed]) if perturbed else \
-                np.zeros((0,) + self._fast[10].shape)
+            Pms = np.stack([p._fast[KERNEL_PM] for p in perturbed]) if perturbed else \
+                np.zeros((0,) + self._fast[KERNEL_PM].shape)
             return hk.sensitivity(np.ascontiguousarray(x, dtype=float), float(w), float(F),
                                   np.asarray(steps, float), Pms, self.linear_matrix(w), self._force,
                                   *self._fast)

@@ -131,7 +131,7 @@ class Joint:
         return np.cos(phi), np.full(n // 2, 2.0 / n)
 
     @cached_property
-    def _arms(self) -> tuple[np.ndarray, np.ndarray, bool]:
+    def arms(self) -> tuple[np.ndarray, np.ndarray, bool]:
         """Lever arms r cos(phi_q), their moment weights w_q r cos(phi_q), and whether the
         law has an even part (computed once: the harmonic balance asks per evaluation)."""
         c, w = self.station_cos
@@ -148,7 +148,7 @@ class Joint:
 
         ``th`` etc. may be 2-D (batch, samples) for finite-difference batches."""
         th, thd, thdd = (np.atleast_2d(x) for x in (th, thd, thdd))
-        arm, wa, even = self._arms
+        arm, wa, even = self.arms
         r = self.radius_m
         terms = self.law.kernel_terms
         if terms is not None:                   # the whole joint in one numba call
@@ -174,7 +174,7 @@ class Joint:
         coefficients c, the rotation's samples being T_u c (rates T_v c, T_a c);
         :meth:`labjoint.structure.law.JointLaw.periodic_tangent` with h the steps in c."""
         th, thd, thdd = (np.atleast_2d(x) for x in (th, thd, thdd))
-        arm, wa, even = self._arms
+        arm, wa, even = self.arms
         terms = self.law.kernel_terms
         if terms is not None:                   # the whole joint in one numba call
             return moment_tangent(th, thd, thdd, arm, wa, self.radius_m, even, terms[0], terms[1],
