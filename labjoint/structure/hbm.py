@@ -62,8 +62,9 @@ def _bases(H: int, N: int) -> tuple[np.ndarray, ...]:
     return out
 
 
-#: linear matrices kept per system (the last ``LINEAR_CACHE_SYSTEMS`` systems' M, C, K) and w
-LINEAR_CACHE_SYSTEMS, LINEAR_CACHE_W = 8, 4096
+#: linear matrices kept per system (the last ``LINEAR_CACHE_SYSTEMS`` systems' M, C, K) and
+#: w, at most ``LINEAR_CACHE_BYTES`` per system (a continuation's many w do not fill memory)
+LINEAR_CACHE_SYSTEMS, LINEAR_CACHE_BYTES = 4, 16 * 2 ** 20
 _LINEAR: OrderedDict[tuple, tuple[tuple, dict]] = OrderedDict()
 
 
@@ -161,7 +162,7 @@ class HarmonicBalance:
         if not dw:
             Z.flags.writeable = False
             self._Z = (w, Z)
-            if len(cache) < LINEAR_CACHE_W:
+            if (len(cache) + 1) * Z.nbytes <= LINEAR_CACHE_BYTES:
                 cache[w] = Z
         return Z
 
