@@ -64,16 +64,15 @@ def residual(x, w, F, Z, force, S, to_q, to_qd, to_qdd, P, arm, wa, r, even, cod
         return R, np.empty((0, 0)), G
     J = Z.copy()
     for e in range(E):
+        nz = np.nonzero(S[e])[0]                 # a selector touches a few DOFs only
         for k in range(m):
             for l in range(m):
                 c = dG[e, k, l]
                 if c == 0.0:
                     continue
-                for i in range(n):
+                for i in nz:
                     si = c * S[e, i]
-                    if si == 0.0:
-                        continue
-                    for j in range(n):
+                    for j in nz:
                         J[k * n + i, l * n + j] += si * S[e, j]
     return R, J, G
 
