@@ -41,11 +41,13 @@ ke = E_e A / h, kp = E_p A / h, F_y = S_Y A (:func:`layer_params`).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
 from labjoint.errors import InputError
-from labjoint.structure.law import JointLaw
+from labjoint.structure.joint_kernel import moment_batch, moment_tangent
+from labjoint.structure.law import PRIME_PERIODS, JointLaw
 
 NU_LAYER = 0.3
 GEOMETRIES = ("thread", "lap")
@@ -139,20 +141,25 @@ class Joint:
                              field=f"joints.{self.name}.stations")
         check_structure_law(self.law, field=f"joints.{self.name}.model")
 
-    @property
+    @cached_property
     def station_cos(self) -> tuple[np.ndarray, np.ndarray]:
         """Distinct cos(phi_q) of the patches and their weights (phi and -phi coincide)."""
         n = self.stations
         phi = 2 * np.pi * (np.arange(n // 2) + 0.5) / n
         return np.cos(phi), np.full(n // 2, 2.0 / n)
 
-    def arms(self) -> tuple[np.ndarray, np.ndarray]:
-        """Shear arm (m) of every distinct patch and its share of the law (module docstring)."""
+    @cached_property
+    def arms(self) -> tuple[np.ndarray, np.ndarray, bool]:
+        """Shear arm (m) of every distinct patch (module docstring), their moment weights
+        (share x arm), and whether the law has an even part (computed once: the harmonic
+        balance asks per evaluation)."""
         if self.geometry == "lap":
             n = self.stations
-            return self.contact_length_m * ((np.arange(n) + 0.5) / n - 0.5), np.full(n, 1.0 / n)
-        c, w = self.station_cos
-        return self.radius_m * c, w
+            arm, w = self.contact_length_m * ((np.arange(n) + 0.5) / n - 0.5), np.full(n, 1.0 / n)
+        else:
+            c, w = self.station_cos
+            arm = self.radius_m * c
+        return arm, w * arm, has_even_part(self.law)
 
     @property
     def normal_arm(self) -> float:
@@ -161,40 +168,69 @@ class Joint:
 
     def rotational_stiffness(self) -> float:
         """Linear (stuck) moment per relative rotation, N m/rad."""
-        arm, w = self.arms()
-        return float(np.sum(w * arm * arm) * self.law.initial_stiffness())
+        arm, wa, _ = self.arms
+        return float(np.sum(wa * arm) * self.law.initial_stiffness())
 
     def moment_periodic(self, th: np.ndarray, thd: np.ndarray, thdd: np.ndarray, fs: float) -> np.ndarray:
         """Steady joint moment (N m) over one period of the relative rotation (rad).
 
         ``th`` etc. may be 2-D (batch, samples) for finite-difference batches."""
         th, thd, thdd = (np.atleast_2d(x) for x in (th, thd, thdd))
-        arm, w = self.arms()                                      # (q,)
-        c = arm
-        b = th.shape[0]
-        U = (arm[None, :, None] * th[:, None, :]).reshape(b * c.size, -1)
-        V = (arm[None, :, None] * thd[:, None, :]).reshape(b * c.size, -1)
-        A = (arm[None, :, None] * thdd[:, None, :]).reshape(b * c.size, -1)
+        arm, wa, even = self.arms
         r = self.normal_arm
-        if not has_even_part(self.law):
-            F = self.law.periodic(U, V, A, fs).reshape(b, c.size, -1)
-            return np.einsum("q,bqn->bn", w * arm, F)
+        terms = self.law.kernel_terms
+        if terms is not None:                   # the whole joint in one numba call
+            return moment_batch(th, thd, thdd, arm, wa, r, even, terms[0], terms[1], PRIME_PERIODS)
+        b, q, ns = th.shape[0], arm.size, th.shape[1]
+        U, V, A = ((arm[None, :, None] * x[:, None, :]).reshape(b * q, ns) for x in (th, thd, thdd))
+        if not even:
+            F = self.law.periodic(U, V, A, fs).reshape(b, q, ns)
+            return np.einsum("q,bqn->bn", wa, F)
         # the normal direction: the fibre's opening r theta and its mirror, in one batch
         n = np.vstack([U, r * th, -r * th])
         nd = np.vstack([V, r * thd, -r * thd])
         ndd = np.vstack([A, r * thdd, -r * thdd])
         F = self.law.periodic(n, nd, ndd, fs)
-        shear = np.einsum("q,bqn->bn", w * arm, F[:b * c.size].reshape(b, c.size, -1))
-        even = 0.5 * (F[b * c.size:b * c.size + b] + F[b * c.size + b:])
+        shear = np.einsum("q,bqn->bn", wa, F[:b * q].reshape(b, q, ns))
+        even = 0.5 * (F[b * q:b * q + b] + F[b * q + b:])
         return shear + r * even
+
+    def moment_periodic_tangent(self, th: np.ndarray, thd: np.ndarray, thdd: np.ndarray, fs: float,
+                                T: tuple[np.ndarray, np.ndarray, np.ndarray], h: np.ndarray
+                                ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`moment_periodic` (b, n) and its derivative (b, n, m) in each row's period
+        coefficients c, the rotation's samples being T_u c (rates T_v c, T_a c);
+        :meth:`labjoint.structure.law.JointLaw.periodic_tangent` with h the steps in c."""
+        th, thd, thdd = (np.atleast_2d(x) for x in (th, thd, thdd))
+        arm, wa, even = self.arms
+        terms = self.law.kernel_terms
+        if terms is not None:                   # the whole joint in one numba call
+            return moment_tangent(th, thd, thdd, arm, wa, self.normal_arm, even, terms[0], terms[1],
+                                  PRIME_PERIODS, T[0], T[1], T[2])
+        b, q, ns = th.shape[0], arm.size, th.shape[1]
+        U, V, A = ((arm[None, :, None] * x[:, None, :]).reshape(b * q, ns) for x in (th, thd, thdd))
+        sc = np.tile(arm, b)
+        hh = np.repeat(h, q)
+        r = self.normal_arm
+        if not even:
+            F, dF = self.law.periodic_tangent(U, V, A, fs, sc, T, hh)
+            return (np.einsum("q,bqn->bn", wa, F.reshape(b, q, ns)),
+                    np.einsum("q,bqnm->bnm", wa, dF.reshape(b, q, ns, -1)))
+        F, dF = self.law.periodic_tangent(np.vstack([U, r * th, -r * th]), np.vstack([V, r * thd, -r * thd]),
+                                          np.vstack([A, r * thdd, -r * thdd]), fs,
+                                          np.concatenate([sc, np.full(b, r), np.full(b, -r)]), T,
+                                          np.concatenate([hh, h, h]))
+        k = b * q
+        return (np.einsum("q,bqn->bn", wa, F[:k].reshape(b, q, ns)) + r * (0.5 * (F[k:k + b] + F[k + b:])),
+                np.einsum("q,bqnm->bnm", wa, dF[:k].reshape(b, q, ns, -1)) + r * (0.5 * (dF[k:k + b] + dF[k + b:])))
 
     def moment_step(self, reversals: np.ndarray, th: float, thd: float, thdd: float) -> float:
         """Joint moment after the past rotation ``reversals`` and a step to ``th``."""
-        arm, w = self.arms()
+        arm, wa, even = self.arms
         f = [self.law.step_force(a * reversals, a * th, np.array([a * thd]), np.array([a * thdd]))[0]
              for a in arm]
-        m = float(np.sum(w * arm * np.array(f)))
-        if has_even_part(self.law):
+        m = float(np.sum(wa * np.array(f)))
+        if even:
             r = self.normal_arm
             fe = [self.law.step_force(s * r * reversals, s * r * th, np.array([s * r * thd]),
                                       np.array([s * r * thdd]))[0] for s in (1.0, -1.0)]

@@ -31,10 +31,16 @@ import numpy as np
 from labjoint.errors import InputError
 from labjoint.models import Model, ModelInputs
 from labjoint.models.effects import SlipModifiers
+from labjoint.models.effects._steady import steady_batch, steady_tangent, term_matrix
+from labjoint.models.effects.base import ElasticEffect
 
 NO_MODIFIERS = SlipModifiers()
 
 PRIME_PERIODS = 3
+#: evaluate laws of kernel terms with the batched numba kernels (:mod:`._steady`) and let
+#: joints and harmonic balance use their compiled paths; False: the Python path throughout
+#: (the benchmark times both in one process)
+KERNEL = True
 #: effects whose force depends on the rate of the history, not only on its path
 RATE_EFFECTS = frozenset({"viscous", "inertia", "channel_delay"})
 
@@ -67,6 +73,18 @@ class JointLaw:
         # per-call bookkeeping (issue 32: that bookkeeping was 3/4 of a diagnosis's time)
         self._vals = self.model.values(self.params)
         self._direct = all(e.kind == "hysteretic" for e in self.model.effects)
+        self._memoryless = all(e.kind in ("force", "elastic") for e in self.model.effects)
+        # a law whose every effect is a term of the batched kernel (no modifier, no input
+        # effect): the whole batch of histories in one numba call (issue 32 item 6)
+        plain = all(e.kind in ("force", "elastic", "hysteretic") for e in self.model.effects)
+        terms = [e.steady_term(self._vals[e.name]) for e in self.model.effects] if plain else [None]
+        self._terms = term_matrix(terms) if KERNEL and all(t is not None for t in terms) else None
+
+    @property
+    def kernel_terms(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(codes, parameter matrix) of the batched steady-state kernel, or None if some
+        effect of the law has no kernel term (:mod:`labjoint.models.effects._steady`)."""
+        return self._terms
 
     def _split(self) -> tuple[JointLaw | None, JointLaw | None]:
         """The memoryless part (force effects, evaluated for a whole batch of histories in
@@ -100,10 +118,12 @@ class JointLaw:
         """
         u, v, a = (np.atleast_2d(np.asarray(x, float)) for x in (u, v, a))
         rows, n = u.shape
+        if self._terms is not None:
+            return steady_batch(u, v, a, self._terms[0], self._terms[1], PRIME_PERIODS)
         if self._free is not None:
             return self._free.periodic(u, v, a, fs) + self._mem.periodic(u, v, a, fs)
-        if all(e.kind == "force" for e in self.model.effects):     # memoryless: one call
-            return self._eval(u.ravel(), v.ravel(), a.ravel(), fs, 0).reshape(rows, n)
+        if self._memoryless:                       # every term elementwise: one pass
+            return self._elementwise(u, v, a, fs)
         # every row started at its maximum (index arithmetic for the whole batch at once:
         # a roll and a tile per row had cost more than the law itself)
         i0 = np.argmax(u, axis=1)
@@ -121,6 +141,53 @@ class JointLaw:
             else:
                 out[k, idx[k]] = self._eval(hist[0][k], hist[1][k], hist[2][k], fs, n_prime)
         return out
+
+    def periodic_tangent(self, u: np.ndarray, v: np.ndarray, a: np.ndarray, fs: float,
+                         s: np.ndarray, T: tuple[np.ndarray, np.ndarray, np.ndarray],
+                         h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`periodic` (rows, n) and its derivative (rows, n, m) in each row's period
+        coefficients c, where row r's u, v, a are s[r] T_u c, s[r] T_v c, s[r] T_a c (T: n x m).
+        Exact (forward mode, :func:`steady_tangent`) for a memory part of slider and Masing
+        laws; otherwise forward differences of step h[r] in c, every coefficient in one batch."""
+        u, v, a = (np.atleast_2d(np.asarray(x, float)) for x in (u, v, a))
+        if self._terms is not None:
+            return steady_tangent(u, v, a, np.asarray(s, float), T[0], T[1], T[2], self._terms[0],
+                                  self._terms[1], PRIME_PERIODS)
+        if self._free is not None:
+            F1, d1 = self._free.periodic_tangent(u, v, a, fs, s, T, h)
+            F2, d2 = self._mem.periodic_tangent(u, v, a, fs, s, T, h)
+            return F1 + F2, d1 + d2
+        rows, n = u.shape
+        m = T[0].shape[1]
+        if self._memoryless:        # elementwise: chain rule through dF/du, dF/dv, dF/da
+            F = self._elementwise(u, v, a, fs)
+            dF = np.zeros((rows, n, m))
+            x = [u, v, a]
+            for i, Tx in enumerate(T):
+                d = np.abs(np.asarray(s, float) * h) * max(float(np.max(np.abs(Tx))), 1e-300)
+                if not np.any(Tx):
+                    continue
+                xp = list(x)
+                xp[i] = x[i] + d[:, None]
+                slope = (self._elementwise(*xp, fs) - F) / d[:, None]
+                dF += slope[:, :, None] * (np.asarray(s, float)[:, None, None] * Tx[None])
+            return F, dF
+        step = (np.asarray(s, float) * h)[:, None, None]
+        pert = [np.concatenate([x[:, None, :], x[:, None, :] + step * Tx.T[None]], axis=1).reshape(-1, n)
+                for x, Tx in zip((u, v, a), T)]
+        Fb = self.periodic(*pert, fs).reshape(rows, m + 1, n)
+        return Fb[:, 0], ((Fb[:, 1:] - Fb[:, :1]) / h[:, None, None]).transpose(0, 2, 1)
+
+    def _elementwise(self, u: np.ndarray, v: np.ndarray, a: np.ndarray, fs: float) -> np.ndarray:
+        """A law of force and elastic effects on arrays of any shape: the sum
+        :meth:`Model.eval` makes, term by term in the model's order, with the values
+        checked once at construction."""
+        inp = ModelInputs(u, v, a, fs, 0)
+        total = np.zeros(u.shape)
+        for e in self.model.effects:
+            p = self._vals[e.name]
+            total += e.elastic(p, u) if isinstance(e, ElasticEffect) else p[e.param_names[0]] * e.basis(inp)
+        return total
 
     def initial_stiffness(self, du: float = 1e-12) -> float:
         """Tangent stiffness (N/m) at rest: the joint's linear (stuck) stiffness."""

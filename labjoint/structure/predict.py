@@ -17,7 +17,6 @@ from collections.abc import Mapping
 from dataclasses import replace
 
 import numpy as np
-from scipy.linalg import lu_factor, lu_solve
 
 from labjoint.errors import InputError
 from labjoint.models import Model
@@ -33,6 +32,9 @@ MAX_HARMONICS = 5
 SAMPLES = 64
 #: relative residual of the harmonic balance solves (a measured phasor is known to ~1e-3)
 TOL = 1e-7
+#: start a step from the first-order prediction of the last parameter derivatives (and
+#: reuse a step solved with the same law); False: from the last solution (benchmarks compare)
+SLOPE_START = True
 #: relative step of a law parameter in dR/dp (the floor for parameters at zero)
 FD_PARAM, FD_FLOOR = 1e-6, 1e-12
 
@@ -52,7 +54,8 @@ class FrfPredictor:
         self.samples = int(max(samples, 8 * self.harmonics))
         self.law = structure.joints[0].law
         self._natural: np.ndarray | None = None
-        self._warm: dict[tuple, np.ndarray] = {}
+        self._warm: dict[tuple, tuple[tuple, np.ndarray]] = {}
+        self._slopes: tuple | None = None
         self.tol = TOL
 
     def natural_frequencies(self, n: int = 2) -> np.ndarray:
@@ -81,17 +84,39 @@ class FrfPredictor:
         return np.array([names.index(s) for s in sensors])
 
     def _steps(self, frfset: FrfSet, law: JointLaw | None, H: int, warm: bool):
-        """(step index, w, force phasor, HBM solution, solver) in sweep order per sweep."""
+        """(step index, w, force phasor, HBM solution, solver) in sweep order per sweep.
+
+        With ``warm``, a step solved before with the same law is not solved again, and a
+        step of a law whose parameter derivatives :meth:`predict_jacobian` made starts from
+        the first-order prediction x + dx/dp (p - p0) (the search's next trial is near)."""
         hb = HarmonicBalance(self.system_with(law), H, max(self.samples, 8 * H))
+        sig = _signature(law)
+        dp, slopes = self._prediction(law, H) if warm and SLOPE_START else (None, {})
         for (_, d), idx in frfset.groups():
             x = None
             for k in idx:
                 f, F = frfset.frequencies_hz[k], frfset.force[k]
                 key = (H, d, float(f), float(abs(F)))
-                x = hb.solve(2 * np.pi * f, float(abs(F)), x0=self._warm.get(key, x) if warm else x,
-                             tol=self.tol)
-                self._warm[key] = x
+                old = self._warm.get(key) if warm else None
+                if old is not None and old[0] == sig and SLOPE_START:
+                    x = old[1]
+                else:
+                    x0 = x if old is None else old[1]
+                    if key in slopes:
+                        x0 = slopes[key][0] + slopes[key][1] @ dp
+                    x = hb.solve(2 * np.pi * f, float(abs(F)), x0=x0, tol=self.tol)
+                    self._warm[key] = (sig, x)
                 yield k, 2 * np.pi * f, F, x, hb
+
+    def _prediction(self, law: JointLaw | None, H: int) -> tuple[np.ndarray | None, dict]:
+        """The parameter change from the last :meth:`predict_jacobian`'s law, and its
+        per-step (x, dx/dp), if ``law`` differs from it only in those parameters."""
+        if law is None or self._slopes is None:
+            return None, {}
+        expr, names, p0, fixed, H0, slopes = self._slopes
+        if H0 != H or law.model.expr != expr or any(law.params[n] != v for n, v in fixed.items()):
+            return None, {}
+        return np.array([law.params[n] for n in names]) - p0, slopes
 
     def predict(self, frfset: FrfSet, law: JointLaw | None = None,
                 harmonics: int | None = None, warm: bool = True) -> np.ndarray:
@@ -105,9 +130,15 @@ class FrfPredictor:
         rows = self.system.outputs[self.rows(frfset.sensors)]
         out = np.zeros((len(frfset), len(frfset.sensors), H_out), complex)
         h = np.arange(1, min(H, H_out) + 1)
-        for k, w, F, x, hb in self._steps(frfset, law, H, warm):
-            ph = hb.phasors(x, rows)[h] * np.exp(1j * h * np.angle(F))[:, None]   # (h, S) displacement
-            out[k, :, :h.size] = convert(ph, h * w, frfset.quantity).T
+        steps = list(self._steps(frfset, law, H, warm))
+        if not steps:
+            return out
+        ks, ws, Fs, xs, hbs = zip(*steps)
+        ws, Fs = np.array(ws), np.array(Fs)
+        # every step's phasors at once: (steps, h, S) displacement, rotated by the force's phase
+        Y = np.stack(xs).reshape(len(xs), hbs[0].m, hbs[0].sys.n) @ rows.T
+        ph = (Y[:, 2 * h - 1] - 1j * Y[:, 2 * h]) * np.exp(1j * h[None, :] * np.angle(Fs)[:, None])[:, :, None]
+        out[np.array(ks), :, :h.size] = convert(ph, h[None, :] * ws[:, None], frfset.quantity).transpose(0, 2, 1)
         return out
 
     def predict_jacobian(self, frfset: FrfSet, law: JointLaw, names: tuple[str, ...],
@@ -127,27 +158,20 @@ class FrfPredictor:
                 for n, d in zip(names, steps)]
         out = np.zeros((len(frfset), len(frfset.sensors), H_out), complex)
         dout = np.zeros(out.shape + (len(names),), complex)
+        slopes: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         for k, w, F, x, hb in self._steps(frfset, law, H, True):
-            _, J = hb.residual(x, w, float(abs(F)), jacobian=True)
-            X = x.reshape(hb.m, hb.sys.n)
-            sel = hb.sys.selectors
-            dR = np.zeros((x.size, len(names)))
-            for group in hb.groups:                   # the joints of one law in one call
-                Qg = np.vstack([X @ sel[e] for e in group])
-                G0 = hb._forces(group[0], Qg, w)
-                for j, (hbj, d) in enumerate(zip(pert, steps)):
-                    dG = (hbj._forces(group[0], Qg, w) - G0) / d
-                    for i, e in enumerate(group):
-                        dR[:, j] += np.outer(dG[i], sel[e]).ravel()
-            lu = lu_factor(J)
-            # one right-hand side at a time: a multi-column solve goes to level-3 BLAS, whose
-            # threads spin on a shared machine (44 ms against 0.1 ms per step, measured)
-            dx = -np.column_stack([lu_solve(lu, dR[:, j]) for j in range(len(names))])
+            dx = hb.sensitivity(x, w, float(abs(F)), pert, steps)
+            slopes[(H, frfset.direction[k], float(frfset.frequencies_hz[k]), float(abs(F)))] = (x, dx)
             rot = np.exp(1j * hh * np.angle(F))[:, None]
-            out[k, :, :hh.size] = convert(hb.phasors(x, rows)[hh] * rot, hh * w, frfset.quantity).T
-            for j in range(len(names)):
-                dph = hb.phasors(dx[:, j], rows)[hh] * rot
-                dout[k, :, :hh.size, j] = convert(dph, hh * w, frfset.quantity).T
+            ph = hb.phasors(np.column_stack([x, dx]), rows)[hh] * rot[:, :, None]   # (h, S, 1+P)
+            c = convert(ph.reshape(hh.size, -1), hh * w, frfset.quantity).reshape(ph.shape)
+            out[k, :, :hh.size] = c[:, :, 0].T
+            dout[k, :, :hh.size] = c[:, :, 1:].transpose(1, 0, 2)
+        same = self._slopes is not None and self._slopes[:2] == (law.model.expr, tuple(names)) \
+            and np.array_equal(self._slopes[2], [law.params[n] for n in names]) and self._slopes[4] == H
+        self._slopes = (law.model.expr, tuple(names), np.array([law.params[n] for n in names]),
+                        {n: v for n, v in law.params.items() if n not in names}, H,
+                        {**(self._slopes[5] if same else {}), **slopes})
         return out, dout
 
     def predict_rows(self, frfset: FrfSet, law: JointLaw | None, rows: np.ndarray) -> np.ndarray:
@@ -159,12 +183,17 @@ class FrfPredictor:
         return out
 
 
+def _signature(law: JointLaw | None) -> tuple:
+    """What makes two laws the same law (None: the structure's own)."""
+    return (None,) if law is None else (law.model.expr, tuple(law.params.values()))
+
+
 def convert(ph: np.ndarray, hw: np.ndarray, quantity: str) -> np.ndarray:
-    """Displacement phasors (rows at angular frequencies ``hw``) to ``quantity``."""
+    """Displacement phasors (rows at angular frequencies ``hw``; any leading axes) to ``quantity``."""
     if quantity == "acceleration":
-        return -(hw ** 2)[:, None] * ph
+        return -(hw ** 2)[..., None] * ph
     if quantity == "velocity":
-        return 1j * hw[:, None] * ph
+        return 1j * hw[..., None] * ph
     return ph
 
 

@@ -27,6 +27,9 @@ class Element(Protocol):
 
     def periodic(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, fs: float) -> np.ndarray: ...
 
+    def periodic_tangent(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, fs: float,
+                         T: tuple, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+
     def step(self, reversals: np.ndarray, q: float, qd: float, qdd: float) -> float: ...
 
     def stiffness(self) -> float: ...
@@ -41,6 +44,11 @@ class LawElement:
 
     def periodic(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, fs: float) -> np.ndarray:
         return self.law.periodic(q, qd, qdd, fs)
+
+    def periodic_tangent(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, fs: float,
+                         T: tuple, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        q = np.atleast_2d(q)
+        return self.law.periodic_tangent(q, qd, qdd, fs, np.ones(q.shape[0]), T, h)
 
     def step(self, reversals: np.ndarray, q: float, qd: float, qdd: float) -> float:
         return float(self.law.step_force(reversals, q, np.array([qd]), np.array([qdd]))[0])
@@ -58,6 +66,10 @@ class JointElement:
 
     def periodic(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, fs: float) -> np.ndarray:
         return self.joint.moment_periodic(q, qd, qdd, fs)
+
+    def periodic_tangent(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, fs: float,
+                         T: tuple, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self.joint.moment_periodic_tangent(q, qd, qdd, fs, T, h)
 
     def step(self, reversals: np.ndarray, q: float, qd: float, qdd: float) -> float:
         return self.joint.moment_step(reversals, q, qd, qdd)

@@ -132,6 +132,12 @@ class Effect(abc.ABC):
         there, so it can only improve on the previous fit."""
         return None
 
+    def steady_term(self, params: Mapping[str, float]) -> tuple[int, np.ndarray] | None:
+        """This effect (without modifiers) as a term of the batched steady-state kernel
+        (:mod:`labjoint.models.effects._steady`): (code, parameter vector) giving the same
+        force as :meth:`force`, or None if the effect has no such term."""
+        return None
+
     def scales(self, summary: LoopSummary, guess: Mapping[str, float]) -> dict[str, float]:
         """Typical magnitude of each parameter (used to scale the fit to order one)."""
         out = {}
@@ -146,6 +152,13 @@ class ForceEffect(Effect):
     """Force = parameter x ``basis(history)``: linear in its single parameter."""
 
     _family = "force"
+    #: the term of the steady-state kernel: force = parameter x this code's regressor
+    steady_code: ClassVar[int | None] = None
+
+    def steady_term(self, params: Mapping[str, float]) -> tuple[int, np.ndarray] | None:
+        if self.steady_code is None:
+            return None
+        return self.steady_code, np.array([float(params[self.param_names[0]])])
 
     @abc.abstractmethod
     def basis(self, inputs: ModelInputs) -> np.ndarray:
@@ -190,6 +203,7 @@ class HystereticEffect(Effect):
               modifiers: SlipModifiers = NO_MODIFIERS) -> np.ndarray:
         f, _ = self.simulate(params, inputs.u_hist, modifiers)
         return f[inputs.n_prime:]
+
 
 
 class ModifierEffect(Effect):

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from labjoint.models.effects._population import population_force
+from labjoint.models.effects._steady import JENKINS, NONE
 from labjoint.models.effects.base import NO_MODIFIERS, HystereticEffect, SlipModifiers
 from labjoint.models.summary import LoopSummary
 
@@ -35,6 +36,12 @@ class Coulomb(HystereticEffect):
         e = np.zeros_like(u) if e_other is None else e_other
         return population_force(u, np.array([k]), np.array([float(params["f_s"])]), 0.0,
                                 modifiers.asym, modifiers.inv_ew, e)
+
+    def steady_term(self, params: Mapping[str, float]) -> tuple[int, np.ndarray]:
+        k = float(params["k"])
+        if k <= 0:
+            return NONE, np.zeros(0)
+        return JENKINS, np.array([k, float(params["f_s"])])
 
     def guess(self, summary: LoopSummary) -> dict[str, float]:
         k = summary.k_stick

@@ -6,6 +6,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from labjoint.models.effects import _steady
 from labjoint.models.effects.base import ForceEffect
 from labjoint.models.inputs import ModelInputs
 from labjoint.models.summary import LoopSummary
@@ -15,6 +16,7 @@ class LinearStiffness(ForceEffect):
     """F = k u."""
 
     name = "linear_stiffness"
+    steady_code = _steady.U_LINEAR
     description = (
         "The joint and the structure around it deform elastically: a force proportional to "
         "the relative displacement, F = k u, stores energy and returns it within each cycle. "
@@ -35,6 +37,7 @@ class CubicStiffness(ForceEffect):
     """F = k3 u^3."""
 
     name = "cubic_stiffness"
+    steady_code = _steady.U_CUBE
     description = (
         "Geometric or contact stiffening (or softening when k3 < 0): the restoring force "
         "grows with the cube of displacement, F = k3 u^3, e.g. from Hertzian contact patches "
@@ -63,6 +66,7 @@ class Offset(ForceEffect):
     """F = F0."""
 
     name = "offset"
+    steady_code = _steady.CONST
     description = (
         "A constant force: the static preload carried through the joint by the fixture, or "
         "a zero offset of the force sensor or its amplifier. It shifts the loop vertically "

@@ -35,6 +35,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from labjoint.models.effects import _steady
 from labjoint.models.effects.base import ElasticEffect, ForceEffect
 from labjoint.models.inputs import ModelInputs
 from labjoint.models.summary import LoopSummary
@@ -47,6 +48,7 @@ class QuadraticStiffness(ForceEffect):
     """F = k2 u^2."""
 
     name = "quadratic_stiffness"
+    steady_code = _steady.U_SQUARE
     description = (
         "An elastic restoring force that is stiffer on one side of rest than on the other and "
         "varies smoothly between them, F = k2 u^2 (with a linear k: secant stiffness k + k2 U "
@@ -71,6 +73,7 @@ class BilinearStiffness(ForceEffect):
     """F = dk max(u, 0)."""
 
     name = "bilinear_stiffness"
+    steady_code = _steady.U_RAMP
     description = (
         "The joint has one stiffness for u < 0 and another for u > 0, with a kink at rest: "
         "F = dk max(u, 0) beside a linear k gives k_minus = k and k_plus = k + dk (a contact "
@@ -111,6 +114,10 @@ class Contact(ElasticEffect):
         k, g = float(params["k_c"]), float(params["gap"])
         side = 1.0 if k >= 0 else -1.0
         return k * np.maximum(side * np.asarray(u, dtype=float) - g, 0.0)
+
+    def steady_term(self, params: Mapping[str, float]) -> tuple[int, np.ndarray]:
+        k = float(params["k_c"])
+        return _steady.CONTACT, np.array([k, 1.0 if k >= 0 else -1.0, float(params["gap"])])
 
     def guess(self, summary: LoopSummary) -> dict[str, float]:
         r = summary.largest

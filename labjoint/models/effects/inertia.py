@@ -6,6 +6,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from labjoint.models.effects import _steady
 from labjoint.models.effects.base import ForceEffect
 from labjoint.models.inputs import ModelInputs
 from labjoint.models.summary import LoopSummary
@@ -15,6 +16,7 @@ class Inertia(ForceEffect):
     """F = m d2u/dt2 (acceleration of the measured, untransformed displacement)."""
 
     name = "inertia"
+    steady_code = _steady.A_LINEAR
     description = (
         "The force sensor does not sit on the interface: the mass m between them must be "
         "accelerated, so the sensor reads the joint force plus m d2u/dt2. For a sinusoid "

@@ -20,6 +20,7 @@ import numpy as np
 
 from labjoint.models.effects._masing import IWAN, iwan_params, masing_force, running_work
 from labjoint.models.effects._population import iwan_population, population_force
+from labjoint.models.effects._steady import MASING_IWAN, NONE
 from labjoint.models.effects.base import NO_MODIFIERS, HystereticEffect, SlipModifiers
 from labjoint.models.summary import LoopSummary
 
@@ -60,6 +61,12 @@ class Iwan(HystereticEffect):
         k, fs = iwan_population(F_S, K_T, chi, beta)
         e = np.zeros_like(u) if e_other is None else e_other
         return population_force(u, k, fs, 0.0, modifiers.asym, modifiers.inv_ew, e)
+
+    def steady_term(self, params: Mapping[str, float]) -> tuple[int, np.ndarray]:
+        F_S, K_T = float(params["F_S"]), float(params["K_T"])
+        if F_S <= 0 or K_T <= 0:
+            return NONE, np.zeros(0)
+        return MASING_IWAN, iwan_params(F_S, K_T, _chi(params), float(params["beta"]))
 
     def guess(self, summary: LoopSummary) -> dict[str, float]:
         K_T = summary.k_stick

@@ -21,6 +21,7 @@ import numpy as np
 from labjoint.errors import InputError
 from labjoint.models.effects._masing import RICHARD_ABBOTT, masing_force, ra_params, running_work
 from labjoint.models.effects._population import backbone_population, population_force
+from labjoint.models.effects._steady import LINEAR, MASING_RA
 from labjoint.models.effects.base import NO_MODIFIERS, HystereticEffect, SlipModifiers
 from labjoint.models.summary import LoopSummary
 
@@ -103,6 +104,12 @@ class RichardAbbott(HystereticEffect):
         k, fs, kel = self.population(params)
         e = np.zeros_like(u) if e_other is None else e_other
         return population_force(u, k, fs, kel, modifiers.asym, modifiers.inv_ew, e)
+
+    def steady_term(self, params: Mapping[str, float]) -> tuple[int, np.ndarray]:
+        ke, kp, fy, n = (float(params[p]) for p in ("ke", "kp", "F_y", "n"))
+        if fy <= 0:
+            return LINEAR, np.array([kp])
+        return MASING_RA, ra_params(ke, kp, fy, n)
 
     def guess(self, summary: LoopSummary) -> dict[str, float]:
         ke = summary.k_stick

@@ -6,6 +6,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from labjoint.models.effects import _steady
 from labjoint.models.effects.base import ForceEffect
 from labjoint.models.inputs import ModelInputs
 from labjoint.models.summary import LoopSummary
@@ -15,6 +16,7 @@ class Viscous(ForceEffect):
     """F = c du/dt (the linear visco-elastic joint model of seed 001 with k)."""
 
     name = "viscous"
+    steady_code = _steady.V_LINEAR
     description = (
         "Rate-dependent loss: a force proportional to the relative velocity, F = c du/dt, as "
         "from a squeezed lubricant or air film, material damping or, more often, the "
