@@ -23,10 +23,17 @@ def _target(makefile: str, name: str) -> tuple[str, str]:
 def test_ci_runs_the_browser_tests_and_fails_without_a_browser(monkeypatch, tmp_path):
     ci = (ROOT / ".ci" / "run").read_text()
     assert re.search(r"^export LABJOINT_REQUIRE_BROWSER=1$", ci, re.M)
-    assert re.search(r"^make test$", ci, re.M)
-    deps, recipe = _target((ROOT / "Makefile").read_text(), "test")
-    assert "browser" in deps.split()
-    assert "pytest" in recipe and not re.search(r"pytest.* -m ", recipe) and "browser" not in recipe
+    # CI runs the README's `make test` (the suite without the slow group), then the slow
+    # group: together every test, the browser ones included
+    assert re.search(r"^for target in test test-slow; do$", ci, re.M)
+    assert re.search(r'^\s+make "\$target"$', ci, re.M)
+    markers = []
+    for target in ("test", "test-slow"):
+        deps, recipe = _target((ROOT / "Makefile").read_text(), target)
+        assert "browser" in deps.split()
+        assert "pytest" in recipe and "browser" not in recipe
+        markers.append(re.search(r'pytest.* -m "?([^"\n]*)"?', recipe).group(1).strip())
+    assert markers == ["not slow", "slow"]
     ini = (ROOT / "pyproject.toml").read_text()
     addopts = re.search(r"^addopts = (.*)$", ini, re.M).group(1)
     assert " -m" not in addopts and "browser" not in addopts
