@@ -257,8 +257,9 @@ def _sdof_fit(f, H, sd, band, force, level, direction) -> BackbonePoint:
 def measured_backbones(inputs: Iterable[str | Path], sensor: str | None = None,
                        modal_mass: float | None = None) -> list[Backbone]:
     """Backbones of run files and FRF set files by their kind: phase_resonance levels
-    (one backbone), ringdown runs (the force removed with the levels' apparent modal mass
-    when there are levels or ``modal_mass``), step_sine runs (one FRF set) and FRF set
+    (one backbone), ringdown runs (two backbones each, ``ringdown_hilbert`` and
+    ``ringdown_peaks``; the force removed with the levels' apparent modal mass when there
+    are levels or ``modal_mass``), step_sine runs (one FRF set) and FRF set
     files (.json); a backbone file (``labjoint.backbone/1``, .json) gives its backbones."""
     levels, rings, steps, sets = [], [], [], []
     stored: list[Backbone] = []
@@ -293,8 +294,8 @@ def measured_backbones(inputs: Iterable[str | Path], sensor: str | None = None,
         with open_run(path) as rf:
             fch = rf.metadata.get("force_channel")
         use_force = mass is not None and fch is not None
-        out.append(ringdown_run_backbone(path, sensor, force_channel=fch if use_force else None,
-                                         modal_mass_kg=mass if use_force else None))
+        out += ringdown_run_backbone(path, sensor, force_channel=fch if use_force else None,
+                                     modal_mass_kg=mass if use_force else None).by_method()
     if steps:
         sets.append(frfset_from_runs(steps, sensors=[sensor] if sensor else None))
     out += [frfset_backbone(s, sensor) for s in sets]
