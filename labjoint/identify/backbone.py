@@ -25,7 +25,11 @@ propagated; m_eff's origin is stated in the notes.
 **Ringdowns** (a run recorded with the output off after a dwell): the run's response
 channel through :func:`labjoint.signal.ringdown.ringdown_backbone`.
 
-**Step sine / per-level FRFs** (an :class:`~labjoint.signal.frfset.FrfSet`): per sweep,
+**Per-level broadband FRFs** (an FRF set of broadband records, one per level): method
+``frf_levels``, :mod:`labjoint.identify.backbone_levels` (the modes per level, the
+amplitude of the mode's response at the sensor).
+
+**Step sine** (a step-sine :class:`~labjoint.signal.frfset.FrfSet`): per sweep,
 the phase quadrature between its steps (:func:`frfset_backbone`, the default), or the
 steps within ``band`` half-power bandwidths of the peak fitted by one mode,
 H(w) = A / (w_r^2 - w^2 + i b w) (displacement per force, Levy's linearised least
@@ -43,6 +47,7 @@ from typing import Iterable
 import numpy as np
 
 from labjoint.errors import InputError
+from labjoint.identify.backbone_levels import frf_levels_backbone, is_broadband
 from labjoint.signal.backbone import Backbone, BackbonePoint, is_backbone_file, load_backbones
 from labjoint.signal.frf_steps import frfset_from_runs, phasors
 from labjoint.signal.frfset import FrfSet
@@ -260,7 +265,8 @@ def measured_backbones(inputs: Iterable[str | Path], sensor: str | None = None,
     (one backbone), ringdown runs (two backbones each, ``ringdown_hilbert`` and
     ``ringdown_peaks``; the force removed with the levels' apparent modal mass when there
     are levels or ``modal_mass``), step_sine runs (one FRF set) and FRF set
-    files (.json); a backbone file (``labjoint.backbone/1``, .json) gives its backbones."""
+    files (.json: a step-sine set by phase quadrature, a per-level broadband set by
+    ``frf_levels``); a backbone file (``labjoint.backbone/1``, .json) gives its backbones."""
     levels, rings, steps, sets = [], [], [], []
     stored: list[Backbone] = []
     for name in inputs:
@@ -298,5 +304,5 @@ def measured_backbones(inputs: Iterable[str | Path], sensor: str | None = None,
                                      modal_mass_kg=mass if use_force else None).by_method()
     if steps:
         sets.append(frfset_from_runs(steps, sensors=[sensor] if sensor else None))
-    out += [frfset_backbone(s, sensor) for s in sets]
+    out += [frf_levels_backbone(s, sensor) if is_broadband(s) else frfset_backbone(s, sensor) for s in sets]
     return stored + out
