@@ -94,3 +94,47 @@ def test_single_dof_predictor_refuses_bad_numbers():
         with pytest.raises(InputError) as e:
             SdofPredictor(law, **kw)
         assert e.value.field == field
+
+
+def test_the_linear_damping_identified_from_the_linear_range_puts_a_wrong_file_right():
+    """The model's dashpot 60 % too strong (a structure file's guess): the points below
+    the slider's slip (a_s = 1e-4 m) give the mode's damping, c / (2 sqrt((k + k_j + k_t) m)),
+    and the calibrated model meets the truth's backbone within its noise."""
+    from labjoint.compare.backbone_damping import calibrate, linear_range
+
+    b = measured(n=14)
+    lr = linear_range([b])
+    z0 = C / (2 * np.sqrt((K + KJ + KT) * M))
+    assert lr["zeta"] == pytest.approx(z0, abs=3 * lr["zeta_sd"]) and lr["zeta_sd"] < 0.02 * z0
+    assert lr["amplitude_max"] < FS / KT < lr["onset_amplitude"]
+    wrong = SdofPredictor(JointLaw("linear_stiffness+coulomb", {"linear_stiffness.k": KJ, "coulomb.k": KT,
+                                                                 "coulomb.f_s": FS}),
+                          M, stiffness_n_per_m=K, damping_ns_per_m=1.6 * C, harmonics=1, sensor="x")
+    fixed, note = calibrate(wrong, [b])
+    assert fixed.linear_damping_ratio() == pytest.approx(lr["zeta"], rel=1e-12) and "scaled by" in note
+    truth = Model.parse("linear_stiffness+coulomb")
+    vals = {"linear_stiffness.k": KJ, "coulomb.k": KT, "coulomb.f_s": FS}
+    rms = []
+    for pr in (wrong, fixed):
+        (m,) = prepare_backbones([("jenkins", b)], pr, harmonics=1, split=False, samples=256)
+        r = m.predict(truth, vals) - m.data.force
+        rms.append(float(np.sqrt(np.mean(r ** 2))))
+    assert rms[0] > 5 and rms[1] < 1.6, rms
+    # a backbone without a linear range (every point slipping) is refused, naming the option
+    with pytest.raises(InputError, match="no linear range") as e:
+        linear_range([Backbone([p for p in b.points if p.amplitude > 2 * FS / KT], "m", "displacement", "x")])
+    assert e.value.field == "linear_damping"
+
+
+def test_linear_damping_measured_without_a_backbone_is_refused_in_one_line(tmp_path, capsys):
+    from frfdata import write_linear_structure
+    from labjoint.cli.main import main
+    from test_cli_backbone import frfset
+
+    write_linear_structure(tmp_path / "s.toml")
+    path = frfset().save(tmp_path / "set.json")
+    code = main(["fit", str(path), "--structure", str(tmp_path / "s.toml"), "--model", "linear_stiffness",
+                 "--linear-damping", "measured", "--json", "--quiet"])
+    cap = capsys.readouterr()
+    assert code == 2 and cap.out == "" and len(cap.err.strip().splitlines()) == 1
+    assert "linear_damping" in cap.err and "backbone" in cap.err

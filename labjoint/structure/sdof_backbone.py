@@ -133,6 +133,21 @@ class SdofPredictor:
                                self.system.selectors, (LawElement(law),), self.system.outputs,
                                self.system.output_names)
 
+    def linear_damping_ratio(self, mode: int = 0) -> float:
+        """The mode's damping ratio with the law stuck: c / (2 sqrt(k_0 m))."""
+        if mode != 0:
+            raise InputError(f"the single-DOF form has one mode; mode {mode + 1} asked", field="mode")
+        k0 = self.stiffness + self.law.initial_stiffness()
+        return float(self.system.C[0, 0] / (2 * math.sqrt(max(k0, 0.0) * self.mass_kg)))
+
+    def with_damping_scale(self, scale: float) -> SdofPredictor:
+        """The same form with its dashpot c times ``scale``; this one unchanged."""
+        if not (math.isfinite(scale) and scale > 0):
+            raise InputError(f"the damping scale must be > 0, got {scale!r}", field="linear_damping")
+        return SdofPredictor(self.law, self.mass_kg, stiffness_n_per_m=self.stiffness,
+                             damping_ns_per_m=float(self.system.C[0, 0]) * scale, harmonics=self.harmonics,
+                             samples=self.samples, sensor=self.system.output_names[0])
+
     def natural_frequencies(self, n: int = 1) -> np.ndarray:
         """The mode's frequency (Hz) with the law stuck (one mode: ``n`` is ignored beyond 1)."""
         k0 = self.stiffness + self.law.initial_stiffness()
