@@ -9,7 +9,10 @@ for a ringdown the window's damped frequency).
 and the response R phasors at the drive frequency f (least squares on whole cycles,
 8 segments: mean and std of the mean, :func:`labjoint.signal.frf_steps.phasors`). The
 residual phase error e = arg(R / F) - target is turned into the frequency of exact
-quadrature with the loop's phase slope S (rad/Hz): f_r = f + e / S. At phase resonance
+quadrature with the loop's phase slope S (rad/Hz): f_r = f + e / S; its uncertainty
+holds the record's noise on e (the phasors' scatter over S), the slope's standard error
+on the correction (e sd_S / S^2, sd_S from the loop's own (f, tan e) history, the run's
+``phase_history``) and the drive frequency's (``frequency_measured_uncertainty_hz``). At phase resonance
 the force balances the mode's damping alone (single nonlinear mode, Peter and Leine
 2017): 2 zeta w^2 m_eff X = |F|, so
 
@@ -20,7 +23,9 @@ the sensor: given (``modal_mass_kg``, e.g. from a linear modal test or the model
 taken from the lowest level, where the mode is linear and the phase slope gives its
 damping, zeta_0 = 1 / (S f) (a single mode's phase falls by 1 / zeta rad per unit
 relative frequency at resonance). Uncertainties: the phasors' (and e's) scatter,
-propagated; m_eff's origin is stated in the notes.
+propagated; m_eff's origin is stated in the notes, and when it comes from the lowest
+level's slope, that slope's relative standard error is in every point's damping
+uncertainty (it scales them all).
 
 **Ringdowns** (a run recorded with the output off after a dwell): the run's response
 channel through :func:`labjoint.signal.ringdown.ringdown_backbone`.
@@ -78,7 +83,26 @@ def _resonance_point(path: Path, segments: int) -> dict:
         F, sF = phasors(rf.physical(fch), fs, f, 1, segments)
         return {"f": f, "R": R[0], "sR": sR[0], "F": F[0], "sF": sF[0], "quantity": q, "sensor": resp,
                 "slope": float(md.get("phase_slope_rad_per_hz") or np.nan), "run": path.name,
-                "level_vpp": float(md.get("level_vpp", np.nan))}
+                "level_vpp": float(md.get("level_vpp", np.nan)),
+                "slope_sd": slope_sd(md.get("phase_history")),
+                "f_sd": float(md.get("frequency_measured_uncertainty_hz") or 0.0)}
+
+
+def slope_sd(history) -> float:
+    """Standard error (rad/Hz) of the phase slope, the least-squares line of tan(e) against
+    f through a level's loop history ([f, e] pairs within 45 deg, as the plan's
+    ``level_slope``): s / sqrt(Sxx), s^2 the residuals' sum of squares over n - 2; NaN
+    with fewer than 3 pairs (a line through 2 has no residual)."""
+    pts = [(float(f), math.tan(float(e))) for f, e in (history or []) if abs(float(e)) < math.pi / 4]
+    if len(pts) < 3:
+        return float("nan")
+    f, t = np.array(pts).T
+    sxx = float(np.sum((f - f.mean()) ** 2))
+    if sxx <= 0:
+        return float("nan")
+    b, a = np.polyfit(f, t, 1)
+    r = t - (a + b * f)
+    return float(math.sqrt(float(r @ r) / (f.size - 2) / sxx))
 
 
 def phase_resonance_backbone(runs: Iterable[str | Path], *, modal_mass_kg: float | None = None,
@@ -98,10 +122,14 @@ def phase_resonance_backbone(runs: Iterable[str | Path], *, modal_mass_kg: float
         rel = math.hypot(p["sR"] / abs(p["R"]), p["sF"] / abs(p["F"]))      # relative sd of |R|, |F|; sd of arg
         S = p["slope"] if np.isfinite(p["slope"]) and p["slope"] > 0 else np.nan
         fr = p["f"] + (e / S if np.isfinite(S) else 0.0)
-        fr_sd = rel / S if np.isfinite(S) else abs(e) * p["f"]
+        # the record's noise on e, the slope's error on the correction e / S, the drive frequency's
+        s_S = p["slope_sd"] if np.isfinite(p["slope_sd"]) else 0.0
+        fr_sd = (math.sqrt((rel / S) ** 2 + (e * s_S / S ** 2) ** 2 + p["f_sd"] ** 2) if np.isfinite(S)
+                 else abs(e) * p["f"])
         X = abs(p["R"]) / w ** power
         rows.append((p, w, X, fr, fr_sd, rel, S))
     notes = ["amplitude: fundamental of displacement at " + pts[0]["sensor"]]
+    mass_rel = 0.0                                      # relative sd of m_eff, common to every point
     if modal_mass_kg is None:
         p, w, X, fr, _, _, S = rows[0]
         if not np.isfinite(S):
@@ -109,8 +137,10 @@ def phase_resonance_backbone(runs: Iterable[str | Path], *, modal_mass_kg: float
                              "modal_mass_kg", field="modal_mass_kg")
         zeta0 = 1.0 / (S * fr)
         modal_mass_kg = abs(p["F"]) / (2 * zeta0 * w * w * X)
+        mass_rel = p["slope_sd"] / S if np.isfinite(p["slope_sd"]) else 0.0
         notes.append(f"apparent modal mass {modal_mass_kg:.4g} kg from the lowest level's phase slope "
-                     f"(zeta = 1 / (S f) = {zeta0:.4g})")
+                     f"(zeta = 1 / (S f) = {zeta0:.4g}" + (f"; the slope's standard error {mass_rel:.2%}, "
+                     "in every point's damping uncertainty)" if mass_rel else ")"))
     elif not (math.isfinite(modal_mass_kg) and modal_mass_kg > 0):
         raise InputError(f"must be > 0 kg, got {modal_mass_kg!r}", field="modal_mass_kg")
     else:
@@ -118,7 +148,8 @@ def phase_resonance_backbone(runs: Iterable[str | Path], *, modal_mass_kg: float
     out = []
     for p, w, X, fr, fr_sd, rel, S in rows:
         zeta = abs(p["F"]) / (2 * modal_mass_kg * w * w * X)
-        out.append(BackbonePoint(X, fr, zeta, "phase_resonance", X * p["sR"] / abs(p["R"]), fr_sd, zeta * rel,
+        out.append(BackbonePoint(X, fr, zeta, "phase_resonance", X * p["sR"] / abs(p["R"]), fr_sd,
+                                 zeta * math.hypot(rel, mass_rel),
                                  extra={"run": p["run"], "level_vpp": p["level_vpp"],
                                         "modal_mass_kg": float(modal_mass_kg),
                                         "force_n": abs(p["F"]), "drive_frequency_hz": p["f"]}))
