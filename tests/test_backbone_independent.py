@@ -81,6 +81,9 @@ def test_diagnose_names_the_slip_law_and_the_ladder_reaches_the_noise(ms):
     nrmse = [s["nrmse_validation"] for s in lad["steps"]]
     floor = lad["noise_floor_validation"]
     assert nrmse[0] > 50 * floor and nrmse[-1] < 1.5 * floor, (nrmse, floor)
+    # what remains and where, on the steps that are not adequate only
+    assert any(t.startswith("damping too low above") for t in lad["steps"][0]["remaining"])
+    assert "remaining" not in lad["steps"][-1]
     p = lad["steps"][1]["parameters"]
     assert p["coulomb.f_s"]["value"] == pytest.approx(FS, rel=0.02)
     assert p["coulomb.k"]["value"] == pytest.approx(KT, rel=0.05)
