@@ -14,7 +14,7 @@ linear joint: diagnose must name a hysteretic slip law and the ladder reach the 
 import numpy as np
 import pytest
 
-from labjoint.compare.diagnosis import DiagnoseSettings, diagnose_prepared
+from labjoint.compare.diagnosis import DiagnoseSettings
 from labjoint.compare.kinds.backbone import prepare_backbones
 from labjoint.compare.ladders import build_ladder
 from labjoint.errors import InputError
@@ -70,20 +70,20 @@ def test_the_truth_sits_in_its_noise_and_the_linear_joint_far_outside(ms):
 
 
 def test_diagnose_names_the_slip_law_and_the_ladder_reaches_the_noise(ms):
+    """The ladder's first step is the linear baseline's diagnosis (its verdict and what
+    fails where); its second the slip law added."""
     settings = DiagnoseSettings(candidates=CANDIDATES)
-    dg = diagnose_prepared(ms, "linear_stiffness", settings=settings).to_dict()
-    assert dg["verdict"].startswith("add coulomb"), dg["verdict"]
-    texts = [f["text"] for f in dg["failures"]]
-    assert any(t.startswith("damping too low above") for t in texts), texts
-    assert any(t.startswith("frequency too high above") for t in texts), texts
     lad = build_ladder(ms, "linear_stiffness", settings=settings, max_steps=2).to_dict()
+    first = lad["steps"][0]
+    assert first["verdict"].startswith("add coulomb"), first["verdict"]
+    assert any(t.startswith("damping too low above") for t in first["remaining"]), first["remaining"]
+    assert any(t.startswith("frequency too high above") for t in first["remaining"]), first["remaining"]
+    assert {c["effect"]: c["significant"] for c in first["candidates"]}["viscous"] is False
     assert [s.get("added") for s in lad["steps"][1:2]] == ["coulomb"]
     nrmse = [s["nrmse_validation"] for s in lad["steps"]]
     floor = lad["noise_floor_validation"]
     assert nrmse[0] > 50 * floor and nrmse[-1] < 1.5 * floor, (nrmse, floor)
-    # what remains and where, on the steps that are not adequate only
-    assert any(t.startswith("damping too low above") for t in lad["steps"][0]["remaining"])
-    assert "remaining" not in lad["steps"][-1]
+    assert "remaining" not in lad["steps"][-1]                     # adequate: nothing remains
     p = lad["steps"][1]["parameters"]
     assert p["coulomb.f_s"]["value"] == pytest.approx(FS, rel=0.02)
     assert p["coulomb.k"]["value"] == pytest.approx(KT, rel=0.05)
