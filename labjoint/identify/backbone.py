@@ -10,9 +10,10 @@ and the response R phasors at the drive frequency f (least squares on whole cycl
 8 segments: mean and std of the mean, :func:`labjoint.signal.frf_steps.phasors`). The
 residual phase error e = arg(R / F) - target is turned into the frequency of exact
 quadrature with the loop's phase slope S (rad/Hz): f_r = f + e / S; its uncertainty
-holds the record's noise on e (the phasors' scatter over S), the slope's standard error
-on the correction (e sd_S / S^2, sd_S from the loop's own (f, tan e) history, the run's
-``phase_history``) and the drive frequency's (``frequency_measured_uncertainty_hz``). At phase resonance
+holds the record's noise on e (the phasors' scatter over S) and the slope's standard
+error on the correction (e sd_S / S^2, sd_S from the loop's own (f, tan e) history, the
+run's ``phase_history``); the phasors are taken at the generator's frequency, which is
+known far better than either. At phase resonance
 the force balances the mode's damping alone (single nonlinear mode, Peter and Leine
 2017): 2 zeta w^2 m_eff X = |F|, so
 
@@ -84,8 +85,7 @@ def _resonance_point(path: Path, segments: int) -> dict:
         return {"f": f, "R": R[0], "sR": sR[0], "F": F[0], "sF": sF[0], "quantity": q, "sensor": resp,
                 "slope": float(md.get("phase_slope_rad_per_hz") or np.nan), "run": path.name,
                 "level_vpp": float(md.get("level_vpp", np.nan)),
-                "slope_sd": slope_sd(md.get("phase_history")),
-                "f_sd": float(md.get("frequency_measured_uncertainty_hz") or 0.0)}
+                "slope_sd": slope_sd(md.get("phase_history"))}
 
 
 def slope_sd(history) -> float:
@@ -122,10 +122,10 @@ def phase_resonance_backbone(runs: Iterable[str | Path], *, modal_mass_kg: float
         rel = math.hypot(p["sR"] / abs(p["R"]), p["sF"] / abs(p["F"]))      # relative sd of |R|, |F|; sd of arg
         S = p["slope"] if np.isfinite(p["slope"]) and p["slope"] > 0 else np.nan
         fr = p["f"] + (e / S if np.isfinite(S) else 0.0)
-        # the record's noise on e, the slope's error on the correction e / S, the drive frequency's
+        # the record's noise on e and the slope's error on the correction e / S (the phasors
+        # are taken at the generator's frequency, known far better than either)
         s_S = p["slope_sd"] if np.isfinite(p["slope_sd"]) else 0.0
-        fr_sd = (math.sqrt((rel / S) ** 2 + (e * s_S / S ** 2) ** 2 + p["f_sd"] ** 2) if np.isfinite(S)
-                 else abs(e) * p["f"])
+        fr_sd = math.hypot(rel / S, e * s_S / S ** 2) if np.isfinite(S) else abs(e) * p["f"]
         X = abs(p["R"]) / w ** power
         rows.append((p, w, X, fr, fr_sd, rel, S))
     notes = ["amplitude: fundamental of displacement at " + pts[0]["sensor"]]
