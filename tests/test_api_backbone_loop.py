@@ -63,6 +63,29 @@ def test_model_jobs_on_backbones_and_their_refusals(served):
     assert job["status"] == "failed" and "too few" in job["error"]["message"]
 
 
+def test_linear_damping_measured_from_the_stored_backbone(served):
+    from labjoint.compare.backbone_damping import linear_range
+    from labjoint.errors import InputError
+    from labjoint.signal.backbone import load_backbones
+
+    bad = served.post("/structures/lin/models/fit", json={"backbones": ["pr"], "options": {
+        "modes": 4, "linear_damping": "guessed"}})
+    assert bad.status_code == 422
+    try:
+        expect = linear_range(load_backbones(served.data / "backbones" / "pr.json")[0])
+    except InputError:
+        expect = None
+    r = served.post("/structures/lin/models/fit", json={"backbones": ["pr"], "model": "linear_stiffness",
+                                                          "options": {"modes": 4, "linear_damping": "measured"}})
+    assert r.status_code == 202, r.text
+    job = _done(served, f"/models/jobs/{r.json()['id']}")
+    if expect is None:
+        assert job["status"] == "failed" and "linear range" in job["error"]["message"]
+    else:
+        assert job["status"] == "complete", job
+        assert f"{expect['zeta']:.5g}" in job["result"]["linear_damping"]
+
+
 @pytest.mark.slow
 def test_the_client_diagnoses_backbones_beside_an_frf_set(served):
     with Client(served.url, token=CONTROL, timeout=patience.HTTP_TIMEOUT_S) as c:

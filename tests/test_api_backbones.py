@@ -38,6 +38,9 @@ def test_backbones_of_runs_through_the_client(served):
         got = c.backbones(names)
         assert got["sensor"] == "free_end"
         expect = measured_backbones(files)
+        # the ringdown's two estimators are two backbones, never one merged curve
+        assert [{p.method for p in b.points} for b in expect] == [
+            {"phase_resonance"}, {"ringdown_hilbert"}, {"ringdown_peaks"}]
         pts = [p.to_dict(b.amplitude_units) for b in expect for p in b.points]
         assert [p["method"] for p in got["points"]] == [p["method"] for p in pts]
         assert [p["frequency_hz"] for p in got["points"]] == pytest.approx([p["frequency_hz"] for p in pts])

@@ -170,7 +170,11 @@ def test_readme_commands_on_the_simulated_structural_rig_name_the_slip_law(tmp_p
     top = [f["text"] for f in dg["failures"] if "phase_resonance/even damping_ratio" in f["where"]]
     assert top and top[0].startswith("damping too low above")
     best = dg["candidates"][0]
-    assert best["effect"] == "iwan" and best["nrmse_after_validation"] < 0.3 * dg["nrmse_validation"]
+    # with the phase-resonance points' slope error in their uncertainties (the top level's
+    # frequency sd 1e-5 -> 9e-5 Hz) the Iwan fit settles at chi ~ 0.4 and gains 17 % only
+    # (0.12x with the scatter alone): the slip law is named, the fit is not the hidden law's
+    assert best["effect"] == "iwan" and best["significant"]
+    assert best["nrmse_after_validation"] < 0.9 * dg["nrmse_validation"]
 
 
 def test_model_json_shapes_a_backbone_model_takes(tmp_path, capsys):

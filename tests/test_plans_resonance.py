@@ -76,6 +76,24 @@ def test_loop_locks_on_a_softening_backbone_from_either_side(start):
     assert lock_f == pytest.approx(fr, abs=0.1 / 180 * np.pi * ZETA * 30)   # e / S
     # the adapted slope is the mode's 1 / (zeta f_r) rad/Hz (within the secant's error)
     assert locked[-1]["phase_slope_rad_per_hz"] == pytest.approx(1 / (ZETA * fr[-1]), rel=0.1)
+    # the loop's own (f, e) pairs are recorded, the last at the lock
+    for i, md in enumerate(locked):
+        assert len(md["phase_history"]) == md["iterations"] + 1
+        assert md["phase_history"][-1][0] == pytest.approx(lock_f[i], abs=1e-12)
+        assert np.degrees(md["phase_history"][-1][1]) == pytest.approx(md["phase_error_deg"], abs=1e-9)
+
+
+def test_the_slopes_standard_error_is_the_least_squares_one():
+    from scipy.stats import linregress
+
+    from labjoint.identify.backbone import slope_sd
+
+    rng = np.random.default_rng(5)
+    f = np.linspace(29.1, 29.3, 6)                 # |e| < 45 deg
+    e = np.arctan(-8.0 * (f - 29.2) + 0.01 * rng.standard_normal(f.size))
+    hist = [[float(a), float(b)] for a, b in zip(f, e)] + [[28.0, 1.2]]       # beyond 45 deg: left out
+    assert slope_sd(hist) == pytest.approx(linregress(f, np.tan(e)).stderr, rel=1e-9)
+    assert np.isnan(slope_sd(hist[:2])) and np.isnan(slope_sd(None))
 
 
 def test_stability_is_the_loop_factor_one_minus_gain_times_slope_ratio():

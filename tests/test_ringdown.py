@@ -172,3 +172,23 @@ def test_iwan_friction_oscillator_damping_rises_with_amplitude_as_its_describing
         low = (A > 1.5e-5) & (A < 6e-5)
         assert np.all(np.diff(zeta[low]) > 0)               # micro-slip: damping rises with A
         assert zeta[low].max() > 3 * zeta.min()
+
+
+def test_hilbert_and_peaks_are_two_backbones_and_two_measurements(tmp_path):
+    """A ringdown's two estimators are two backbones (one per method), so the comparison
+    judges them as two measurements, each split in amplitude on its own points."""
+    from labjoint.compare.backbone_api import _named
+    from labjoint.signal.backbone import save_backbones
+
+    fs = 2000.0
+    t = np.arange(int(3 * fs)) / fs
+    both = ringdown_backbone(damped(t, 1e-3, F0, ZETA), fs, sensor="tip")
+    parts = both.by_method()
+    assert [{p.method for p in b.points} for b in parts] == [{"ringdown_hilbert"}, {"ringdown_peaks"}]
+    assert sum(len(b.points) for b in parts) == len(both.points)
+    for b in parts:          # each alone ascending in amplitude, with the record's notes
+        a = b.array("amplitude")
+        assert np.all(np.diff(a) > 0) and b.notes == both.notes and b.sensor == "tip"
+    save_backbones(tmp_path / "rd.json", parts)
+    names = [n for n, *_ in _named([tmp_path / "rd.json"])]
+    assert names == ["rd:ringdown_hilbert", "rd:ringdown_peaks"]

@@ -30,7 +30,9 @@ single-mode fit); so e_{n+1} = (1 - g S / S_n) e_n. The loop converges iff
 -(e_n - e_{n-1}) / (f_n - f_{n-1}) of the last two steps when that is positive (so the
 factor tends to 1 - g; the default g = 0.5 halves the error per update). After lock the
 recorded slope is the least-squares line through all of the level's (f, tan e) within
-45 deg (:func:`level_slope`), which the analysis uses for the damping at the lowest level. The step clip
+45 deg (:func:`level_slope`), which the analysis uses for the damping at the lowest level;
+the pairs themselves go in the metadata (``phase_history``: [f Hz, e rad] per update), from
+which the analysis takes the slope's standard error. The step clip
 keeps the first steps inside the mode's linear phase range (|e| < ~45 deg).
 
 With ``ringdown_s``, the output is switched off after the last (highest) level and the
@@ -224,7 +226,8 @@ def phase_resonance(levels_vpp: Annotated[list[Vpp], Field(min_length=1)], f_sta
                                "response_quantity": response_quantity,
                                "phase_error_deg": math.degrees(e), "phase_slope_rad_per_hz": slope,
                                "iterations": it, "locked": True,
-                               "phase_slope_measured": measured is not None})
+                               "phase_slope_measured": measured is not None,
+                               "phase_history": [[float(fh), float(eh)] for fh, eh in hist]})
     yield Output(False)
     if ringdown_s is not None:
         yield Record("phase_resonance_ringdown", duration_s=ringdown_s,

@@ -44,6 +44,9 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="FRF sets: Craig-Bampton kept modes (default 10)")
     p.add_argument("--harmonics", type=int, default=None, metavar="H",
                    help="FRF sets: response harmonics compared (default the set's, at most 3)")
+    p.add_argument("--linear-damping", default=None, choices=("file", "measured"),
+                   help="backbones: the structure's linear damping from its file (default) or "
+                        "identified from the backbones' low-amplitude linear range")
     p.add_argument("--modal", default=None, metavar="MODES.json",
                    help="records of a structure nobody can describe: the measured modes (the "
                         "output of `labjoint modes RUN --json`); the model acts on mode 1's "
@@ -173,6 +176,7 @@ def _options(args: argparse.Namespace, judging: bool) -> dict[str, Any]:
                          "seed": args.seed, "kind": args.kind, "warmup": args.warmup,
                          "structure": args.structure, "modes": args.modes,
                          "harmonics": args.harmonics, "modal": args.modal,
+                         "linear_damping": args.linear_damping,
                          "responses": args.responses, "between": args.between,
                          "plausibility": plausibility(args)}
     if judging:

@@ -70,6 +70,10 @@ def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | s
         if kind not in ("auto", "frf", "backbone"):
             raise InputError(f"backbone files are the backbone kind, not {kind}", field="kind")
         return load_structural(items, validate, frf)
+    if frf.get("linear_damping", "file") != "file":
+        raise InputError("the linear damping is identified from measured backbones: give a backbone "
+                         "file (labjoint backbone --out)", field="linear_damping")
+    frf.pop("linear_damping", None)
     if any(is_frfset(x) for x in items) or (frf.get("structure") is not None and kind in ("auto", "frf")):
         if kind not in ("auto", "frf"):
             raise InputError(f"FRF sets are the frf kind, not {kind}", field="kind")
@@ -107,6 +111,9 @@ def _measured(d: dict[str, Any], ms: Sequence[Measurement]) -> dict[str, Any]:
     kinds = {m.kind for m in ms}
     if kinds and kinds <= {"frf", "backbone"}:
         d["measurement"] = "+".join(k for k in ("frf", "backbone") if k in kinds)
+        notes = {m.metadata.get("linear_damping") for m in ms if m.kind == "backbone"} - {None}
+        if notes:
+            d["linear_damping"] = notes.pop()
         d["error"] = " and ".join(
             {"frf": "response phasors (harmonics 1..H) whitened by the FRF set's response_std",
              "backbone": "frequency and damping ratio per amplitude whitened by the points' "

@@ -10,6 +10,9 @@ measurement, named ``<file stem>:<method>``, split into its even and odd points 
 amplitude (:func:`labjoint.compare.kinds.backbone.prepare_backbones`). FRF set files (or
 step-sine runs) given beside backbone files are prepared on the same structure model and
 judged with them in one comparison (:mod:`labjoint.compare.kinds.combined`).
+Option ``linear_damping``: "file" (default: the structure file's damping) or "measured"
+(the structure's damping scaled to the backbones' low-amplitude linear range, for the
+backbones and the FRF sets beside them: :mod:`labjoint.compare.backbone_damping`).
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from labjoint.compare.backbone_damping import CHOICES, calibrate
 from labjoint.compare.frf_api import MAX_HARMONICS, _predictor, is_frfset, load_frf
 from labjoint.compare.kinds.backbone import prepare_backbones
 from labjoint.errors import InputError
@@ -88,10 +92,24 @@ def load_structural(items: Sequence[Any], validate: Sequence[Any] | None, option
             raise InputError(f"must be a whole number in [1, {MAX_HARMONICS}], got {h!r}", field="harmonics")
         pr = _predictor(options.get("structure"), options.get("modes"), h or MAX_HARMONICS)
     modes = {m for _, _, m, _ in named}
+    how = options.get("linear_damping") or "file"
+    if how not in CHOICES:
+        raise InputError(f"must be one of {', '.join(CHOICES)}, got {how!r}", field="linear_damping")
+    note = None
+    if how == "measured":
+        if len(modes) > 1:
+            raise InputError("the linear damping is identified from one mode's backbones; the files "
+                             f"hold modes {', '.join(str(m + 1) for m in sorted(modes))}",
+                             field="linear_damping")
+        mode = next(iter(modes))
+        pr, note = calibrate(pr, [b for _, b, _, _ in named], mode)
+        ms = [replace(m, predictor=pr) for m in ms]           # FRF sets beside: the same structure
     for mode in sorted(modes):
         part = [(n, b) for n, b, m, _ in named if m == mode]
         for meas in prepare_backbones(part, pr, mode, pr.harmonics):
             src = next(p for n, _, m, p in named if m == mode and meas.name.startswith(f"{n}/"))
+            if note:
+                meas.metadata["linear_damping"] = note
             ms.append(meas if src is None else replace(meas, path=src))
     if not validate:
         return ms, None

@@ -31,7 +31,7 @@ from labjoint.structure import Structure, load_structure
 from labjoint.structure.frf import DEFAULT_MODES
 from labjoint.structure.predict import FrfPredictor
 
-FRF_OPTIONS = ("structure", "modes", "harmonics")
+FRF_OPTIONS = ("structure", "modes", "harmonics", "linear_damping")
 MAX_HARMONICS = 3
 _PREDICTORS: dict[tuple, FrfPredictor] = {}
 

@@ -38,6 +38,10 @@ from labjoint.errors import InputError
 from labjoint.models import FitResult, Model, ModelFitter
 
 
+#: failures listed per step that is not adequate (its diagnosis's worst first)
+REMAINING = 5
+
+
 @dataclass
 class LadderStep:
     """One rung: the model, the effect it added, its metrics and (auto mode) diagnosis."""
@@ -66,6 +70,8 @@ class LadderStep:
         curves = getattr(getattr(self.diagnosis, "maps", None), "step_curves", None)
         if curves is not None:           # backbones: the step's model at the measured amplitudes
             d["backbone_curves"] = curves()
+        if self.diagnosis is not None and not self.adequate:   # what remains, and where
+            d["remaining"] = [f["text"] for f in self.diagnosis.failures[:REMAINING]]
         if self.run_errors:              # per run: a step may help the set, hurt some runs
             d["runs"] = self.run_errors
         d["refused"] = self.refused

@@ -9,7 +9,11 @@ for a ringdown the window's damped frequency).
 and the response R phasors at the drive frequency f (least squares on whole cycles,
 8 segments: mean and std of the mean, :func:`labjoint.signal.frf_steps.phasors`). The
 residual phase error e = arg(R / F) - target is turned into the frequency of exact
-quadrature with the loop's phase slope S (rad/Hz): f_r = f + e / S. At phase resonance
+quadrature with the loop's phase slope S (rad/Hz): f_r = f + e / S; its uncertainty
+holds the record's noise on e (the phasors' scatter over S) and the slope's standard
+error on the correction (e sd_S / S^2, sd_S from the loop's own (f, tan e) history, the
+run's ``phase_history``); the phasors are taken at the generator's frequency, which is
+known far better than either. At phase resonance
 the force balances the mode's damping alone (single nonlinear mode, Peter and Leine
 2017): 2 zeta w^2 m_eff X = |F|, so
 
@@ -20,12 +24,18 @@ the sensor: given (``modal_mass_kg``, e.g. from a linear modal test or the model
 taken from the lowest level, where the mode is linear and the phase slope gives its
 damping, zeta_0 = 1 / (S f) (a single mode's phase falls by 1 / zeta rad per unit
 relative frequency at resonance). Uncertainties: the phasors' (and e's) scatter,
-propagated; m_eff's origin is stated in the notes.
+propagated; m_eff's origin is stated in the notes, and when it comes from the lowest
+level's slope, that slope's relative standard error is in every point's damping
+uncertainty (it scales them all).
 
 **Ringdowns** (a run recorded with the output off after a dwell): the run's response
 channel through :func:`labjoint.signal.ringdown.ringdown_backbone`.
 
-**Step sine / per-level FRFs** (an :class:`~labjoint.signal.frfset.FrfSet`): per sweep,
+**Per-level broadband FRFs** (an FRF set of broadband records, one per level): method
+``frf_levels``, :mod:`labjoint.identify.backbone_levels` (the modes per level, the
+amplitude of the mode's response at the sensor).
+
+**Step sine** (a step-sine :class:`~labjoint.signal.frfset.FrfSet`): per sweep,
 the phase quadrature between its steps (:func:`frfset_backbone`, the default), or the
 steps within ``band`` half-power bandwidths of the peak fitted by one mode,
 H(w) = A / (w_r^2 - w^2 + i b w) (displacement per force, Levy's linearised least
@@ -43,6 +53,7 @@ from typing import Iterable
 import numpy as np
 
 from labjoint.errors import InputError
+from labjoint.identify.backbone_levels import frf_levels_backbone, is_broadband
 from labjoint.signal.backbone import Backbone, BackbonePoint, is_backbone_file, load_backbones
 from labjoint.signal.frf_steps import frfset_from_runs, phasors
 from labjoint.signal.frfset import FrfSet
@@ -73,7 +84,25 @@ def _resonance_point(path: Path, segments: int) -> dict:
         F, sF = phasors(rf.physical(fch), fs, f, 1, segments)
         return {"f": f, "R": R[0], "sR": sR[0], "F": F[0], "sF": sF[0], "quantity": q, "sensor": resp,
                 "slope": float(md.get("phase_slope_rad_per_hz") or np.nan), "run": path.name,
-                "level_vpp": float(md.get("level_vpp", np.nan))}
+                "level_vpp": float(md.get("level_vpp", np.nan)),
+                "slope_sd": slope_sd(md.get("phase_history"))}
+
+
+def slope_sd(history) -> float:
+    """Standard error (rad/Hz) of the phase slope, the least-squares line of tan(e) against
+    f through a level's loop history ([f, e] pairs within 45 deg, as the plan's
+    ``level_slope``): s / sqrt(Sxx), s^2 the residuals' sum of squares over n - 2; NaN
+    with fewer than 3 pairs (a line through 2 has no residual)."""
+    pts = [(float(f), math.tan(float(e))) for f, e in (history or []) if abs(float(e)) < math.pi / 4]
+    if len(pts) < 3:
+        return float("nan")
+    f, t = np.array(pts).T
+    sxx = float(np.sum((f - f.mean()) ** 2))
+    if sxx <= 0:
+        return float("nan")
+    b, a = np.polyfit(f, t, 1)
+    r = t - (a + b * f)
+    return float(math.sqrt(float(r @ r) / (f.size - 2) / sxx))
 
 
 def phase_resonance_backbone(runs: Iterable[str | Path], *, modal_mass_kg: float | None = None,
@@ -93,10 +122,14 @@ def phase_resonance_backbone(runs: Iterable[str | Path], *, modal_mass_kg: float
         rel = math.hypot(p["sR"] / abs(p["R"]), p["sF"] / abs(p["F"]))      # relative sd of |R|, |F|; sd of arg
         S = p["slope"] if np.isfinite(p["slope"]) and p["slope"] > 0 else np.nan
         fr = p["f"] + (e / S if np.isfinite(S) else 0.0)
-        fr_sd = rel / S if np.isfinite(S) else abs(e) * p["f"]
+        # the record's noise on e and the slope's error on the correction e / S (the phasors
+        # are taken at the generator's frequency, known far better than either)
+        s_S = p["slope_sd"] if np.isfinite(p["slope_sd"]) else 0.0
+        fr_sd = math.hypot(rel / S, e * s_S / S ** 2) if np.isfinite(S) else abs(e) * p["f"]
         X = abs(p["R"]) / w ** power
         rows.append((p, w, X, fr, fr_sd, rel, S))
     notes = ["amplitude: fundamental of displacement at " + pts[0]["sensor"]]
+    mass_rel = 0.0                                      # relative sd of m_eff, common to every point
     if modal_mass_kg is None:
         p, w, X, fr, _, _, S = rows[0]
         if not np.isfinite(S):
@@ -104,8 +137,10 @@ def phase_resonance_backbone(runs: Iterable[str | Path], *, modal_mass_kg: float
                              "modal_mass_kg", field="modal_mass_kg")
         zeta0 = 1.0 / (S * fr)
         modal_mass_kg = abs(p["F"]) / (2 * zeta0 * w * w * X)
+        mass_rel = p["slope_sd"] / S if np.isfinite(p["slope_sd"]) else 0.0
         notes.append(f"apparent modal mass {modal_mass_kg:.4g} kg from the lowest level's phase slope "
-                     f"(zeta = 1 / (S f) = {zeta0:.4g})")
+                     f"(zeta = 1 / (S f) = {zeta0:.4g}" + (f"; the slope's standard error {mass_rel:.2%}, "
+                     "in every point's damping uncertainty)" if mass_rel else ")"))
     elif not (math.isfinite(modal_mass_kg) and modal_mass_kg > 0):
         raise InputError(f"must be > 0 kg, got {modal_mass_kg!r}", field="modal_mass_kg")
     else:
@@ -113,7 +148,8 @@ def phase_resonance_backbone(runs: Iterable[str | Path], *, modal_mass_kg: float
     out = []
     for p, w, X, fr, fr_sd, rel, S in rows:
         zeta = abs(p["F"]) / (2 * modal_mass_kg * w * w * X)
-        out.append(BackbonePoint(X, fr, zeta, "phase_resonance", X * p["sR"] / abs(p["R"]), fr_sd, zeta * rel,
+        out.append(BackbonePoint(X, fr, zeta, "phase_resonance", X * p["sR"] / abs(p["R"]), fr_sd,
+                                 zeta * math.hypot(rel, mass_rel),
                                  extra={"run": p["run"], "level_vpp": p["level_vpp"],
                                         "modal_mass_kg": float(modal_mass_kg),
                                         "force_n": abs(p["F"]), "drive_frequency_hz": p["f"]}))
@@ -257,9 +293,11 @@ def _sdof_fit(f, H, sd, band, force, level, direction) -> BackbonePoint:
 def measured_backbones(inputs: Iterable[str | Path], sensor: str | None = None,
                        modal_mass: float | None = None) -> list[Backbone]:
     """Backbones of run files and FRF set files by their kind: phase_resonance levels
-    (one backbone), ringdown runs (the force removed with the levels' apparent modal mass
-    when there are levels or ``modal_mass``), step_sine runs (one FRF set) and FRF set
-    files (.json); a backbone file (``labjoint.backbone/1``, .json) gives its backbones."""
+    (one backbone), ringdown runs (two backbones each, ``ringdown_hilbert`` and
+    ``ringdown_peaks``; the force removed with the levels' apparent modal mass when there
+    are levels or ``modal_mass``), step_sine runs (one FRF set) and FRF set
+    files (.json: a step-sine set by phase quadrature, a per-level broadband set by
+    ``frf_levels``); a backbone file (``labjoint.backbone/1``, .json) gives its backbones."""
     levels, rings, steps, sets = [], [], [], []
     stored: list[Backbone] = []
     for name in inputs:
@@ -293,9 +331,9 @@ def measured_backbones(inputs: Iterable[str | Path], sensor: str | None = None,
         with open_run(path) as rf:
             fch = rf.metadata.get("force_channel")
         use_force = mass is not None and fch is not None
-        out.append(ringdown_run_backbone(path, sensor, force_channel=fch if use_force else None,
-                                         modal_mass_kg=mass if use_force else None))
+        out += ringdown_run_backbone(path, sensor, force_channel=fch if use_force else None,
+                                     modal_mass_kg=mass if use_force else None).by_method()
     if steps:
         sets.append(frfset_from_runs(steps, sensors=[sensor] if sensor else None))
-    out += [frfset_backbone(s, sensor) for s in sets]
+    out += [frf_levels_backbone(s, sensor) if is_broadband(s) else frfset_backbone(s, sensor) for s in sets]
     return stored + out

@@ -76,6 +76,19 @@ class Backbone:
         """One field of every point as an array (e.g. ``"frequency_hz"``)."""
         return np.array([getattr(p, name) for p in self.points], float)
 
+    def by_method(self) -> list[Backbone]:
+        """One backbone per method of its points (in the order they first appear), each
+        with this one's sensor, units and notes: a ringdown's Hilbert and peak estimates
+        are two measurements of the backbone, never one merged curve.
+
+        >>> b = Backbone([BackbonePoint(1e-6, 30.0, 0.01, "a"), BackbonePoint(2e-6, 29.9, 0.01, "b")],
+        ...              "m", "displacement", "tip")
+        >>> [len(x.points) for x in b.by_method()], [x.points[0].method for x in b.by_method()]
+        ([1, 1], ['a', 'b'])
+        """
+        methods = dict.fromkeys(p.method for p in self.points)
+        return [replace(self, points=[p for p in self.points if p.method == m]) for m in methods]
+
     def with_method(self, method: str) -> Backbone:
         return replace(self, points=[replace(p, method=method) for p in self.points])
 

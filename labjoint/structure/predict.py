@@ -75,6 +75,30 @@ class FrfPredictor:
         els = tuple(JointElement(replace(e.joint, law=law)) for e in self.system.elements)
         return replace(self.system, elements=els)
 
+    def linear_damping_ratio(self, mode: int = 0) -> float:
+        """Mode ``mode``'s (0: the first) damping ratio with the joints stuck: phi^T C phi /
+        (2 w phi^T M phi) of the undamped mode of K with every joint's stuck stiffness (the
+        light-damping value, linear in C: what :meth:`with_damping_scale` scales)."""
+        from scipy.linalg import eigh
+
+        s = self.system
+        w2, phi = eigh(s.linear_stiffness(), s.M)
+        if not 0 <= mode < w2.size:
+            raise InputError(f"the model has {w2.size} modes; mode {mode + 1} asked", field="mode")
+        v = phi[:, mode]
+        return float(v @ s.C @ v / (2 * np.sqrt(max(w2[mode], 0.0)) * (v @ s.M @ v)))
+
+    def with_damping_scale(self, scale: float) -> FrfPredictor:
+        """A predictor of the same structure with its linear damping matrix C times
+        ``scale`` (every mode's light-damping ratio times ``scale``); this one unchanged."""
+        if not (np.isfinite(scale) and scale > 0):
+            raise InputError(f"the damping scale must be > 0, got {scale!r}", field="linear_damping")
+        out = FrfPredictor(self.structure, self.modes, self.harmonics, self.samples,
+                           system=replace(self.system, C=self.system.C * float(scale)))
+        out._natural = self._natural
+        out.tol = self.tol
+        return out
+
     def rows(self, sensors: tuple[str, ...]) -> np.ndarray:
         names = list(self.system.output_names)
         missing = [s for s in sensors if s not in names]

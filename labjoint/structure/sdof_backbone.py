@@ -32,6 +32,7 @@ import numpy as np
 from labjoint.errors import InputError
 from labjoint.signal.backbone import Backbone, BackbonePoint
 from labjoint.structure.law import JointLaw
+from labjoint.structure.system import LawElement, NonlinearSystem
 
 SAMPLES = 256
 
@@ -85,3 +86,69 @@ def sdof_backbone(law: JointLaw, amplitudes, mass_kg: float, *, stiffness_n_per_
                     (f"single-DOF modal form, {stiffness} stiffness, m = {mass_kg:g} kg, "
                      f"k = {stiffness_n_per_m:g} N/m, c = {damping_ns_per_m:g} N s/m, law "
                      f"{law.model.expr}",))
+
+
+class SdofPredictor:
+    """The single-DOF modal form as the comparison's predictor, where no structure is
+    described: m u'' + c u' + k u + g(u) = 0 (module docstring) as a
+    :class:`~labjoint.structure.system.NonlinearSystem` with one output ``sensor`` (u
+    itself), so the backbone kind's extended periodic motion concept
+    (:mod:`labjoint.structure.epmc`) gives its backbone at any ``harmonics`` (1: the
+    first-harmonic stiffness and energy of the module docstring). It offers what
+    :class:`~labjoint.structure.predict.FrfPredictor` offers the backbone kind: the law
+    in place (``law``), ``system_with(law)``, ``law_of`` and the stuck natural frequency.
+    """
+
+    structure = None
+    modes = None
+
+    def __init__(self, law: JointLaw, mass_kg: float, *, stiffness_n_per_m: float = 0.0,
+                 damping_ns_per_m: float = 0.0, harmonics: int = 1, samples: int = 64,
+                 sensor: str = "joint") -> None:
+        for name, v, lo in (("mass_kg", mass_kg, 0.0), ("stiffness_n_per_m", stiffness_n_per_m, None),
+                            ("damping_ns_per_m", damping_ns_per_m, None)):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or \
+                    (lo is not None and v <= lo) or (lo is None and v < 0):
+                raise InputError(f"must be a finite number{' > 0' if lo is not None else ' >= 0'}, "
+                                 f"got {v!r}", field=name)
+        if isinstance(harmonics, bool) or not isinstance(harmonics, int) or harmonics < 1:
+            raise InputError(f"must be a whole number >= 1, got {harmonics!r}", field="harmonics")
+        self.law = law
+        self.mass_kg, self.stiffness = float(mass_kg), float(stiffness_n_per_m)
+        sysm = NonlinearSystem.sdof(self.mass_kg, float(damping_ns_per_m), self.stiffness, law)
+        self.system = NonlinearSystem(sysm.M, sysm.C, sysm.K, sysm.force, sysm.selectors, sysm.elements,
+                                      sysm.outputs, (str(sensor),))
+        self.harmonics = int(harmonics)
+        self.samples = int(max(samples, 8 * self.harmonics))
+
+    def law_of(self, model, params) -> JointLaw:
+        """The law ``model`` with ``params`` (``effect.param`` names), checked."""
+        return JointLaw(model, params, field="joint")
+
+    def system_with(self, law: JointLaw | None) -> NonlinearSystem:
+        """The system with the law replaced by ``law`` (None: as built)."""
+        if law is None:
+            return self.system
+        return NonlinearSystem(self.system.M, self.system.C, self.system.K, self.system.force,
+                               self.system.selectors, (LawElement(law),), self.system.outputs,
+                               self.system.output_names)
+
+    def linear_damping_ratio(self, mode: int = 0) -> float:
+        """The mode's damping ratio with the law stuck: c / (2 sqrt(k_0 m))."""
+        if mode != 0:
+            raise InputError(f"the single-DOF form has one mode; mode {mode + 1} asked", field="mode")
+        k0 = self.stiffness + self.law.initial_stiffness()
+        return float(self.system.C[0, 0] / (2 * math.sqrt(max(k0, 0.0) * self.mass_kg)))
+
+    def with_damping_scale(self, scale: float) -> SdofPredictor:
+        """The same form with its dashpot c times ``scale``; this one unchanged."""
+        if not (math.isfinite(scale) and scale > 0):
+            raise InputError(f"the damping scale must be > 0, got {scale!r}", field="linear_damping")
+        return SdofPredictor(self.law, self.mass_kg, stiffness_n_per_m=self.stiffness,
+                             damping_ns_per_m=float(self.system.C[0, 0]) * scale, harmonics=self.harmonics,
+                             samples=self.samples, sensor=self.system.output_names[0])
+
+    def natural_frequencies(self, n: int = 1) -> np.ndarray:
+        """The mode's frequency (Hz) with the law stuck (one mode: ``n`` is ignored beyond 1)."""
+        k0 = self.stiffness + self.law.initial_stiffness()
+        return np.array([math.sqrt(max(k0, 0.0) / self.mass_kg) / (2 * np.pi)])

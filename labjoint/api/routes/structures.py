@@ -81,6 +81,9 @@ class FrfModelOptions(_In):
     candidates: list[Annotated[str, Field(max_length=40)]] | None = None
     modes: int = Field(10, ge=0, le=100)
     harmonics: int | None = Field(None, ge=1, le=3)
+    linear_damping: Literal["file", "measured"] = Field(
+        "file", description="backbones: the structure's linear damping from its file, or identified "
+                            "from the backbones' low-amplitude linear range")
     save: bool = True
 
 
@@ -283,7 +286,7 @@ def model_job(request: Request, body: FrfModelRequest, name: str = Path(pattern=
     Model.parse(body.model)
     o = body.options.model_dump(by_alias=True, exclude_unset=True)
     kw: dict[str, Any] = {"structure": str(path), "modes": body.options.modes}
-    for k in ("seed", "full", "harmonics"):
+    for k in ("seed", "full", "harmonics", "linear_damping"):
         if k in o:
             kw[k] = o[k]
     if operation != "fit":

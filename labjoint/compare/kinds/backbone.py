@@ -65,6 +65,7 @@ class BackboneMeasurement:
     sd: np.ndarray                       # (2P,) per point: frequency sd, damping sd
     harmonics: int = 3
     path: str | None = None
+    samples: int = 32                    # AFT samples per period of the EPMC (>= 8 per harmonic)
     metadata: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -91,10 +92,11 @@ class BackboneMeasurement:
         """The model's frequency (Hz) and damping ratio at the measured amplitudes, and
         each joint patch's largest slip amplitude (m)."""
         sysm = self.predictor.system_with(law)
-        ep = EPMC(sysm, self.mode, self.harmonics, max(32, 8 * self.harmonics), self.backbone.sensor)
+        ep = EPMC(sysm, self.mode, self.harmonics, max(self.samples, 8 * self.harmonics), self.backbone.sensor)
         bb, sols = ep.backbone(self.amplitudes)
         rot = ep.hb.phasors(sols[int(np.argmax(self.amplitudes)), :-2], sysm.selectors)[1]
-        r = max(e.joint.radius_m for e in sysm.elements)
+        # a joint's coordinate is a rotation (slip = radius x rotation); a law element's is the slip
+        r = max(e.joint.radius_m if hasattr(e, "joint") else 1.0 for e in sysm.elements)
         self.metadata["slip_amplitude_m"] = float(r * np.max(np.abs(rot)))
         return np.column_stack([bb.array("frequency_hz"), bb.array("damping_ratio")]).ravel(), rot
 
@@ -126,9 +128,12 @@ class BackboneMeasurement:
 
 
 def prepare_backbones(items: Sequence[Backbone | tuple[str, Backbone]], predictor: FrfPredictor,
-                      mode: int = 0, harmonics: int = 3, split: bool = True) -> list[BackboneMeasurement]:
+                      mode: int = 0, harmonics: int = 3, split: bool = True,
+                      samples: int = 32) -> list[BackboneMeasurement]:
     """Measurements of measured backbones (or (name, backbone) pairs) on the predictor's
-    structure; with ``split`` each backbone gives two, its even and its odd points by
+    structure (or the single-DOF modal form, :class:`labjoint.structure.sdof_backbone.SdofPredictor`),
+    the model's backbone by EPMC with ``harmonics`` and ``samples`` per period (a slip
+    law's kink needs more samples than 32 where its backbone is known to 1e-5); with ``split`` each backbone gives two, its even and its odd points by
     amplitude, the largest amplitude always with the even ones (``NAME/even`` fits,
     ``NAME/odd`` validates between them: :class:`BackboneKind`)."""
     if not items:
@@ -155,7 +160,8 @@ def prepare_backbones(items: Sequence[Backbone | tuple[str, Backbone]], predicto
             nm = f"{name}/{tag}"
             inputs = ModelInputs(zero, zero, zero, 1.0, 0, 0.0, float(np.mean(f)), nm, {"kind": "backbone"})
             out.append(BackboneMeasurement(nm, sub, predictor, int(mode), RunData(inputs, y, np.ones(y.size, bool)),
-                                           sd, int(harmonics), metadata={"part": tag}))
+                                           sd, int(harmonics), metadata={"part": tag},
+                                           samples=int(samples)))
     return out
 
 
