@@ -57,6 +57,14 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="with --modal: shaker parameters (labjoint.models.shaker.Shaker fields) "
                         "to identify; each is refused by name with what the voltage-driven "
                         "records see of it instead")
+    p.add_argument("--shaker", default=None, metavar="S.toml",
+                   help="with --modal and a voltage drive: the electrodynamic shaker between the "
+                        "voltage and mode 1 (its [shaker] table; armature and two of Bl, R, "
+                        "--modal-mass given, the third fitted); per-volt and per-newton predictions")
+    p.add_argument("--drive-point", default=None, metavar="SENSOR",
+                   help="with --shaker: the sensor of the modes at the shaker's attachment")
+    p.add_argument("--modal-mass", type=float, default=None, metavar="KG",
+                   help="with --shaker: mode 1's modal mass at the drive point, when known")
     p.add_argument("--max-displacement", type=float, default=None, metavar="M",
                    help="largest plausible displacement amplitude (m) of a steady sine (default "
                         "the rig config's [plausibility] max_displacement_amplitude_m, else 0.01 m: "
@@ -87,10 +95,11 @@ def _error(p: argparse.ArgumentParser) -> None:
                    help="with --error simulation: each record is whole periods of a steady "
                         "periodic input; simulate to its steady state")
     p.add_argument("--start", action="append", default=None, metavar="NAME=VALUE",
-                   help="with --error simulation: start the search here (SI units, e.g. "
-                        "inertia.m=0.05); repeat or join by commas")
+                   help="with --error simulation or --modal: start the search here (SI units, "
+                        "e.g. inertia.m=0.05, shaker.highpass_hz=1.5); repeat or join by commas")
     p.add_argument("--bound", action="append", default=None, metavar="NAME=LO:HI",
-                   help="with --error simulation: keep a parameter within LO:HI (SI units)")
+                   help="with --error simulation or --modal: keep a parameter within LO:HI (SI "
+                        "units; LO = HI holds it, e.g. shaker.highpass_hz=0:0 for no high-pass)")
 
 
 def _pairs(items: list[str] | None, flag: str) -> dict[str, str]:
@@ -175,6 +184,14 @@ def _options(args: argparse.Namespace, judging: bool) -> dict[str, Any]:
                          "harmonics": args.harmonics, "modal": args.modal,
                          "responses": args.responses, "between": args.between,
                          "plausibility": plausibility(args)}
+    if args.modal:
+        start, bounds = start_and_bounds(args)
+        o.update(start=start or None, bounds=bounds or None, shaker=args.shaker,
+                 drive_point=args.drive_point, modal_mass=args.modal_mass)
+    else:
+        given = [f for f in ("shaker", "drive_point", "modal_mass") if getattr(args, f) is not None]
+        if given:
+            raise InputError(f"--{given[0].replace('_', '-')} goes with --modal", field=given[0])
     if judging:
         o.update(factor=args.factor, alpha=args.alpha, n_jobs=args.jobs,
                  candidates=args.candidates)
@@ -246,6 +263,9 @@ def _print_parameters(res: dict[str, Any]) -> None:
 
 def _not_modal(args: argparse.Namespace) -> None:
     _shaker(args)
+    given = [f for f in ("shaker", "drive_point", "modal_mass") if getattr(args, f, None) is not None]
+    if given:
+        raise InputError(f"--{given[0].replace('_', '-')} goes with --modal", field=given[0])
     if args.modal:
         raise InputError("--modal is judged by simulation error of the responses already; leave "
                          "out --error simulation", field="error")
@@ -298,9 +318,9 @@ def _simulation_job(args: argparse.Namespace, operation: str, steps: int) -> dic
 
 def _simulation_only(args: argparse.Namespace) -> None:
     given = [f for f, v in (("periodic", args.periodic), ("start", args.start),
-                            ("bound", args.bound)) if v]
+                            ("bound", args.bound)) if v and not (args.modal and f != "periodic")]
     if given:
-        raise InputError(f"--{given[0]} goes with --error simulation", field=given[0])
+        raise InputError(f"--{given[0]} goes with --error simulation or --modal", field=given[0])
 
 
 def diagnose(args: argparse.Namespace) -> int:

@@ -59,12 +59,23 @@ def _modal(args: argparse.Namespace) -> int:
     if not full:
         for v in res["channels"].values():
             v.pop("measured"), v.pop("model")
+        res.pop("force_on_structure_n", None)
     if args.json:
         emit_json(res)
         return 0
     for ch, v in res["channels"].items():
         print(f"{ch} ({v['quantity']}): NRMSE {100 * v['nrmse']:.3g} %")
     print(f"pooled NRMSE {100 * res['nrmse']:.3g} %")
+    if "force_rms_n" in res:
+        print(f"through the shaker: force on the structure {res['force_rms_n']:.4g} N rms")
+        fu = res.get("fundamental")
+        if fu:
+            print(f"at {fu['frequency_hz']:.4g} Hz: force per volt {fu['force_per_volt']['amplitude']:.4g} N/V "
+                  f"({fu['force_per_volt']['phase_deg']:.3g} deg)")
+            for ch, v in fu["channels"].items():
+                pv, pn = v["per_volt"], v["per_newton"]
+                print(f"  {ch}: per volt {pv['amplitude']:.4g} ({pv['phase_deg']:.3g} deg), per newton "
+                      f"{pn['amplitude']:.4g} ({pn['phase_deg']:.3g} deg)")
     return 0
 
 

@@ -50,6 +50,26 @@ BLOCKS = 16
 END_MARGIN_S = 0.5
 
 
+@dataclass(frozen=True)
+class ModalSetup:
+    """What the user sets for every fit of a modal set: ``start`` {name: value} (SI; a fit
+    from a smaller model keeps that model's values), ``bounds`` {name: (lo, hi)} and the
+    shaker path (:class:`labjoint.structure.nlmode_shaker.ShakerPath`, None: a voltage or
+    force drive with a fitted high-pass only)."""
+
+    start: tuple[tuple[str, float], ...] = ()
+    bounds: tuple[tuple[str, tuple[float, float]], ...] = ()
+    shaker: Any = None
+
+    @property
+    def start_dict(self) -> dict[str, float]:
+        return dict(self.start)
+
+    @property
+    def bounds_dict(self) -> dict[str, tuple[float, float]]:
+        return dict(self.bounds)
+
+
 @dataclass(frozen=True, eq=False)
 class ModalMeasurement:
     """One record inside the modal model (module docstring)."""
@@ -72,6 +92,8 @@ class ModalMeasurement:
     _cache: dict = field(default_factory=dict, repr=False)
     #: the joint between these two sensors (:mod:`labjoint.structure.nlmode_pair`), else on mode 1
     between: tuple[str, str] | None = None
+    #: the user's fit setup (``start``, ``bounds``, the shaker): :class:`ModalSetup`
+    setup: ModalSetup = field(default_factory=lambda: ModalSetup())
 
     @property
     def frequency_hz(self) -> float | None:
@@ -105,6 +127,12 @@ class ModalMeasurement:
         vals = {k: float(v.value if hasattr(v, "value") else v) for k, v in params.items()}
         if self.between:
             return pair_states(model, vals, self.basis, self.between, self.drive_at(vals))
+        if self.setup.shaker is not None:       # (n, 4): the force on the structure beside
+            return self.setup.shaker.states(model, vals, self.drive_at(vals), self.basis.modes[0].frequency_hz)
+        return mode_states(model, vals, self.drive_at(vals))
+
+    def plain_states(self, model: Model, vals: Mapping[str, float]) -> np.ndarray:
+        """Mode 1's states driven by ``modal.drive`` x the (high-passed) voltage, no shaker."""
         return mode_states(model, vals, self.drive_at(vals))
 
     def linear(self, vals: Mapping[str, float]) -> tuple[np.ndarray, ...]:
