@@ -174,7 +174,7 @@ def test_unidentifiable_shaker_parameters_refused_by_name():
     assert e.value.field == "drive_point"
 
 
-def _files(tmp_path):
+def _files(tmp_path, n=4):
     from labjoint.hardware.interfaces import ChannelSpec
     from labjoint.storage.csv_import import store_channels
 
@@ -182,7 +182,7 @@ def _files(tmp_path):
     f1 = modes[0]["frequency_hz"]
     spec = lambda n, q, u: ChannelSpec(n, "imported", q, u, 1.0, range_v=np.inf, coupling="DC")  # noqa: E731
     paths = []
-    for i, (f, v) in enumerate(((0.5 * f1, 1.0), (0.9 * f1, 0.3))):
+    for i, (f, v) in enumerate(((0.5 * f1, 1.0), (0.9 * f1, 0.3), (1.1 * f1, 0.3), (0.7 * f1, 0.5))[:n]):
         rec = _record(f, v, seed=i, seconds=5.0)[0]
         paths.append(str(store_channels(
             tmp_path / f"r{i}.h5", rec.time, FS,
@@ -197,14 +197,14 @@ def _files(tmp_path):
 
 
 def test_cli_start_outside_bounds_refused_in_one_line(tmp_path, capsys):
-    paths, mfile, _ = _files(tmp_path)
+    paths, mfile, _ = _files(tmp_path, 1)
     out = tmp_path / "m.json"
-    rc = main(["fit", *paths, "--modal", mfile, "--model", "linear_stiffness+viscous", "--json",
+    rc = main(["fit", paths[0], "--modal", mfile, "--model", "linear_stiffness+viscous", "--json",
                "--start", "viscous.c=5", "--bound", "viscous.c=0:1", "--out", str(out)])
     err = capsys.readouterr()
     assert rc == 2 and err.out == "" and not out.exists()
     assert "start.viscous.c" in err.err and "outside the bounds" in err.err and err.err.count("\n") == 1
-    rc = main(["fit", *paths, "--modal", mfile, "--model", "linear_stiffness+viscous", "--json",
+    rc = main(["fit", paths[0], "--modal", mfile, "--model", "linear_stiffness+viscous", "--json",
                "--start", "modal.phi1.tip=1"])
     err = capsys.readouterr()
     assert rc == 2 and "start.modal.phi1.tip" in err.err
@@ -214,7 +214,7 @@ def test_cli_start_outside_bounds_refused_in_one_line(tmp_path, capsys):
 def test_cli_fit_with_shaker_saves_it_and_predict_prints_both(tmp_path, capsys):
     paths, mfile, sfile = _files(tmp_path)
     out = tmp_path / "m.json"
-    rc = main(["fit", paths[0], "--modal", mfile, "--model", "linear_stiffness+viscous", "--json",
+    rc = main(["fit", *paths[:3], "--modal", mfile, "--model", "linear_stiffness+viscous", "--json",
                "--shaker", sfile, "--drive-point", "tip", "--bound", "shaker.highpass_hz=0:0",
                "--start", "viscous.c=8", "--out", str(out)])
     res = json.loads(capsys.readouterr().out)
@@ -222,7 +222,7 @@ def test_cli_fit_with_shaker_saves_it_and_predict_prints_both(tmp_path, capsys):
     saved = json.loads(out.read_text())
     assert saved["shaker"]["fitted"] == "mode1.mass_kg"
     assert saved["shaker"]["mode1_mass_kg"] == pytest.approx(_mode1_structure()[0], rel=0.05)
-    rc = main(["predict", str(out), paths[1], "--json"])
+    rc = main(["predict", str(out), paths[3], "--json"])
     res = json.loads(capsys.readouterr().out)
     assert rc == 0 and res["nrmse"] < 0.02
     tip = res["fundamental"]["channels"]["tip"]
