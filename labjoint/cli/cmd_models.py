@@ -15,6 +15,7 @@ import argparse
 from typing import Any
 
 from labjoint.cli.limits import plausibility, print_flags
+from labjoint.cli.modal_args import add_modal_arguments, modal_options
 from labjoint.cli.output import Progress, emit_json, fmt, table
 from labjoint.errors import InputError
 
@@ -44,27 +45,7 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="FRF sets: Craig-Bampton kept modes (default 10)")
     p.add_argument("--harmonics", type=int, default=None, metavar="H",
                    help="FRF sets: response harmonics compared (default the set's, at most 3)")
-    p.add_argument("--modal", default=None, metavar="MODES.json",
-                   help="records of a structure nobody can describe: the measured modes (the "
-                        "output of `labjoint modes RUN --json`); the model acts on mode 1's "
-                        "coordinate, judged by simulation error of the measured responses")
-    p.add_argument("--between", default=None, metavar="A,B",
-                   help="with --modal: the joint acts on the relative displacement of these two "
-                        "sensors of the modes (every mode carries it) instead of on mode 1")
-    p.add_argument("--responses", default=None, metavar="A,B,...",
-                   help="with --modal: the response channels compared (default every motion channel)")
-    p.add_argument("--shaker-fit", default=None, metavar="A,B,...",
-                   help="with --modal: shaker parameters (labjoint.models.shaker.Shaker fields) "
-                        "to identify; each is refused by name with what the voltage-driven "
-                        "records see of it instead")
-    p.add_argument("--shaker", default=None, metavar="S.toml",
-                   help="with --modal and a voltage drive: the electrodynamic shaker between the "
-                        "voltage and mode 1 (its [shaker] table; armature and two of Bl, R, "
-                        "--modal-mass given, the third fitted); per-volt and per-newton predictions")
-    p.add_argument("--drive-point", default=None, metavar="SENSOR",
-                   help="with --shaker: the sensor of the modes at the shaker's attachment")
-    p.add_argument("--modal-mass", type=float, default=None, metavar="KG",
-                   help="with --shaker: mode 1's modal mass at the drive point, when known")
+    add_modal_arguments(p)
     p.add_argument("--max-displacement", type=float, default=None, metavar="M",
                    help="largest plausible displacement amplitude (m) of a steady sine (default "
                         "the rig config's [plausibility] max_displacement_amplitude_m, else 0.01 m: "
@@ -166,32 +147,14 @@ def _prime(v: str) -> int | str:
     return v if v == "auto" else int(v)
 
 
-def _shaker(args: argparse.Namespace) -> None:
-    """Refuse shaker parameters the records cannot identify (nlmode.shaker_identifiable)."""
-    if args.shaker_fit:
-        from labjoint.structure.nlmode import shaker_identifiable
-
-        if not args.modal:
-            raise InputError("--shaker-fit goes with --modal", field="shaker_fit")
-        shaker_identifiable([n.strip() for n in args.shaker_fit.split(",") if n.strip()])
-
-
 def _options(args: argparse.Namespace, judging: bool) -> dict[str, Any]:
-    _shaker(args)
     o: dict[str, Any] = {"validate": args.validate, "prime_cycles": _prime(args.prime_cycles),
                          "seed": args.seed, "kind": args.kind, "warmup": args.warmup,
                          "structure": args.structure, "modes": args.modes,
                          "harmonics": args.harmonics, "modal": args.modal,
                          "responses": args.responses, "between": args.between,
                          "plausibility": plausibility(args)}
-    if args.modal:
-        start, bounds = start_and_bounds(args)
-        o.update(start=start or None, bounds=bounds or None, shaker=args.shaker,
-                 drive_point=args.drive_point, modal_mass=args.modal_mass)
-    else:
-        given = [f for f in ("shaker", "drive_point", "modal_mass") if getattr(args, f) is not None]
-        if given:
-            raise InputError(f"--{given[0].replace('_', '-')} goes with --modal", field=given[0])
+    o.update(modal_options(args, *start_and_bounds(args)))
     if judging:
         o.update(factor=args.factor, alpha=args.alpha, n_jobs=args.jobs,
                  candidates=args.candidates)
@@ -262,10 +225,7 @@ def _print_parameters(res: dict[str, Any]) -> None:
 
 
 def _not_modal(args: argparse.Namespace) -> None:
-    _shaker(args)
-    given = [f for f in ("shaker", "drive_point", "modal_mass") if getattr(args, f, None) is not None]
-    if given:
-        raise InputError(f"--{given[0].replace('_', '-')} goes with --modal", field=given[0])
+    modal_options(args, {}, {})
     if args.modal:
         raise InputError("--modal is judged by simulation error of the responses already; leave "
                          "out --error simulation", field="error")
@@ -320,7 +280,8 @@ def _simulation_only(args: argparse.Namespace) -> None:
     given = [f for f, v in (("periodic", args.periodic), ("start", args.start),
                             ("bound", args.bound)) if v and not (args.modal and f != "periodic")]
     if given:
-        raise InputError(f"--{given[0]} goes with --error simulation or --modal", field=given[0])
+        raise InputError(f"--{given[0]} goes with --error simulation"
+                         + (" or --modal" if given[0] != "periodic" else ""), field=given[0])
 
 
 def diagnose(args: argparse.Namespace) -> int:

@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from labjoint.errors import InputError
 
 
 def plausibility(args: argparse.Namespace) -> Any:
