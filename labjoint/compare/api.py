@@ -140,9 +140,9 @@ def drive_path(d: dict[str, Any], m: Any) -> str:
     vals = {n: val(n) for n in pars if val(n) is not None}
     try:
         coil = path.coil_used(m.drive, vals, m.basis.modes[0].frequency_hz) if path.free is None \
-            or path.free in vals else False
+            or path.free in vals else None
     except InputError:
-        coil = False
+        coil = None
     return path.describe(vals, hp or 0.0, coil)
 
 

@@ -194,13 +194,15 @@ class ShakerPath:
         return cls(given, str(d["drive_point"]), float(d["drive_participation"]),
                    None if d.get("modal_mass_kg") is None else float(d["modal_mass_kg"]), d.get("fitted"))
 
-    def describe(self, vals: Mapping[str, float], highpass_hz: float, coil: bool) -> str:
-        """The drive path in words (which model of the amplifier and shaker is used)."""
+    def describe(self, vals: Mapping[str, float], highpass_hz: float, coil: bool | None) -> str:
+        """The drive path in words (which model of the amplifier and shaker is used; ``coil``
+        None: not stated, the parameters being unknown here)."""
         giv = ", ".join(SYMBOLS[k] for k, _ in self.given)
         hp = (f"the amplifier's high-pass at {highpass_hz:.3g} Hz (AC coupling, fitted)" if highpass_hz > 0
               else "no high-pass")
         return (f"voltage -> {hp} -> electrodynamic shaker ({giv} given; "
-                f"{self.free or 'nothing'} fitted; coil lag {'integrated' if coil else 'left out'}) "
+                f"{self.free or 'nothing'} fitted"
+                + ("" if coil is None else f"; coil lag {'integrated' if coil else 'left out'}") + ") "
                 f"-> mode 1 at {self.drive_point}")
 
 
