@@ -205,6 +205,7 @@ def _fit_modal(args: argparse.Namespace) -> int:
         return 0
     print(f"model {res['model']} on mode 1: NRMSE {_pct(res['nrmse'])}, noise floor "
           f"{_pct(res['noise_floor'])}")
+    print(f"drive: {res.get('drive_path')}")
     _print_parameters(res)
     print()
     print(table(["run", "NRMSE %"], [[r["run"], _x100(r["nrmse"])] for r in res["runs"]]))
