@@ -149,6 +149,21 @@ def test_per_newton_prediction_against_the_generators_force(fitted):
         assert fund["channels"]["tip"]["per_newton"]["amplitude"] == pytest.approx(abs(A_true / F_true), rel=0.03)
 
 
+def test_per_newton_model_predicts_a_force_driven_record(fitted):
+    """The model fitted through the shaker on voltage records, run on a record driven by the
+    generator's force on the structure (the structure alone, every mode per newton):
+    the tip's acceleration within 2 %."""
+    from dataclasses import replace
+
+    basis, path, ms, recs, fit = fitted
+    rec, force, _ = _record(0.7 * basis.modes[0].frequency_hz, 0.5, seed=9)
+    chans = {"force": Channel("force", force, "force", "N", "drive"), "tip": rec.channels["tip"]}
+    frec = ChannelRecord("by_force", rec.time, FS, chans, rec.metadata)
+    m = replace(prepare_modal(frec, basis, ["tip"], warmup_s=1.5, judge_s=0.5), setup=ModalSetup(shaker=path))
+    e = m.predict(fit.model, fit.params_) - m.data.force
+    assert np.sqrt(np.mean(e**2) / np.mean(m.data.force**2)) < 0.02
+
+
 def test_free_coil_resistance_recovered():
     """Bl, the armature and mode 1's modal mass given: R is what the records determine."""
     m_d, _ = _mode1_structure()

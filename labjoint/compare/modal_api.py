@@ -183,7 +183,9 @@ def predict_modal(model_path: str | Path, record: str | Path) -> dict[str, Any]:
     basis = ModalBasis.from_dict(d["basis"])
     between = d.get("between")
     m = prepare_modal(str(record), basis, d["channels"], between=tuple(between) if between else None)
-    check_drives([m], d.get("drive_quantity"))
+    # with the shaker the model is per newton too: a measured force drives the structure alone
+    check_drives([m], None if d.get("shaker") and m.metadata.get("drive_quantity") == "force"
+                 else d.get("drive_quantity"))
     if d.get("shaker"):
         m = replace(m, setup=ModalSetup(shaker=ShakerPath.from_dict(d["shaker"])))
     vals = params.valuesdict()
@@ -218,18 +220,22 @@ def per_newton(m: ModalMeasurement, q: np.ndarray, series: dict[str, np.ndarray]
     out: dict[str, Any] = {"force_on_structure_n": force.tolist(),
                            "force_rms_n": float(np.sqrt(np.mean((force - force.mean()) ** 2)))}
     f = m.frequency_hz
+    by_force = m.metadata.get("drive_quantity") == "force"
     if f:
         t = np.arange(j.stop - j.start) / m.drive.fs
         e = np.exp(-2j * np.pi * f * t)
         ph = lambda x: 2 * np.mean((x - x.mean()) * e)  # noqa: E731  (the fundamental's phasor)
         volts = m.drive.phasor * np.exp(2j * np.pi * f * j.start / m.drive.fs)
-        fu = ph(force) / volts
+        fu = 1.0 if by_force else ph(force) / volts      # a force record: per newton only
         frf = {}
         for ch in m.channels:
             yv = ph(series[ch][j]) / volts
-            frf[ch] = {"per_volt": {"amplitude": float(abs(yv)), "phase_deg": float(np.degrees(np.angle(yv)))},
-                       "per_newton": {"amplitude": float(abs(yv / fu)),
+            frf[ch] = {"per_newton": {"amplitude": float(abs(yv / fu)),
                                       "phase_deg": float(np.degrees(np.angle(yv / fu)))}}
-        out["fundamental"] = {"frequency_hz": f, "force_per_volt": {"amplitude": float(abs(fu)),
-                              "phase_deg": float(np.degrees(np.angle(fu)))}, "channels": frf}
+            if not by_force:
+                frf[ch]["per_volt"] = {"amplitude": float(abs(yv)), "phase_deg": float(np.degrees(np.angle(yv)))}
+        out["fundamental"] = {"frequency_hz": f, "channels": frf}
+        if not by_force:
+            out["fundamental"]["force_per_volt"] = {"amplitude": float(abs(fu)),
+                                                    "phase_deg": float(np.degrees(np.angle(fu)))}
     return out

@@ -68,8 +68,8 @@ def project(ms: Sequence[ModalMeasurement], qs: Sequence[np.ndarray],
             i = m.channels.index(ch)
             j, s = m.judged, m.scales[i]
             d = QUANTITY_ORDER[m.quantities[i]]
-            cols = [q[j, d]] + [p[j, d] for p in m.linear(vals or {})] \
-                + [m.residual_input(m.quantities[i], vals)[j]]
+            cols = [q[j, d]] + [p[j, d] for p in m.linear(vals or {}, q)] \
+                + [m.residual_input(m.quantities[i], vals, q)[j]]
             cols = [(c - c.mean()) / s for c in cols]
             n = j.stop - j.start
             y = m.data.force[i * n:(i + 1) * n]
