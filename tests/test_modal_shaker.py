@@ -119,8 +119,8 @@ def test_modal_mass_identified_through_the_shaker(fitted):
     _, path, _, _, fit = fitted
     m_d, w2 = _mode1_structure()
     assert path.free == "mode1.mass_kg"
-    assert fit.params_["mode1.mass_kg"].value == pytest.approx(m_d, rel=0.03)
-    assert fit.params_["linear_stiffness.k"].value == pytest.approx(w2, rel=0.03)
+    assert fit.params_["mode1.mass_kg"].value == pytest.approx(m_d, rel=0.01)
+    assert fit.params_["linear_stiffness.k"].value == pytest.approx(w2, rel=0.01)
     assert fit.params_["shaker.highpass_hz"].value == 0.0 and "shaker.highpass_hz" not in fit.varied_
     assert fit.nrmse_ < 5e-3
 
