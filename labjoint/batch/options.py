@@ -22,9 +22,11 @@ from labjoint.errors import InputError
 KNOWN = {
     "analyze": ("force",),
     "stickslip": ("force", "friction"),
-    "fit": ("model", "seed", "kind"),
-    "diagnose": ("model", "seed", "kind", "factor", "alpha", "candidates"),
-    "ladder": ("model", "seed", "kind", "factor", "alpha", "candidates", "max_steps"),
+    "fit": ("model", "seed", "kind", "plausibility", "max_displacement"),
+    "diagnose": ("model", "seed", "kind", "factor", "alpha", "candidates", "plausibility",
+                 "max_displacement"),
+    "ladder": ("model", "seed", "kind", "factor", "alpha", "candidates", "max_steps", "plausibility",
+               "max_displacement"),
 }
 
 
@@ -92,6 +94,18 @@ def _model_options(given: dict[str, Any]) -> dict[str, Any]:
         out["candidates"] = ",".join(names)
     if "max_steps" in given:
         out["max_steps"] = _whole(given["max_steps"], "max_steps", 1)
+    if "plausibility" in given or "max_displacement" in given:
+        # one table (the rig config's [plausibility] names), the cap over it: what the result is keyed by
+        from labjoint.identify.plausible import limits_from
+
+        table = given.get("plausibility") or {}
+        if not isinstance(table, dict):
+            raise InputError("must be a table of the [plausibility] limits", field="plausibility")
+        lim = limits_from(table, given.get("max_displacement"))
+        if lim is not None:
+            out["plausibility"] = {k: v for k, v in sorted(vars(lim).items())
+                                   if k in table or (k == "max_displacement_amplitude_m"
+                                                     and given.get("max_displacement") is not None)}
     return out
 
 

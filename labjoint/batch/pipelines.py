@@ -86,6 +86,10 @@ def _compare_options(options: dict[str, Any], judging: bool, executor: Any = Non
     else in compare's default local processes."""
     keys = COMPARE_KEYS + (JUDGE_KEYS if judging else ())
     out = {k: options[k] for k in keys if options.get(k) is not None}
+    if options.get("plausibility"):       # the checked table (batch.options) as the limits
+        from labjoint.identify.plausible import Plausibility
+
+        out["plausibility"] = Plausibility.from_mapping(options["plausibility"])
     if judging:
         if executor is not None:
             out["executor"] = executor

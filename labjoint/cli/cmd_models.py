@@ -15,6 +15,7 @@ import argparse
 from typing import Any
 
 from labjoint.cli.limits import plausibility, print_flags
+from labjoint.cli.modal_args import add_modal_arguments, modal_options
 from labjoint.cli.output import Progress, emit_json, fmt, table
 from labjoint.errors import InputError
 
@@ -47,19 +48,7 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--linear-damping", default=None, choices=("file", "measured"),
                    help="backbones: the structure's linear damping from its file (default) or "
                         "identified from the backbones' low-amplitude linear range")
-    p.add_argument("--modal", default=None, metavar="MODES.json",
-                   help="records of a structure nobody can describe: the measured modes (the "
-                        "output of `labjoint modes RUN --json`); the model acts on mode 1's "
-                        "coordinate, judged by simulation error of the measured responses")
-    p.add_argument("--between", default=None, metavar="A,B",
-                   help="with --modal: the joint acts on the relative displacement of these two "
-                        "sensors of the modes (every mode carries it) instead of on mode 1")
-    p.add_argument("--responses", default=None, metavar="A,B,...",
-                   help="with --modal: the response channels compared (default every motion channel)")
-    p.add_argument("--shaker-fit", default=None, metavar="A,B,...",
-                   help="with --modal: shaker parameters (labjoint.models.shaker.Shaker fields) "
-                        "to identify; each is refused by name with what the voltage-driven "
-                        "records see of it instead")
+    add_modal_arguments(p)
     p.add_argument("--max-displacement", type=float, default=None, metavar="M",
                    help="largest plausible displacement amplitude (m) of a steady sine (default "
                         "the rig config's [plausibility] max_displacement_amplitude_m, else 0.01 m: "
@@ -90,10 +79,11 @@ def _error(p: argparse.ArgumentParser) -> None:
                    help="with --error simulation: each record is whole periods of a steady "
                         "periodic input; simulate to its steady state")
     p.add_argument("--start", action="append", default=None, metavar="NAME=VALUE",
-                   help="with --error simulation: start the search here (SI units, e.g. "
-                        "inertia.m=0.05); repeat or join by commas")
+                   help="with --error simulation or --modal: start the search here (SI units, "
+                        "e.g. inertia.m=0.05, shaker.highpass_hz=1.5); repeat or join by commas")
     p.add_argument("--bound", action="append", default=None, metavar="NAME=LO:HI",
-                   help="with --error simulation: keep a parameter within LO:HI (SI units)")
+                   help="with --error simulation or --modal: keep a parameter within LO:HI (SI "
+                        "units; LO = HI holds it, e.g. shaker.highpass_hz=0:0 for no high-pass)")
 
 
 def _pairs(items: list[str] | None, flag: str) -> dict[str, str]:
@@ -160,18 +150,7 @@ def _prime(v: str) -> int | str:
     return v if v == "auto" else int(v)
 
 
-def _shaker(args: argparse.Namespace) -> None:
-    """Refuse shaker parameters the records cannot identify (nlmode.shaker_identifiable)."""
-    if args.shaker_fit:
-        from labjoint.structure.nlmode import shaker_identifiable
-
-        if not args.modal:
-            raise InputError("--shaker-fit goes with --modal", field="shaker_fit")
-        shaker_identifiable([n.strip() for n in args.shaker_fit.split(",") if n.strip()])
-
-
 def _options(args: argparse.Namespace, judging: bool) -> dict[str, Any]:
-    _shaker(args)
     o: dict[str, Any] = {"validate": args.validate, "prime_cycles": _prime(args.prime_cycles),
                          "seed": args.seed, "kind": args.kind, "warmup": args.warmup,
                          "structure": args.structure, "modes": args.modes,
@@ -179,6 +158,7 @@ def _options(args: argparse.Namespace, judging: bool) -> dict[str, Any]:
                          "linear_damping": args.linear_damping,
                          "responses": args.responses, "between": args.between,
                          "plausibility": plausibility(args)}
+    o.update(modal_options(args, *start_and_bounds(args)))
     if judging:
         o.update(factor=args.factor, alpha=args.alpha, n_jobs=args.jobs,
                  candidates=args.candidates)
@@ -229,6 +209,7 @@ def _fit_modal(args: argparse.Namespace) -> int:
         return 0
     print(f"model {res['model']} on mode 1: NRMSE {_pct(res['nrmse'])}, noise floor "
           f"{_pct(res['noise_floor'])}")
+    print(f"drive: {res.get('drive_path')}")
     _print_parameters(res)
     print()
     print(table(["run", "NRMSE %"], [[r["run"], _x100(r["nrmse"])] for r in res["runs"]]))
@@ -249,7 +230,7 @@ def _print_parameters(res: dict[str, Any]) -> None:
 
 
 def _not_modal(args: argparse.Namespace) -> None:
-    _shaker(args)
+    modal_options(args, {}, {})
     if args.modal:
         raise InputError("--modal is judged by simulation error of the responses already; leave "
                          "out --error simulation", field="error")
@@ -302,9 +283,10 @@ def _simulation_job(args: argparse.Namespace, operation: str, steps: int) -> dic
 
 def _simulation_only(args: argparse.Namespace) -> None:
     given = [f for f, v in (("periodic", args.periodic), ("start", args.start),
-                            ("bound", args.bound)) if v]
+                            ("bound", args.bound)) if v and not (args.modal and f != "periodic")]
     if given:
-        raise InputError(f"--{given[0]} goes with --error simulation", field=given[0])
+        raise InputError(f"--{given[0]} goes with --error simulation"
+                         + (" or --modal" if given[0] != "periodic" else ""), field=given[0])
 
 
 def diagnose(args: argparse.Namespace) -> int:

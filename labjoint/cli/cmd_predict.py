@@ -59,12 +59,24 @@ def _modal(args: argparse.Namespace) -> int:
     if not full:
         for v in res["channels"].values():
             v.pop("measured"), v.pop("model")
+        res.pop("force_on_structure_n", None)
     if args.json:
         emit_json(res)
         return 0
     for ch, v in res["channels"].items():
         print(f"{ch} ({v['quantity']}): NRMSE {100 * v['nrmse']:.3g} %")
     print(f"pooled NRMSE {100 * res['nrmse']:.3g} %")
+    if "force_rms_n" in res:
+        print(f"through the shaker: force on the structure {res['force_rms_n']:.4g} N rms")
+        fu = res.get("fundamental")
+        if fu and "force_per_volt" in fu:
+            print(f"at {fu['frequency_hz']:.4g} Hz: force per volt {fu['force_per_volt']['amplitude']:.4g} N/V "
+                  f"({fu['force_per_volt']['phase_deg']:.3g} deg)")
+        for ch, v in (fu or {}).get("channels", {}).items():
+            pn = v["per_newton"]
+            pv = v.get("per_volt")
+            print(f"  {ch}: " + (f"per volt {pv['amplitude']:.4g} ({pv['phase_deg']:.3g} deg), " if pv else "")
+                  + f"per newton {pn['amplitude']:.4g} ({pn['phase_deg']:.3g} deg)")
     return 0
 
 

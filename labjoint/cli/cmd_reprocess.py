@@ -45,6 +45,9 @@ def add_reprocess_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--alpha", type=float, default=None)
     p.add_argument("--candidates", default=None, metavar="A,B,...")
     p.add_argument("--max-steps", type=int, default=None, help="ladder: at most N effects")
+    p.add_argument("--max-displacement", type=float, default=None, metavar="M",
+                   help="fit/diagnose/ladder: largest plausible displacement amplitude (m) of a "
+                        "steady sine, over the rig config's [plausibility] table (--config)")
 
 
 def pipeline_options(args: argparse.Namespace, data_dir: Path) -> dict[str, Any]:
@@ -54,6 +57,12 @@ def pipeline_options(args: argparse.Namespace, data_dir: Path) -> dict[str, Any]
     given: dict[str, Any] = {"model": args.model, "seed": args.seed, "kind": args.kind,
                              "factor": args.factor, "alpha": args.alpha,
                              "candidates": args.candidates, "max_steps": args.max_steps}
+    if args.pipeline in GROUPED:
+        from labjoint.cli.limits import config_table
+
+        given.update(plausibility=config_table(args) or None, max_displacement=args.max_displacement)
+    elif args.max_displacement is not None:
+        given["max_displacement"] = args.max_displacement
     if args.pipeline in ("analyze", "stickslip"):
         given["force"] = args.force_sensor
     if args.pipeline == "stickslip":

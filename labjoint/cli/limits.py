@@ -6,28 +6,25 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from labjoint.errors import InputError
 
 
 def plausibility(args: argparse.Namespace) -> Any:
     """The plausibility limits (labjoint.identify.plausible.Plausibility): the rig config's
     [plausibility] table when --config is given, --max-displacement over it; None when
     neither is given (the pipeline's defaults)."""
-    from labjoint.identify.plausible import Plausibility
+    from labjoint.identify.plausible import limits_from
 
-    table: dict[str, Any] = {}
-    if getattr(args, "config", None):
-        from labjoint.config import load_config
+    return limits_from(config_table(args), getattr(args, "max_displacement", None),
+                       getattr(args, "config", None) or "")
 
-        table = load_config(args.config).plausibility.model_dump()
-    cap = getattr(args, "max_displacement", None)
-    if cap is not None:
-        if not cap > 0:
-            raise InputError(f"must be a positive amplitude in m, got {cap}", field="max_displacement")
-        table["max_displacement_amplitude_m"] = float(cap)
-    if not any(v is not None for v in table.values()):
-        return None
-    return Plausibility.from_mapping(table, getattr(args, "config", None) or "")
+
+def config_table(args: argparse.Namespace) -> dict[str, Any]:
+    """The rig config's [plausibility] table (--config), {} without one."""
+    if not getattr(args, "config", None):
+        return {}
+    from labjoint.config import load_config
+
+    return {k: v for k, v in load_config(args.config).plausibility.model_dump().items() if v is not None}
 
 
 def print_flags(res: dict[str, Any]) -> None:

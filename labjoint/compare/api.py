@@ -63,6 +63,10 @@ def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | s
     frf = {k: v for k, v in (frf or {}).items() if v is not None}
     if frf.get("modal") is not None or kind == "modal":
         return load_modal(items, validate, frf)
+    for k in ("start", "bounds", "shaker", "drive_point", "modal_mass"):
+        if frf.pop(k, None):
+            raise InputError("goes with the modal kind (--modal)" + (" or --error simulation" if k in
+                             ("start", "bounds") else ""), field=k)
     if frf.pop("between", None) is not None:
         raise InputError("names two sensors of the measured modes: it goes with --modal", field="between")
     frf.pop("responses", None)
@@ -122,9 +126,31 @@ def _measured(d: dict[str, Any], ms: Sequence[Measurement]) -> dict[str, Any]:
         d["measurement"] = "modal"
         d["error"] = ("simulation error of the measured responses (each channel in its quantity, "
                       "over its rms), the joint on mode 1 of the measured modes")
+        d["drive_path"] = drive_path(d, ms[0])
         d["parameters_per"] = ("unit modal mass: the joint's parameters act on q, mode 1's "
                                "displacement at the reference sensor (m); N reads N/kg")
     return d
+
+
+def drive_path(d: dict[str, Any], m: Any) -> str:
+    """Which model of the amplifier and shaker the modal fit used, in words."""
+    pars = d.get("parameters") or {}
+    val = lambda n: (pars.get(n) or {}).get("value") if isinstance(pars.get(n), dict) else None  # noqa: E731
+    hp = val("shaker.highpass_hz")
+    path = m.setup.shaker
+    if path is None:
+        hp_text = ("a fitted high-pass" if hp is None else
+                   f"a high-pass at {hp:.3g} Hz (fitted)" if hp > 0 else "no high-pass (fitted to 0)")
+        return (f"{m.metadata.get('drive_quantity', 'drive')} -> {hp_text} -> a fitted gain "
+                "(modal.drive) on every mode: per "
+                f"{'volt' if m.metadata.get('drive_quantity') == 'voltage' else 'newton'} only")
+    vals = {n: val(n) for n in pars if val(n) is not None}
+    try:
+        coil = path.coil_used(m.drive, vals, m.basis.modes[0].frequency_hz) if path.free is None \
+            or path.free in vals else None
+    except InputError:
+        coil = None
+    return path.describe(vals, hp or 0.0, coil)
 
 
 def settings_from(options: dict[str, Any]) -> DiagnoseSettings:

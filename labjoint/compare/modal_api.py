@@ -13,18 +13,21 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from labjoint.compare.kinds.modal import ModalMeasurement, prepare_modal
+from labjoint.compare.kinds.modal import ModalMeasurement, ModalSetup, prepare_modal
 from labjoint.compare.runs import split_by_names
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model, Parameters
+from labjoint.models.shaker import shaker_table
 from labjoint.structure.nlmode import ModalBasis, load_basis
+from labjoint.structure.nlmode_shaker import ShakerPath
 
-MODAL_OPTIONS = ("modal", "responses", "between")
+MODAL_OPTIONS = ("modal", "responses", "between", "start", "bounds", "shaker", "drive_point", "modal_mass")
 FORMAT = "labjoint.modalmodel/1"
 
 
@@ -56,6 +59,10 @@ def load_modal(items: Sequence[Any], validate: Sequence[Any] | None, options: di
         raise InputError(f"names two sensors A,B, got {options.get('between')!r}", field="between")
     ms = [prepare_modal(p, basis, resp, between=tuple(between) if between else None) for p in paths + extra]
     check_drives(ms)
+    setup = ModalSetup(tuple(_starts(options.get("start")).items()),
+                       tuple(_bounds(options.get("bounds")).items()),
+                       shaker_path(options, basis, ms))
+    ms = [replace(m, setup=setup) for m in ms]
     seen: dict[str, int] = {}
     for i, m in enumerate(ms):
         seen[m.name] = seen.get(m.name, 0) + 1
@@ -65,6 +72,60 @@ def load_modal(items: Sequence[Any], validate: Sequence[Any] | None, options: di
         return ms, None
     _, val, _ = split_by_names(ms, [str(v) for v in validate])
     return ms, [m.name for m in val]
+
+
+def shaker_path(options: dict[str, Any], basis: ModalBasis, ms: Sequence[ModalMeasurement]) -> ShakerPath | None:
+    """The shaker between the voltage and mode 1 (``shaker``: a [shaker] table's file or a
+    mapping of its fields; ``drive_point``: the sensor it drives; ``modal_mass``: mode 1's
+    modal mass there, kg, when known), None without ``shaker``."""
+    sh = options.get("shaker")
+    if sh is None:
+        for k in ("drive_point", "modal_mass"):
+            if options.get(k) is not None:
+                raise InputError("goes with a shaker (--shaker S.toml)", field=k)
+        return None
+    if options.get("between") is not None:
+        raise InputError("the shaker path drives mode 1; with a joint between two points the "
+                         "drive stays per volt (not yet through the shaker)", field="shaker")
+    if not options.get("drive_point"):
+        raise InputError("names the sensor the shaker drives (--drive-point SENSOR)", field="drive_point")
+    for m in ms:
+        if m.metadata.get("drive_quantity") != "voltage":
+            raise InputError(f"run '{m.name}': the shaker is driven by a voltage; this drive is a "
+                             f"{m.metadata.get('drive_quantity')} (a measured force needs no shaker)",
+                             file=m.path, field="shaker")
+    given = shaker_table(sh) if isinstance(sh, (str, Path)) else dict(sh)
+    mm = options.get("modal_mass")
+    return ShakerPath.of(given, str(options["drive_point"]), basis,
+                         None if mm is None else float(mm), str(sh) if isinstance(sh, (str, Path)) else "")
+
+
+def _starts(start: Any) -> dict[str, float]:
+    """``start`` {name: value} checked finite (the fitter checks names and bounds)."""
+    out = {}
+    for k, v in (start or {}).items():
+        try:
+            x = float(v)
+        except (TypeError, ValueError):
+            raise InputError(f"not a number: {v!r}", field=f"start.{k}") from None
+        if not np.isfinite(x):
+            raise InputError(f"not a finite number: {v!r}", field=f"start.{k}")
+        out[str(k)] = x
+    return out
+
+
+def _bounds(bounds: Any) -> dict[str, tuple[float, float]]:
+    """``bounds`` {name: (lo, hi)} with lo <= hi."""
+    out = {}
+    for k, v in (bounds or {}).items():
+        try:
+            lo, hi = (float(x) for x in v)
+        except (TypeError, ValueError):
+            raise InputError(f"expected (lo, hi), got {v!r}", field=f"bound.{k}") from None
+        if not lo <= hi:
+            raise InputError(f"lower bound {lo:g} above the upper {hi:g}", field=f"bound.{k}")
+        out[str(k)] = (lo, hi)
+    return out
 
 
 def check_drives(ms: Sequence[ModalMeasurement], model_input: str | None = None) -> None:
@@ -94,6 +155,8 @@ def save_modal(fit: FitResult, ms: Sequence[ModalMeasurement], path: str | Path)
          "drive_quantity": ms[0].metadata.get("drive_quantity")}
     if ms[0].between:
         d["between"] = list(ms[0].between)
+    if ms[0].setup.shaker is not None:
+        d["shaker"] = ms[0].setup.shaker.to_dict(vals)
     p = Path(path)
     tmp = p.with_name(p.name + ".tmp")
     tmp.write_text(json.dumps(d, indent=1), encoding="utf-8")
@@ -120,8 +183,15 @@ def predict_modal(model_path: str | Path, record: str | Path) -> dict[str, Any]:
     basis = ModalBasis.from_dict(d["basis"])
     between = d.get("between")
     m = prepare_modal(str(record), basis, d["channels"], between=tuple(between) if between else None)
-    check_drives([m], d.get("drive_quantity"))
-    pred = m.predict(model, params)
+    # with the shaker the model is per newton too: a measured force drives the structure alone
+    check_drives([m], None if d.get("shaker") and m.metadata.get("drive_quantity") == "force"
+                 else d.get("drive_quantity"))
+    if d.get("shaker"):
+        m = replace(m, setup=ModalSetup(shaker=ShakerPath.from_dict(d["shaker"])))
+    vals = params.valuesdict()
+    q = m.states(model, vals)
+    series = m.responses(model, vals, q)
+    pred = m.normalized(series)
     if not np.all(np.isfinite(pred)):
         raise InputError("the model diverges on this record", file=str(record), field="model")
     n = m.judged.stop - m.judged.start
@@ -131,6 +201,41 @@ def predict_modal(model_path: str | Path, record: str | Path) -> dict[str, Any]:
         ei, yi = e[i * n:(i + 1) * n], m.data.force[i * n:(i + 1) * n]
         chans[ch] = {"quantity": m.quantities[i], "nrmse": float(np.sqrt(np.mean(ei**2) / np.mean(yi**2))),
                      "measured": (yi * m.scales[i]).tolist(), "model": (pred[i * n:(i + 1) * n] * m.scales[i]).tolist()}
-    return {"model": d["model"], "record": str(record), "kind": "modal",
-            "nrmse": float(np.sqrt(np.mean(e**2) / np.mean(m.data.force**2))),
-            "sample_rate_hz": m.drive.fs, "channels": chans}
+    out = {"model": d["model"], "record": str(record), "kind": "modal",
+           "nrmse": float(np.sqrt(np.mean(e**2) / np.mean(m.data.force**2))),
+           "sample_rate_hz": m.drive.fs, "channels": chans}
+    if d.get("shaker"):
+        out.update(per_newton(m, q, series))
+        out["shaker"] = d["shaker"]
+    return out
+
+
+def per_newton(m: ModalMeasurement, q: np.ndarray, series: dict[str, np.ndarray]) -> dict[str, Any]:
+    """With the shaker: the force on the structure the model gives (nlmode_shaker H2, N, on
+    the judged samples) and, on a steady sine, every channel's response at the drive's
+    fundamental per volt and per newton (amplitude and phase): the per-newton one is the
+    per-volt one over the force per volt."""
+    j = m.judged
+    force = q[j, 3]
+    out: dict[str, Any] = {"force_on_structure_n": force.tolist(),
+                           "force_rms_n": float(np.sqrt(np.mean((force - force.mean()) ** 2)))}
+    f = m.frequency_hz
+    by_force = m.metadata.get("drive_quantity") == "force"
+    if f:
+        t = np.arange(j.stop - j.start) / m.drive.fs
+        e = np.exp(-2j * np.pi * f * t)
+        ph = lambda x: 2 * np.mean((x - x.mean()) * e)  # noqa: E731  (the fundamental's phasor)
+        volts = m.drive.phasor * np.exp(2j * np.pi * f * j.start / m.drive.fs)
+        fu = 1.0 if by_force else ph(force) / volts      # a force record: per newton only
+        frf = {}
+        for ch in m.channels:
+            yv = ph(series[ch][j]) / volts
+            frf[ch] = {"per_newton": {"amplitude": float(abs(yv / fu)),
+                                      "phase_deg": float(np.degrees(np.angle(yv / fu)))}}
+            if not by_force:
+                frf[ch]["per_volt"] = {"amplitude": float(abs(yv)), "phase_deg": float(np.degrees(np.angle(yv)))}
+        out["fundamental"] = {"frequency_hz": f, "channels": frf}
+        if not by_force:
+            out["fundamental"]["force_per_volt"] = {"amplitude": float(abs(fu)),
+                                                    "phase_deg": float(np.degrees(np.angle(fu)))}
+    return out

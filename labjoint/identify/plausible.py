@@ -70,6 +70,22 @@ class Plausibility:
         return cls(**d)
 
 
+def limits_from(table: Mapping[str, Any] | None, max_displacement: Any = None, where: str = "",
+                field: str = "max_displacement") -> Plausibility | None:
+    """The limits of a ``[plausibility]`` table (any of its names) with a displacement cap
+    over it (the CLI's ``--max-displacement``, the REST and batch options' ``max_displacement``),
+    as every front end takes them; None when neither is given (the defaults)."""
+    t = {k: v for k, v in dict(table or {}).items() if v is not None}
+    if max_displacement is not None:
+        if isinstance(max_displacement, bool) or not isinstance(max_displacement, (int, float)) \
+                or not (np.isfinite(max_displacement) and max_displacement > 0):
+            raise InputError(f"must be a positive amplitude in m, got {max_displacement!r}", field=field)
+        t["max_displacement_amplitude_m"] = float(max_displacement)
+    if not t:
+        return None
+    return Plausibility.from_mapping(t, where)
+
+
 def _limits(limits: Plausibility | None) -> Plausibility:
     return DEFAULT if limits is None else limits
 

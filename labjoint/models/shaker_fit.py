@@ -242,19 +242,7 @@ def identify(frequencies_hz: Any, responses_per_volt: Mapping[str, Any], drive: 
         free_shaker = [k for k in SYMBOLS if k != "amplifier_gain_v_per_v" and k not in shaker_given]
     else:
         fu = None
-        missing = [k for k in ARMATURE if k not in shaker_given]
-        if missing:
-            raise InputError(f"shaker parameter {missing[0]} ({SYMBOLS[missing[0]]}) not identifiable "
-                             "without a force: the armature moves with the drive point and merges "
-                             f"with the structure there; give it ([shaker] {missing[0]} = ...)",
-                             field=f"shaker.{missing[0]}")
-        scale = [k for k in ("force_factor_n_per_a", "coil_resistance_ohm") if k in shaker_given]
-        if len(scale) + ("mode1.mass_kg" in struct_given) < 2:
-            k = next(k for k in ("force_factor_n_per_a", "coil_resistance_ohm") if k not in shaker_given)
-            raise InputError(f"shaker parameter {k} ({SYMBOLS[k]}) not identifiable without a force: the "
-                             "record sees Bl G / R and Bl^2 / R only relative to the structure's modal "
-                             "mass; give it ([shaker] " + k + " = ...; two of Bl, R and mode1.mass_kg)",
-                             field=f"shaker.{k}")
+        require_voltage_only(shaker_given, struct_given)
         start = Shaker(**{**NOMINAL, **shaker_given})
         free_shaker = [k for k in COIL if k not in shaker_given]
     if not has_force:
@@ -314,6 +302,30 @@ def identify(frequencies_hz: Any, responses_per_volt: Mapping[str, Any], drive: 
                            else ["shaker.amplifier_gain_v_per_v"]))      # G: 1 unless given
     return ShakerFit(sh, md, q, tuple(free), given_names, stderr,
                      float(np.sqrt(np.mean(fun ** 2) * 2)), has_force)
+
+
+def require_voltage_only(shaker_given: Mapping[str, float], struct_given: Mapping[str, Any]) -> str | None:
+    """The rules of a test without a force (module doc), for this test and for the modal
+    model's shaker path (:mod:`labjoint.structure.nlmode_shaker`): the armature given,
+    else refused by name; two of Bl, R and ``mode1.mass_kg`` given, else the first of Bl,
+    R missing refused by name. Returns the one of the three the response determines
+    (None when all three are given)."""
+    missing = [k for k in ARMATURE if k not in shaker_given]
+    if missing:
+        raise InputError(f"shaker parameter {missing[0]} ({SYMBOLS[missing[0]]}) not identifiable "
+                         "without a force: the armature moves with the drive point and merges "
+                         f"with the structure there; give it ([shaker] {missing[0]} = ...)",
+                         field=f"shaker.{missing[0]}")
+    scale = [k for k in ("force_factor_n_per_a", "coil_resistance_ohm") if k in shaker_given]
+    if len(scale) + ("mode1.mass_kg" in struct_given) < 2:
+        k = next(k for k in ("force_factor_n_per_a", "coil_resistance_ohm") if k not in shaker_given)
+        raise InputError(f"shaker parameter {k} ({SYMBOLS[k]}) not identifiable without a force: the "
+                         "record sees Bl G / R and Bl^2 / R only relative to the structure's modal "
+                         "mass; give it ([shaker] " + k + " = ...; two of Bl, R and mode1.mass_kg)",
+                         field=f"shaker.{k}")
+    free = [f"shaker.{k}" for k in ("force_factor_n_per_a", "coil_resistance_ohm") if k not in shaker_given]
+    free += [] if "mode1.mass_kg" in struct_given else ["mode1.mass_kg"]
+    return free[0] if free else None
 
 
 def _scan_start(f: np.ndarray, x: Mapping[str, np.ndarray], drive: str, start: Shaker, free: list[str],

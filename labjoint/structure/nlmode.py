@@ -156,19 +156,27 @@ def check_modal_model(model: Model) -> None:
 
 
 @njit(cache=True)
-def _mode(drive_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, y0, v0):  # pragma: no cover
-    """(n, 3): q, q', q'' at every sample (eq. 1); NaN from where it diverges."""
+def _mode_coil(drive_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, y0, v0, coil, ci0=0.0):  # pragma: no cover
+    """(n, 4): q, q', q'' and the coil current at every sample (eq. 1; with ``coil`` = (Bl,
+    R, L, G), Bl > 0, the drive is a voltage through the coil of
+    :func:`labjoint.models.simulate.rk4_sample`); NaN from where it diverges."""
     n = (drive_fine.size - 1) // (2 * substeps) + 1
-    out = np.full((n, 3), np.nan)
-    y, v, zb, zj = y0, v0, 0.0, 0.0
+    out = np.full((n, 4), np.nan)
+    y, v, zb, zj, ci = y0, v0, 0.0, 0.0, ci0
     for i in range(n):
-        r = _rates(drive_fine[2 * i * substeps], y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev)
-        out[i, 0], out[i, 1], out[i, 2] = y, v, r[1]
+        f = coil[0] * ci if coil[0] > 0.0 else drive_fine[2 * i * substeps]
+        r = _rates(f, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev)
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = y, v, r[1], ci
         if i == n - 1 or not abs(y) < 1e6:
             break
-        y, v, zb, zj, _ = rk4_sample(drive_fine, i, substeps, h, y, v, zb, zj, 0.0, m, c, k, k3, f0,
-                                     bw, jk, ev, NO_COIL)
+        y, v, zb, zj, ci = rk4_sample(drive_fine, i, substeps, h, y, v, zb, zj, ci, m, c, k, k3, f0,
+                                      bw, jk, ev, coil)
     return out
+
+
+def _mode(drive_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, y0, v0) -> np.ndarray:
+    """(n, 3): q, q', q'' at every sample (eq. 1) under a drive per unit modal mass."""
+    return _mode_coil(drive_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, y0, v0, NO_COIL, 0.0)[:, :3]
 
 
 @dataclass(frozen=True)

@@ -28,6 +28,7 @@ from labjoint.api.schemas import JOB_ID, Job, JobList, ModelRequest, RunName
 from labjoint.compare.api import settings_from
 from labjoint.compare.candidates import candidate_effects
 from labjoint.compare.simulation_api import check_options as check_simulation_options
+from labjoint.identify.plausible import limits_from
 from labjoint.compare.simulation_api import simulation_job
 from labjoint.errors import InputError
 from labjoint.models import Model
@@ -60,6 +61,13 @@ class FitOptions(BaseModel):
         "simulation: the displacement simulated from the applied force (a model with inertia)")
     periodic: bool = Field(False, description="simulation: each record is whole periods of a "
                                               "steady periodic input")
+    plausibility: dict[str, float] | None = Field(
+        None, description="plausibility limits checked before the fit, the rig config's "
+        "[plausibility] names (max_displacement_amplitude_m, min_samples_per_period, "
+        "max_filter_loss, max_frequency_mismatch); default the pipeline's")
+    max_displacement: float | None = Field(
+        None, gt=0, allow_inf_nan=False, description="largest plausible displacement amplitude "
+        "(m) of a steady sine, over plausibility's (the CLI's --max-displacement)")
 
 
 class DiagnoseOptions(FitOptions):
@@ -100,6 +108,15 @@ def check_options(operation: str, options: dict[str, Any]) -> dict[str, Any]:
                              f"(>= {0 if name == 'prime_cycles' else 1}), got {v}",
                              field=f"options.{name}")
     out = {k: v for k, v in opts.model_dump(by_alias=True).items() if k in options}
+    if "plausibility" in out or "max_displacement" in out:
+        if out.get("error") == "simulation":
+            raise InputError("the plausibility limits are checked by the equation-error pipeline; "
+                             "error = 'simulation' does not take them",
+                             field=f"options.{'plausibility' if 'plausibility' in out else 'max_displacement'}")
+        try:
+            out["plausibility"] = limits_from(out.pop("plausibility", None), out.pop("max_displacement", None))
+        except InputError as exc:
+            raise InputError(exc.message, field=f"options.{exc.field}") from None
     if out.get("error") == "simulation":
         check_simulation_options(out)
     elif out.get("periodic"):

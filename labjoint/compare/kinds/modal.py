@@ -50,6 +50,26 @@ BLOCKS = 16
 END_MARGIN_S = 0.5
 
 
+@dataclass(frozen=True)
+class ModalSetup:
+    """What the user sets for every fit of a modal set: ``start`` {name: value} (SI; a fit
+    from a smaller model keeps that model's values), ``bounds`` {name: (lo, hi)} and the
+    shaker path (:class:`labjoint.structure.nlmode_shaker.ShakerPath`, None: a voltage or
+    force drive with a fitted high-pass only)."""
+
+    start: tuple[tuple[str, float], ...] = ()
+    bounds: tuple[tuple[str, tuple[float, float]], ...] = ()
+    shaker: Any = None
+
+    @property
+    def start_dict(self) -> dict[str, float]:
+        return dict(self.start)
+
+    @property
+    def bounds_dict(self) -> dict[str, tuple[float, float]]:
+        return dict(self.bounds)
+
+
 @dataclass(frozen=True, eq=False)
 class ModalMeasurement:
     """One record inside the modal model (module docstring)."""
@@ -72,6 +92,8 @@ class ModalMeasurement:
     _cache: dict = field(default_factory=dict, repr=False)
     #: the joint between these two sensors (:mod:`labjoint.structure.nlmode_pair`), else on mode 1
     between: tuple[str, str] | None = None
+    #: the user's fit setup (``start``, ``bounds``, the shaker): :class:`ModalSetup`
+    setup: ModalSetup = field(default_factory=lambda: ModalSetup())
 
     @property
     def frequency_hz(self) -> float | None:
@@ -105,30 +127,61 @@ class ModalMeasurement:
         vals = {k: float(v.value if hasattr(v, "value") else v) for k, v in params.items()}
         if self.between:
             return pair_states(model, vals, self.basis, self.between, self.drive_at(vals))
+        path = self.setup.shaker
+        if path is not None and self.metadata.get("drive_quantity") == "force":
+            # per newton: the structure alone (nlmode_shaker H1), driven by the measured force
+            _, m_d = path.shaker(vals)
+            q = mode_states(model, {**vals, "modal.drive": 1.0 / (path.phi_d * m_d)}, self.drive)
+            return np.column_stack([q, self.drive.fine[::2 * self.drive.substeps][:q.shape[0]]])
+        if path is not None:       # (n, 4): the force on the structure beside
+            return path.states(model, vals, self.drive_at(vals), self.basis.modes[0].frequency_hz)
         return mode_states(model, vals, self.drive_at(vals))
 
-    def linear(self, vals: Mapping[str, float]) -> tuple[np.ndarray, ...]:
+    def other_drive(self, vals: Mapping[str, Any], q: np.ndarray | None) -> tuple[Drive, Any]:
+        """What drives the linear modes and the residual terms, and its cache tag: the
+        (high-passed) voltage; with the shaker, the force on the structure (the states'
+        4th column: the model's H2 on a voltage record, the measured force on a force
+        record), so their participations are per newton."""
+        if self.setup.shaker is None:
+            return self.drive_at(vals), float(vals.get("shaker.highpass_hz", 0.0) or 0.0)
+        if self.metadata.get("drive_quantity") == "force":
+            return self.drive, "force"
+        if q is None or q.ndim != 2 or q.shape[1] < 4:
+            raise InputError("the shaker path needs mode 1's states to drive the other modes", field="shaker")
+        F = np.ascontiguousarray(q[:, 3])
+        tag = ("F", hash(F.tobytes()))
+        if tag not in self._cache:
+            self._trim()
+            self._cache[tag] = Drive.of(F, self.drive.fs, self.frequency_hz,
+                                        max(m.frequency_hz for m in self.basis.modes))
+        return self._cache[tag], tag
+
+    def plain_states(self, model: Model, vals: Mapping[str, float]) -> np.ndarray:
+        """Mode 1's states driven by ``modal.drive`` x the (high-passed) voltage, no shaker."""
+        return mode_states(model, vals, self.drive_at(vals))
+
+    def linear(self, vals: Mapping[str, float], q: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
         """The linear modes' unit-gain states at ``modal.f<j>``, ``modal.zeta<j>`` when given
-        (fitted), else at the measured ones."""
+        (fitted), else at the measured ones, under :meth:`other_drive` (``q``: mode 1's states)."""
         out = []
-        fc = float(vals.get("shaker.highpass_hz", 0.0) or 0.0)
+        drive, fc = self.other_drive(vals, q)
         for j, mode in enumerate(self.basis.linear):
             f = float(vals.get(f"modal.f{j + 2}", mode.frequency_hz))
             z = float(vals.get(f"modal.zeta{j + 2}", mode.damping_ratio))
             if (j, f, z, fc) not in self._cache:
                 self._trim()
-                self._cache[(j, f, z, fc)] = linear_states(MeasuredMode(f, z, mode.shape),
-                                                           self.drive_at(vals))
+                self._cache[(j, f, z, fc)] = linear_states(MeasuredMode(f, z, mode.shape), drive)
             out.append(self._cache[(j, f, z, fc)])
         return tuple(out)
 
-    def residual_input(self, quantity: str, vals: Mapping[str, Any] | None = None) -> np.ndarray:
+    def residual_input(self, quantity: str, vals: Mapping[str, Any] | None = None,
+                       q: np.ndarray | None = None) -> np.ndarray:
         """The (high-passed) drive's derivative of the sensor's order (V, dV/dt, d2V/dt2) at
         the segment's samples: the out-of-band modes' quasi-static response per unit
         ``modal.r.<s>`` (a residual flexibility; the measured drive is differentiated,
         never a response)."""
-        dr = self.drive_at(vals or {})
-        key = ("residual", quantity, float((vals or {}).get("shaker.highpass_hz", 0.0) or 0.0))
+        dr, tag = self.other_drive(vals or {}, q)
+        key = ("residual", quantity, tag)
         if key not in self._cache:
             self._trim()
             d = QUANTITY_ORDER[quantity]
@@ -156,8 +209,8 @@ class ModalMeasurement:
         for ch, qty in zip(self.channels, self.quantities):
             phi = 1.0 if ch == self.basis.reference else vals[f"modal.phi1.{ch}"]
             gains = [vals[f"modal.g{j + 2}.{ch}"] for j in range(len(self.lin))]
-            out[ch] = response(q, self.linear(vals), qty, phi, gains) \
-                + vals.get(f"modal.r.{ch}", 0.0) * self.residual_input(qty, vals)
+            out[ch] = response(q, self.linear(vals, q), qty, phi, gains) \
+                + vals.get(f"modal.r.{ch}", 0.0) * self.residual_input(qty, vals, q)
         return out
 
     def normalized(self, series: dict[str, np.ndarray]) -> np.ndarray:

@@ -68,8 +68,8 @@ def project(ms: Sequence[ModalMeasurement], qs: Sequence[np.ndarray],
             i = m.channels.index(ch)
             j, s = m.judged, m.scales[i]
             d = QUANTITY_ORDER[m.quantities[i]]
-            cols = [q[j, d]] + [p[j, d] for p in m.linear(vals or {})] \
-                + [m.residual_input(m.quantities[i], vals)[j]]
+            cols = [q[j, d]] + [p[j, d] for p in m.linear(vals or {}, q)] \
+                + [m.residual_input(m.quantities[i], vals, q)[j]]
             cols = [(c - c.mean()) / s for c in cols]
             n = j.stop - j.start
             y = m.data.force[i * n:(i + 1) * n]
@@ -139,6 +139,36 @@ def _bounds(model: Model, bounds: Mapping[str, tuple[float, float]] | None
     return out
 
 
+def user_bounds(bnd: dict[str, tuple[float, float]], start: Mapping[str, float] | None,
+                bounds: Mapping[str, tuple[float, float]] | None, known: dict[str, float],
+                warm: bool) -> None:
+    """The user's ``bounds`` narrow ``bnd`` (every varied parameter's) and ``start`` goes
+    into ``known`` (not over a smaller fitted model's values when ``warm``); an unknown
+    name, a participation (solved at every trial, never varied) or a start outside its
+    bounds is refused by name. The fitter's own start is clipped into the bounds."""
+    for kind, given in (("bound", bounds or {}), ("start", start or {})):
+        for n in given:
+            if n.startswith(("modal.phi1.", "modal.g", "modal.r.")) and n not in bnd:
+                raise InputError("a sensor participation is solved by linear least squares at "
+                                 "every trial, never varied: no start or bound", field=f"{kind}.{n}")
+            if n not in bnd:
+                raise InputError(f"unknown parameter; the model varies {', '.join(bnd)}",
+                                 field=f"{kind}.{n}")
+    for n, (lo, hi) in (bounds or {}).items():
+        if not lo <= hi:
+            raise InputError(f"lower bound {lo:g} above the upper {hi:g}", field=f"bound.{n}")
+        bnd[n] = (float(lo), float(hi))
+    for n, v in (start or {}).items():
+        if not bnd[n][0] <= v <= bnd[n][1]:
+            raise InputError(f"start {v:g} is outside the bounds [{bnd[n][0]:g}, {bnd[n][1]:g}]",
+                             field=f"start.{n}")
+        if not (warm and n in known):
+            known[n] = float(v)
+    for n, v in list(known.items()):
+        if n in bnd and bounds and n in bounds:
+            known[n] = float(np.clip(v, *bnd[n]))
+
+
 def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
               val_ms: Sequence[ModalMeasurement] = (), init: Any = None,
               start: Mapping[str, float] | None = None,
@@ -150,25 +180,35 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     if not fit_ms:
         raise InputError("no records to fit", field="runs")
     basis = fit_ms[0].basis
+    start = fit_ms[0].setup.start_dict if start is None else start       # the set's own by default
+    bounds = fit_ms[0].setup.bounds_dict if bounds is None else bounds
     w1 = 2 * np.pi * basis.modes[0].frequency_hz
     known: dict[str, float] = {}
     if init is not None:
         prev = init.params_.valuesdict() if hasattr(init, "params_") else dict(init)
         known = {k: v for k, v in prev.items() if k in model.param_names or k == "modal.drive"
-                 or k.startswith(("modal.f", "modal.zeta", "shaker."))}
-    if "linear_stiffness.k" in model.param_names:
-        known.setdefault("linear_stiffness.k", w1 * w1)
-    if "viscous.c" in model.param_names:
-        known.setdefault("viscous.c", 2 * basis.modes[0].damping_ratio * w1)
-    bnd = _bounds(model, bounds)
-    for n, v in (start or {}).items():
-        if n not in bnd:
-            raise InputError(f"unknown parameter; the model has {sorted(bnd)}", field=f"start.{n}")
-        if not bnd[n][0] <= v <= bnd[n][1]:
-            raise InputError(f"start {v:g} is outside the bounds {bnd[n]}", field=f"start.{n}")
-        known[n] = float(v)
-    if "modal.drive" not in known:
-        q1 = [m.states(model, {**{n: known.get(n, 0.0) for n in model.param_names}, "modal.drive": 1.0})
+                 or k.startswith(("modal.f", "modal.zeta", "shaker.", "mode1."))}
+    path = fit_ms[0].setup.shaker         # the shaker between voltage and mode 1 (nlmode_shaker)
+    loaded = {"linear_stiffness.k": w1 * w1, "viscous.c": 2 * basis.modes[0].damping_ratio * w1}
+    for n in ("linear_stiffness.k", "viscous.c"):
+        if n in model.param_names:
+            known.setdefault(n, loaded[n])
+    bnd = _bounds(model, None)
+    drive_name = "modal.drive"
+    if path is not None:
+        del bnd["modal.drive"]
+        bnd.update(path.bounds())
+        drive_name = path.free
+    lin_names = [f"modal.{p}{j + 2}" for j in range(len(basis.linear)) for p in ("f", "zeta")]
+    for j, mode in enumerate(basis.linear):
+        f0, z0 = mode.frequency_hz, mode.damping_ratio
+        bnd[f"modal.f{j + 2}"] = (LINEAR_F_RANGE[0] * f0, LINEAR_F_RANGE[1] * f0)
+        bnd[f"modal.zeta{j + 2}"] = (LINEAR_ZETA_RANGE[0] * z0, LINEAR_ZETA_RANGE[1] * z0)
+    bnd["shaker.highpass_hz"] = HIGHPASS_RANGE
+    user_bounds(bnd, start, bounds, known, init is not None)
+    if drive_name is not None and drive_name not in known:
+        q1 = [m.plain_states(model, {**{n: loaded.get(n, known.get(n, 0.0)) if path else known.get(n, 0.0)
+                                         for n in model.param_names}, "modal.drive": 1.0})
               for m in fit_ms]
         if not all(np.all(np.isfinite(q)) for q in q1):
             raise InputError("the linear start diverges: the mode needs a positive stiffness and "
@@ -179,15 +219,19 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
                             for m, q in zip(fit_ms, q1)])
         y = np.concatenate([m.data.force[:m.judged.stop - m.judged.start] for m in fit_ms])
         known["modal.drive"] = max(float(A @ y / (A @ A)), 1e-12)
-    lin_names = [f"modal.{p}{j + 2}" for j in range(len(basis.linear)) for p in ("f", "zeta")]
+        if path is not None:      # the free shaker parameter from that drive
+            known.update(path.free_start(known.pop("modal.drive")))
+    if path is not None and init is None:     # the structure's own k, c: the mode less the shaker's share
+        own = path.structure_start(w1, basis.modes[0].damping_ratio, known)
+        for n, v in own.items():
+            if n in model.param_names and known.get(n) == loaded[n] and n not in (start or {}):
+                known[n] = v
     for j, mode in enumerate(basis.linear):
         known.setdefault(f"modal.f{j + 2}", mode.frequency_hz)
         known.setdefault(f"modal.zeta{j + 2}", mode.damping_ratio)
-        f0, z0 = mode.frequency_hz, mode.damping_ratio
-        bnd.setdefault(f"modal.f{j + 2}", (LINEAR_F_RANGE[0] * f0, LINEAR_F_RANGE[1] * f0))
-        bnd.setdefault(f"modal.zeta{j + 2}", (LINEAR_ZETA_RANGE[0] * z0, LINEAR_ZETA_RANGE[1] * z0))
-    bnd.setdefault("shaker.highpass_hz", HIGHPASS_RANGE)
-    names = [*model.param_names, "modal.drive", *lin_names, "shaker.highpass_hz"]
+    every = [*model.param_names, *([drive_name] if drive_name else []), *lin_names, "shaker.highpass_hz"]
+    fixed = {n: bnd[n][0] for n in every if bnd[n][0] == bnd[n][1]}     # --bound n=v:v holds n
+    names = [n for n in every if n not in fixed]
 
     def residual_of(vals: Mapping[str, float]) -> np.ndarray | None:
         try:
@@ -207,7 +251,7 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     for cand in _starts(model, known, amp):
         lo_hi = [bnd[n] for n in names]
         x = np.array([np.clip(cand[n], lo, hi) for n, (lo, hi) in zip(names, lo_hi)])
-        r = residual_of(dict(zip(names, x)))
+        r = residual_of({**fixed, **dict(zip(names, x))})
         if r is not None and float(r @ r) < best_cost:
             best, best_cost = x, float(r @ r)
     if best is None:
@@ -216,7 +260,7 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     last = [np.zeros(0)]
 
     def fun(x: np.ndarray) -> np.ndarray:
-        r = residual_of(dict(zip(names, x)))
+        r = residual_of({**fixed, **dict(zip(names, x))})
         if r is None:
             return np.full(last[0].size, PENALTY * size / max(1, last[0].size) ** 0.5) \
                 if last[0].size else np.full(1, PENALTY * size)
@@ -230,7 +274,7 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     sol = least_squares(lambda z: fun(z * scale), best / scale, bounds=(lo / scale, hi / scale),
                         max_nfev=max_nfev or 40 * len(names), x_scale=1.0, diff_step=1e-4)
     x = sol.x * scale
-    vals = dict(zip(names, x))
+    vals = {**fixed, **dict(zip(names, x))}
     qs = [m.states(model, vals) for m in fit_ms]
     if not all(np.all(np.isfinite(q)) for q in qs):
         raise InputError(f"the fitted model diverges on the records ({vals})", field="model")
@@ -249,8 +293,13 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
             stderr = {n: float("nan") for n in names}
     stderr.update(gse)
     params = model.make_params(values={n: vals[n] for n in model.param_names})
-    params.add("modal.drive", vals["modal.drive"], lower=0.0, unit="m/s^2 per V")
-    params.add("shaker.highpass_hz", vals["shaker.highpass_hz"], lower=0.0, upper=HIGHPASS_RANGE[1],
+    if path is None:
+        params.add("modal.drive", vals["modal.drive"], lower=0.0, unit="m/s^2 per V")
+    elif drive_name:
+        params.add(drive_name, vals[drive_name], lower=0.0,
+                   unit={"mode1.mass_kg": "kg", "shaker.force_factor_n_per_a": "N/A"}.get(drive_name, "ohm"))
+    params.add("shaker.highpass_hz", vals["shaker.highpass_hz"], lower=bnd["shaker.highpass_hz"][0],
+               upper=bnd["shaker.highpass_hz"][1],
                unit="Hz")
     for k in lin_names:
         params.add(k, vals[k], lower=bnd[k][0], upper=bnd[k][1], unit="Hz" if ".f" in k else "1")

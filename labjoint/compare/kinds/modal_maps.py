@@ -107,9 +107,11 @@ class ModalKind:
 
     def fit(self, model: Model | str, fit_ms: Sequence[ModalMeasurement],
             val_ms: Sequence[ModalMeasurement] = (), init: Any = None) -> FitResult:
+        setup = fit_ms[0].setup if fit_ms else None
+        kw = {"start": setup.start_dict, "bounds": setup.bounds_dict} if setup else {}
         if fit_ms and fit_ms[0].between:        # the joint between two sensors
-            return fit_modal_pair(model, fit_ms, val_ms, init, max_nfev=self.max_nfev)
-        return fit_modal(model, fit_ms, val_ms, init, max_nfev=self.max_nfev)
+            return fit_modal_pair(model, fit_ms, val_ms, init, max_nfev=self.max_nfev, **kw)
+        return fit_modal(model, fit_ms, val_ms, init, max_nfev=self.max_nfev, **kw)
 
     max_nfev: int | None = None
 

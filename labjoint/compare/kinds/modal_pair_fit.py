@@ -99,7 +99,8 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
             raise InputError(f"unknown parameter; the model has {sorted(bnd)}", field=f"start.{n}")
         if not bnd[n][0] <= v <= bnd[n][1]:
             raise InputError(f"start {v:g} is outside the bounds {bnd[n]}", field=f"start.{n}")
-        known[n] = float(v)
+        if init is None or n not in known:       # a smaller fitted model's values stay
+            known[n] = float(v)
     g, amp = _linear_drives(fit_ms, d)
     for n, v in g.items():
         known.setdefault(n, v)
