@@ -67,13 +67,15 @@ from scipy.signal import lfilter
 
 from labjoint.errors import InputError
 from labjoint.models import Model
-from labjoint.models.simulate import NO_COIL, SUPPORTED, _coefficients, _rates, fine_force, rk4_sample
+from labjoint.models.effects._masing import IWAN, masing_state
+from labjoint.models.simulate import (MASING_LAWS, NO_COIL, SUPPORTED, _coefficients, _rates, fine_force,
+                                     NO_MASING, masing_coefficients, rk4_sample)
 
 SUBSTEPS = 4
 MAX_WH = 0.1            # RK4 step: w h at most this at 1.5x the highest mode (phase error ~1e-7 a step)
 #: effects that can act on a mode's coordinate (the forward simulator's laws; the modal
 #: mass is the model's own, so ``inertia`` is not one of them)
-MODAL_EFFECTS = tuple(n for n in SUPPORTED if n != "inertia")
+MODAL_EFFECTS = (*(n for n in SUPPORTED if n != "inertia"), *MASING_LAWS)
 QUANTITY_ORDER = {"displacement": 0, "velocity": 1, "acceleration": 2}
 DIVERGED = 1e6          # |q| above this many metres: the simulation has diverged
 
@@ -156,18 +158,20 @@ def check_modal_model(model: Model) -> None:
 
 
 @njit(cache=True)
-def _mode(drive_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, y0, v0):  # pragma: no cover
-    """(n, 3): q, q', q'' at every sample (eq. 1); NaN from where it diverges."""
+def _mode(drive_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, y0, v0, mp, mh, mst):  # pragma: no cover
+    """(n, 3): q, q', q'' at every sample (eq. 1); NaN from where it diverges. ``mp``,
+    ``mh``, ``mst``: a Masing law and its state (relaxed at y0), :func:`rk4_sample`."""
     n = (drive_fine.size - 1) // (2 * substeps) + 1
     out = np.full((n, 3), np.nan)
     y, v, zb, zj = y0, v0, 0.0, 0.0
     for i in range(n):
-        r = _rates(drive_fine[2 * i * substeps], y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev)
+        fm = mst[3] if mp[0] >= 0.0 else 0.0     # the Masing force at y
+        r = _rates(drive_fine[2 * i * substeps] - fm, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev)
         out[i, 0], out[i, 1], out[i, 2] = y, v, r[1]
         if i == n - 1 or not abs(y) < 1e6:
             break
         y, v, zb, zj, _ = rk4_sample(drive_fine, i, substeps, h, y, v, zb, zj, 0.0, m, c, k, k3, f0,
-                                     bw, jk, ev, NO_COIL)
+                                     bw, jk, ev, NO_COIL, mp, mh, mst)
     return out
 
 
@@ -233,10 +237,22 @@ def mode_states(model: Model, params: Mapping[str, Any], drive: Drive) -> np.nda
     vals["inertia.m"] = 1.0
     full = Model.parse("+".join(("inertia", *model.names)))
     m, c, k, k3, f0, bw, jk, ev = _coefficients(full, vals)
+    mp = masing_coefficients(full, vals)
     b = vals["modal.drive"]
-    y0, v0 = _start(drive, b, k, c)
+    y0, v0 = _start(drive, b, k + _masing_stiffness(mp), c)
+    mh, mst = masing_state(y0)
     return _mode(b * drive.fine, 1.0 / (drive.fs * drive.substeps), m, c, k, k3, f0, bw, jk, ev,
-                 drive.substeps, y0, v0)
+                 drive.substeps, y0, v0, mp, mh, mst)
+
+
+def _masing_stiffness(mp: np.ndarray) -> float:
+    """The Masing law's stuck stiffness (its backbone's slope at 0), for the linear steady
+    start: iwan F_S (1 + beta) / (D phi_max) = K_T; richard_abbott (ke - kp) + kp."""
+    if mp[0] < 0:
+        return 0.0
+    if int(mp[0]) == IWAN:
+        return float(mp[1] * (1.0 + mp[4]) / (mp[3] * mp[2]))
+    return float(mp[1] + mp[4])
 
 
 def linear_states(mode: MeasuredMode, drive: Drive) -> np.ndarray:
@@ -246,7 +262,7 @@ def linear_states(mode: MeasuredMode, drive: Drive) -> np.ndarray:
     y0, v0 = _start(drive, 1.0, k, c)
     z3 = np.zeros(3)
     return _mode(drive.fine, 1.0 / (drive.fs * drive.substeps), 1.0, c, k, 0.0, 0.0, np.zeros(4), z3,
-                 np.zeros(4), drive.substeps, y0, v0)
+                 np.zeros(4), drive.substeps, y0, v0, NO_MASING, *masing_state(y0))
 
 
 def response(q: np.ndarray, lin: Sequence[np.ndarray], quantity: str, phi: float,
