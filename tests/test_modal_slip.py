@@ -138,3 +138,38 @@ def test_slip_starts_span_the_records_amplitudes():
         # the stuck stiffness stays the measured one: k + the law's stuck stiffness = k
         kn = "coulomb.k" if law == "coulomb" else "iwan.K_T"
         assert all(d["linear_stiffness.k"] + d[kn] == pytest.approx(k) for d in st)
+
+
+def _record(level: float, name: str):
+    from labjoint.storage.channels import Channel, ChannelRecord
+    t, x, a = _reference(level, seconds=2.5)
+    rng = np.random.default_rng(int(level * 100))
+    chans = {"v": Channel("v", volts(t, level), "voltage", "V", "drive")}
+    for nm, qty, y, unit in (("s1", "acceleration", a[:, 0], "m/s^2"),
+                             ("s2", "acceleration", a[:, 1], "m/s^2")):
+        chans[nm] = Channel(nm, y + 1e-4 * y.std() * rng.standard_normal(y.size), qty, unit, "response")
+    return ChannelRecord(name, t, FS, chans, {})
+
+
+@pytest.mark.slow
+def test_micro_slip_named_and_its_parameters_recovered():
+    """Records of the Jenkins-network chain at three levels (from micro-slip to the edge of
+    macro-slip; accelerations, 0.01 % noise): diagnose on the modal kind with the joint
+    between s1 and s2, from the measured (stuck) modes, names iwan over cubic stiffness and
+    coulomb, and its fit recovers the joint (per unit modal mass of mode 1)."""
+    from labjoint.compare.diagnosis import DiagnoseSettings, diagnose_prepared
+    from labjoint.compare.kinds.modal import prepare_modal
+    basis, law, drives = _basis_and_law()
+    recs = [_record(lv, f"L{lv:g}") for lv in (0.3, 1.0, 2.5)]
+    ms = [prepare_modal(r, basis, between=("s1", "s2")) for r in recs]
+    dg = diagnose_prepared(ms, "linear_stiffness",
+                           settings=DiagnoseSettings(candidates=("cubic_stiffness", "coulomb", "iwan")))
+    assert dg.candidates[0].effect == "iwan", [(c.effect, c.nrmse_after) for c in dg.candidates]
+    fit = dg.candidates[0].fit                 # fitted on 0.3 and 2.5, validated on 1.0
+    assert fit.validation_runs_ == ("L1",)
+    v = fit.params_.valuesdict()
+    assert fit.nrmse_ < 5e-3 and fit.validation_nrmse_ < 5e-3
+    for k in ("iwan.K_T", "iwan.F_S", "linear_stiffness.k"):
+        assert v[k] == pytest.approx(law[k], rel=0.05), k
+    assert v["iwan.chi"] == pytest.approx(CHI, abs=0.1)
+    assert v["iwan.beta"] == pytest.approx(BETA_S, abs=0.1)

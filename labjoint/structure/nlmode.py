@@ -10,7 +10,8 @@ the reference sensor, so the mode-1 participation of the reference sensor is 1) 
 
 where F_joint is the joint model (any effects the forward simulator integrates:
 linear_stiffness k = w_1^2, viscous c = 2 zeta_1 w_1, quadratic_stiffness, cubic_stiffness,
-bilinear_stiffness, contact, coulomb (+ asymmetric_slip), bouc_wen, offset; per unit
+bilinear_stiffness, contact, coulomb (+ asymmetric_slip), bouc_wen, offset, and the Masing
+laws iwan (Segalman's micro- to macro-slip) and richard_abbott; per unit
 modal mass, so k2 is in N/m^2 per kg, and so on) and b (``modal.drive``, m/s^2 per volt)
 the modal force per volt. The other modes are linear and each driven by V:
 
@@ -48,7 +49,10 @@ drive-point participation, which these records do not hold.
 Integrator (stated): classical 4th-order Runge-Kutta with ``substeps`` steps per sample
 (at least 4, and w h <= 0.1 at 1.5 x the highest measured mode)
 on (q, q', z_bouc_wen, z_jenkins) by the forward simulator's own rates
-(:mod:`labjoint.models.simulate`, the same laws), the voltage between samples
+(:mod:`labjoint.models.simulate`, the same laws), a Masing law's reversal stack carried
+from step to step (each stage's force at its own q from the step's start, committed at
+the step's end: :func:`labjoint.models.effects._masing.masing_eval`, the effect's own
+extended Masing rules, exact for a parallel Iwan network), the voltage between samples
 band-limited (its ``fine_force``). A segment starts from the linear steady state of its
 drive's fundamental (a steady sine) or from rest (a record that starts at rest).
 """

@@ -20,7 +20,8 @@ of mode j relative to mode 1 (``modal.mass<j>``, j >= 2, default 1; a relative s
 not fix it, so it is a parameter), g_j the modal drive per volt (``modal.drive<j>``). The
 measured modes are the structure with the joint at rest: F holds only what the joint
 adds to them (an even or cubic stiffness, slip), so a ``linear_stiffness`` in F shifts
-the measured modes. The hysteretic states z (Bouc-Wen, the Jenkins slider) follow u.
+the measured modes. The hysteretic states z (Bouc-Wen, the Jenkins slider) and a Masing
+law's reversal stack (iwan, richard_abbott; carried per RK4 step) follow u.
 
 Sensors read y_s^(d) = sum_j phi_sj eta_j^(d), d = 0, 1, 2 by their quantity (eq. 3 of
 :mod:`labjoint.structure.nlmode`), from the integrated states. Integrator (stated):
