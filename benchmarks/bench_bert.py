@@ -57,7 +57,8 @@ DATA = next((d / "shared" / "data" / "bert" / "bert.h5" for d in ROOT.parents
 SMOKE_TESTS = {"Sine_Sine_09Hz": 6.0, "Sine_Sine_09p5Hz": 6.0, "Rand_Rand0p25": None,
                "Rand_Rand0p30": 8.0}
 FS_BERT = 1024.0
-CANDIDATES = "quadratic_stiffness,bilinear_stiffness,cubic_stiffness,coulomb"
+CANDIDATES = "quadratic_stiffness,bilinear_stiffness,cubic_stiffness,coulomb,iwan"
+MAX_STEPS = 3
 
 
 #: run each command as its own ``labjoint`` process (``--subprocess``); by default the same
@@ -194,7 +195,7 @@ def run(work: Path, smoke: bool) -> dict:
     data = sines if smoke else [*sines, str(runs / "Rand_Rand0p25.h5")]
     common = ["--modal", str(work / "modes.json"), "--responses", "laser", "--quiet"]
     lad = cli("ladder", *data, *common, "--model", "linear_stiffness+viscous", "--no-save",
-              "--max-steps", "1" if smoke else "2",
+              "--max-steps", "1" if smoke else str(MAX_STEPS),
               "--candidates", "quadratic_stiffness" if smoke else CANDIDATES)
     final = lad["steps"][-1]["model"]
     named = [s["added"] for s in lad["steps"] if s["added"]]

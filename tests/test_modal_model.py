@@ -157,8 +157,8 @@ def test_responses_exactly_in_the_measured_quantity():
 
 def test_bad_input_named():
     basis, ms = _set(0.0)
-    with pytest.raises(InputError, match="iwan cannot act on a mode"):
-        fit_modal("linear_stiffness+iwan", ms[:1])
+    with pytest.raises(InputError, match="valanis cannot act on a mode"):
+        fit_modal("linear_stiffness+valanis", ms[:1])
     with pytest.raises(InputError, match="outside the bounds") as e:
         fit_modal("linear_stiffness+viscous", ms[:1], start={"viscous.c": -1.0})
     assert e.value.field == "start.viscous.c"
@@ -185,10 +185,10 @@ def test_cli_refuses_with_exit_2_and_saves_nothing(tmp_path, capsys):
     mfile = tmp_path / "modes.json"
     mfile.write_text(json.dumps({"levels": [{"level": 1.0, "modes": modes}]}))
     out = tmp_path / "m.json"
-    rc = main(["fit", str(path), "--modal", str(mfile), "--model", "linear_stiffness+iwan",
+    rc = main(["fit", str(path), "--modal", str(mfile), "--model", "linear_stiffness+valanis",
                "--out", str(out), "--json"])
     err = capsys.readouterr()
-    assert rc == 2 and "iwan" in err.err and err.out == "" and not out.exists()
+    assert rc == 2 and "valanis" in err.err and err.out == "" and not out.exists()
 
 
 def test_cli_refuses_a_shaker_parameter_by_name(tmp_path, capsys):

@@ -36,6 +36,9 @@ from scipy.signal import resample
 
 from labjoint.errors import InputError
 from labjoint.models.composition import Model
+from labjoint.models.effects._masing import (IWAN, RICHARD_ABBOTT, iwan_params, masing_commit,
+                                             masing_eval, ra_params)
+from labjoint.models.effects.iwan import CHI_MIN
 from labjoint.models.params import Parameters
 
 DEFAULT_SUBSTEPS = 20
@@ -67,14 +70,21 @@ def _rates(t_force, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev):  # pragma: no co
 
 
 @njit(cache=True)
-def rk4_sample(fine, i, substeps, h, y, v, zb, zj, ci, m, c, k, k3, f0, bw, jk, ev, coil):  # pragma: no cover
+def rk4_sample(fine, i, substeps, h, y, v, zb, zj, ci, m, c, k, k3, f0, bw, jk, ev, coil,
+               mp, mh, mst):  # pragma: no cover
     """The state after sample ``i``'s ``substeps`` classical RK4 steps of :func:`_rates`;
     ``fine`` holds the drive at every half substep (shared by the joint-level simulator
     and the modal model, :mod:`labjoint.structure.nlmode`). ``coil`` = (Bl, R, L, G):
     with Bl > 0 the drive is the shaker's generator voltage u and the force is Bl ci, the
     coil current ci integrated with the rest by L ci' = G u - R ci - Bl v
-    (:mod:`labjoint.models.shaker` S1); else the drive is the force and ci stays 0."""
+    (:mod:`labjoint.models.shaker` S1); else the drive is the force and ci stays 0.
+    ``mp`` = (kind, backbone parameters) of a Masing law (:func:`masing_coefficients`;
+    kind < 0: none) whose state (``mh``, ``mst``: :func:`labjoint.models.effects._masing.masing_state`)
+    is carried from step to step: each stage evaluates its force at the stage's
+    displacement without moving the state, the step's end commits it."""
     bl = coil[0]
+    mk = int(mp[0])
+    bp = mp[1:]
     for s in range(substeps):
         j = 2 * (i * substeps + s)
         u0, um, u1 = fine[j], fine[j + 1], fine[j + 2]
@@ -82,24 +92,32 @@ def rk4_sample(fine, i, substeps, h, y, v, zb, zj, ci, m, c, k, k3, f0, bw, jk, 
         if bl > 0.0:
             d1 = (coil[3] * u0 - coil[1] * ci - bl * v) / coil[2]
             u0 = bl * ci
+        if mk >= 0:
+            u0 -= masing_eval(mk, bp, mh, mst, y)
         k1 = _rates(u0, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev)
         y2, v2, c2 = y + 0.5 * h * k1[0], v + 0.5 * h * k1[1], ci + 0.5 * h * d1
         d2, f2 = 0.0, um
         if bl > 0.0:
             d2 = (coil[3] * um - coil[1] * c2 - bl * v2) / coil[2]
             f2 = bl * c2
+        if mk >= 0:
+            f2 -= masing_eval(mk, bp, mh, mst, y2)
         k2 = _rates(f2, y2, v2, zb + 0.5 * h * k1[2], zj + 0.5 * h * k1[3], m, c, k, k3, f0, bw, jk, ev)
         y3, v3, c3 = y + 0.5 * h * k2[0], v + 0.5 * h * k2[1], ci + 0.5 * h * d2
         d3, f3 = 0.0, um
         if bl > 0.0:
             d3 = (coil[3] * um - coil[1] * c3 - bl * v3) / coil[2]
             f3 = bl * c3
+        if mk >= 0:
+            f3 -= masing_eval(mk, bp, mh, mst, y3)
         k3_ = _rates(f3, y3, v3, zb + 0.5 * h * k2[2], zj + 0.5 * h * k2[3], m, c, k, k3, f0, bw, jk, ev)
         y4, v4, c4 = y + h * k3_[0], v + h * k3_[1], ci + h * d3
         d4, f4 = 0.0, u1
         if bl > 0.0:
             d4 = (coil[3] * u1 - coil[1] * c4 - bl * v4) / coil[2]
             f4 = bl * c4
+        if mk >= 0:
+            f4 -= masing_eval(mk, bp, mh, mst, y4)
         k4 = _rates(f4, y4, v4, zb + h * k3_[2], zj + h * k3_[3], m, c, k, k3, f0, bw, jk, ev)
         y += h * (k1[0] + 2.0 * k2[0] + 2.0 * k3_[0] + k4[0]) / 6.0
         v += h * (k1[1] + 2.0 * k2[1] + 2.0 * k3_[1] + k4[1]) / 6.0
@@ -108,14 +126,41 @@ def rk4_sample(fine, i, substeps, h, y, v, zb, zj, ci, m, c, k, k3, f0, bw, jk, 
         ci += h * (d1 + 2.0 * d2 + 2.0 * d3 + d4) / 6.0
         if jk[0] > 0.0:
             zj = min(max(zj, -jk[1] * (1.0 - jk[2])), jk[1] * (1.0 + jk[2]))
+        if mk >= 0:
+            masing_commit(mk, bp, mh, mst, y)
     return y, v, zb, zj, ci
 
 
 NO_COIL = np.zeros(4)
+NO_MASING = np.array([-1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+#: Masing laws the RK4 integrators carry (an exact Iwan / Richard-Abbott by the extended
+#: Masing rules of :mod:`labjoint.models.effects._masing`, the effects' own law)
+MASING_LAWS = ("iwan", "richard_abbott")
+_NO_HIST, _NO_ST = np.zeros((2, 1)), np.zeros(5)
+
+
+def masing_coefficients(model: Model, params: Parameters | Mapping[str, Any]) -> np.ndarray:
+    """(kind, backbone parameters) of the model's Masing law for :func:`rk4_sample`, as the
+    effect itself simulates it (``iwan``: chi clipped at its CHI_MIN, no force with F_S or
+    K_T <= 0; ``richard_abbott``: kp u with F_y <= 0); :data:`NO_MASING` without one."""
+    laws = [n for n in model.names if n in MASING_LAWS]
+    if not laws:
+        return NO_MASING
+    if len(laws) > 1:
+        raise InputError(f"one Masing law at a time, not {' and '.join(laws)}", field="model")
+    vals = model.values(params)[laws[0]]
+    g = lambda p: float(vals[p])  # noqa: E731
+    if laws[0] == "iwan":
+        if not (g("F_S") > 0 and g("K_T") > 0):
+            return NO_MASING
+        return np.r_[IWAN, iwan_params(g("F_S"), g("K_T"), max(g("chi"), CHI_MIN), g("beta"))]
+    if not g("F_y") > 0:    # a linear kp: a Richard-Abbott backbone with no curvature left
+        return np.r_[RICHARD_ABBOTT, ra_params(g("kp"), g("kp"), 1.0, 1.0)]
+    return np.r_[RICHARD_ABBOTT, ra_params(g("ke"), g("kp"), g("F_y"), g("n"))]
 
 
 @njit(cache=True)
-def _integrate(force_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, state, coil):  # pragma: no cover
+def _integrate(force_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, state, coil, mp, mh, mst):  # pragma: no cover
     """(n, 4): y, y', y'' and the coil current at every sample; ``force_fine`` holds the
     drive (force, or the shaker's voltage when ``coil`` has Bl > 0) at every half substep."""
     n = (force_fine.size - 1) // (2 * substeps) + 1
@@ -123,12 +168,14 @@ def _integrate(force_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, state, coil
     y, v, zb, zj, ci = state[0], state[1], state[2], state[3], state[4]
     for i in range(n):
         f = coil[0] * ci if coil[0] > 0.0 else force_fine[2 * i * substeps]
+        if mp[0] >= 0.0:
+            f -= mst[3]          # the Masing force at y (the state's last committed point)
         r = _rates(f, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev)
         out[i, 0], out[i, 1], out[i, 2], out[i, 3] = y, v, r[1], ci
         if i == n - 1:
             break
         y, v, zb, zj, ci = rk4_sample(force_fine, i, substeps, h, y, v, zb, zj, ci, m, c, k, k3, f0,
-                                      bw, jk, ev, coil)
+                                      bw, jk, ev, coil, mp, mh, mst)
     state[0], state[1], state[2], state[3], state[4] = y, v, zb, zj, ci
     return out
 
@@ -225,11 +272,12 @@ def simulate_states(model: Model | str, params: Parameters | Mapping[str, Any], 
     h = 1.0 / (fs * s)
     state = np.zeros(5)
     if not periodic:
-        return _integrate(fine_force(f, s, False), h, m, c, k, k3, f0, bw, jk, ev, s, state, coil)
+        return _integrate(fine_force(f, s, False), h, m, c, k, k3, f0, bw, jk, ev, s, state, coil,
+                          NO_MASING, _NO_HIST, _NO_ST)
     one = fine_force(f, s, True)
     prev = None
     for _ in range(MAX_PERIODS):
-        y = _integrate(one, h, m, c, k, k3, f0, bw, jk, ev, s, state, coil)
+        y = _integrate(one, h, m, c, k, k3, f0, bw, jk, ev, s, state, coil, NO_MASING, _NO_HIST, _NO_ST)
         if prev is not None and np.max(np.abs(y[:, 0] - prev)) <= 1e-9 * max(np.ptp(y[:, 0]), 1e-300):
             break
         prev = y[:, 0]

@@ -10,7 +10,8 @@ the reference sensor, so the mode-1 participation of the reference sensor is 1) 
 
 where F_joint is the joint model (any effects the forward simulator integrates:
 linear_stiffness k = w_1^2, viscous c = 2 zeta_1 w_1, quadratic_stiffness, cubic_stiffness,
-bilinear_stiffness, contact, coulomb (+ asymmetric_slip), bouc_wen, offset; per unit
+bilinear_stiffness, contact, coulomb (+ asymmetric_slip), bouc_wen, offset, and the Masing
+laws iwan (Segalman's micro- to macro-slip) and richard_abbott; per unit
 modal mass, so k2 is in N/m^2 per kg, and so on) and b (``modal.drive``, m/s^2 per volt)
 the modal force per volt. The other modes are linear and each driven by V:
 
@@ -48,7 +49,10 @@ drive-point participation, which these records do not hold.
 Integrator (stated): classical 4th-order Runge-Kutta with ``substeps`` steps per sample
 (at least 4, and w h <= 0.1 at 1.5 x the highest measured mode)
 on (q, q', z_bouc_wen, z_jenkins) by the forward simulator's own rates
-(:mod:`labjoint.models.simulate`, the same laws), the voltage between samples
+(:mod:`labjoint.models.simulate`, the same laws), a Masing law's reversal stack carried
+from step to step (each stage's force at its own q from the step's start, committed at
+the step's end: :func:`labjoint.models.effects._masing.masing_eval`, the effect's own
+extended Masing rules, exact for a parallel Iwan network), the voltage between samples
 band-limited (its ``fine_force``). A segment starts from the linear steady state of its
 drive's fundamental (a steady sine) or from rest (a record that starts at rest).
 """
@@ -67,13 +71,15 @@ from scipy.signal import lfilter
 
 from labjoint.errors import InputError
 from labjoint.models import Model
-from labjoint.models.simulate import NO_COIL, SUPPORTED, _coefficients, _rates, fine_force, rk4_sample
+from labjoint.models.effects._masing import IWAN, masing_state
+from labjoint.models.simulate import (MASING_LAWS, NO_COIL, SUPPORTED, _coefficients, _rates, fine_force,
+                                     NO_MASING, masing_coefficients, rk4_sample)
 
 SUBSTEPS = 4
 MAX_WH = 0.1            # RK4 step: w h at most this at 1.5x the highest mode (phase error ~1e-7 a step)
 #: effects that can act on a mode's coordinate (the forward simulator's laws; the modal
 #: mass is the model's own, so ``inertia`` is not one of them)
-MODAL_EFFECTS = tuple(n for n in SUPPORTED if n != "inertia")
+MODAL_EFFECTS = (*(n for n in SUPPORTED if n != "inertia"), *MASING_LAWS)
 QUANTITY_ORDER = {"displacement": 0, "velocity": 1, "acceleration": 2}
 DIVERGED = 1e6          # |q| above this many metres: the simulation has diverged
 
@@ -156,27 +162,34 @@ def check_modal_model(model: Model) -> None:
 
 
 @njit(cache=True)
-def _mode_coil(drive_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, y0, v0, coil, ci0=0.0):  # pragma: no cover
+def _mode_coil(drive_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, y0, v0, coil, ci0, mp, mh, mst):  # pragma: no cover
     """(n, 4): q, q', q'' and the coil current at every sample (eq. 1; with ``coil`` = (Bl,
     R, L, G), Bl > 0, the drive is a voltage through the coil of
-    :func:`labjoint.models.simulate.rk4_sample`); NaN from where it diverges."""
+    :func:`labjoint.models.simulate.rk4_sample`); NaN from where it diverges. ``mp``,
+    ``mh``, ``mst``: a Masing law and its state (relaxed at y0), :func:`rk4_sample`."""
     n = (drive_fine.size - 1) // (2 * substeps) + 1
     out = np.full((n, 4), np.nan)
     y, v, zb, zj, ci = y0, v0, 0.0, 0.0, ci0
     for i in range(n):
+        fm = mst[3] if mp[0] >= 0.0 else 0.0     # the Masing force at y
         f = coil[0] * ci if coil[0] > 0.0 else drive_fine[2 * i * substeps]
-        r = _rates(f, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev)
+        r = _rates(f - fm, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev)
         out[i, 0], out[i, 1], out[i, 2], out[i, 3] = y, v, r[1], ci
         if i == n - 1 or not abs(y) < 1e6:
             break
         y, v, zb, zj, ci = rk4_sample(drive_fine, i, substeps, h, y, v, zb, zj, ci, m, c, k, k3, f0,
-                                      bw, jk, ev, coil)
+                                      bw, jk, ev, coil, mp, mh, mst)
     return out
 
 
-def _mode(drive_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, y0, v0) -> np.ndarray:
-    """(n, 3): q, q', q'' at every sample (eq. 1) under a drive per unit modal mass."""
-    return _mode_coil(drive_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, y0, v0, NO_COIL, 0.0)[:, :3]
+def _mode(drive_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, y0, v0, mp=NO_MASING, mh=None,
+          mst=None) -> np.ndarray:
+    """(n, 3): q, q', q'' at every sample (eq. 1) under a drive per unit modal mass, with the
+    Masing law ``mp`` (:func:`labjoint.models.simulate.masing_coefficients`) if any."""
+    if mh is None:
+        mh, mst = masing_state(y0)
+    return _mode_coil(drive_fine, h, m, c, k, k3, f0, bw, jk, ev, substeps, y0, v0, NO_COIL, 0.0,
+                      mp, mh, mst)[:, :3]
 
 
 @dataclass(frozen=True)
@@ -241,10 +254,22 @@ def mode_states(model: Model, params: Mapping[str, Any], drive: Drive) -> np.nda
     vals["inertia.m"] = 1.0
     full = Model.parse("+".join(("inertia", *model.names)))
     m, c, k, k3, f0, bw, jk, ev = _coefficients(full, vals)
+    mp = masing_coefficients(full, vals)
     b = vals["modal.drive"]
-    y0, v0 = _start(drive, b, k, c)
+    y0, v0 = _start(drive, b, k + _masing_stiffness(mp), c)
+    mh, mst = masing_state(y0)
     return _mode(b * drive.fine, 1.0 / (drive.fs * drive.substeps), m, c, k, k3, f0, bw, jk, ev,
-                 drive.substeps, y0, v0)
+                 drive.substeps, y0, v0, mp, mh, mst)
+
+
+def _masing_stiffness(mp: np.ndarray) -> float:
+    """The Masing law's stuck stiffness (its backbone's slope at 0), for the linear steady
+    start: iwan F_S (1 + beta) / (D phi_max) = K_T; richard_abbott (ke - kp) + kp."""
+    if mp[0] < 0:
+        return 0.0
+    if int(mp[0]) == IWAN:
+        return float(mp[1] * (1.0 + mp[4]) / (mp[3] * mp[2]))
+    return float(mp[1] + mp[4])
 
 
 def linear_states(mode: MeasuredMode, drive: Drive) -> np.ndarray:
@@ -254,7 +279,7 @@ def linear_states(mode: MeasuredMode, drive: Drive) -> np.ndarray:
     y0, v0 = _start(drive, 1.0, k, c)
     z3 = np.zeros(3)
     return _mode(drive.fine, 1.0 / (drive.fs * drive.substeps), 1.0, c, k, 0.0, 0.0, np.zeros(4), z3,
-                 np.zeros(4), drive.substeps, y0, v0)
+                 np.zeros(4), drive.substeps, y0, v0, NO_MASING, *masing_state(y0))
 
 
 def response(q: np.ndarray, lin: Sequence[np.ndarray], quantity: str, phi: float,

@@ -20,7 +20,8 @@ of mode j relative to mode 1 (``modal.mass<j>``, j >= 2, default 1; a relative s
 not fix it, so it is a parameter), g_j the modal drive per volt (``modal.drive<j>``). The
 measured modes are the structure with the joint at rest: F holds only what the joint
 adds to them (an even or cubic stiffness, slip), so a ``linear_stiffness`` in F shifts
-the measured modes. The hysteretic states z (Bouc-Wen, the Jenkins slider) follow u.
+the measured modes. The hysteretic states z (Bouc-Wen, the Jenkins slider) and a Masing
+law's reversal stack (iwan, richard_abbott; carried per RK4 step) follow u.
 
 Sensors read y_s^(d) = sum_j phi_sj eta_j^(d), d = 0, 1, 2 by their quantity (eq. 3 of
 :mod:`labjoint.structure.nlmode`), from the integrated states. Integrator (stated):
@@ -41,7 +42,8 @@ from numba import njit
 
 from labjoint.errors import InputError
 from labjoint.models import Model
-from labjoint.models.simulate import _coefficients, _rates
+from labjoint.models.effects._masing import masing_commit, masing_eval, masing_state
+from labjoint.models.simulate import _coefficients, _rates, masing_coefficients
 from labjoint.structure.nlmode import (QUANTITY_ORDER, Drive, ModalBasis, _start,
                                        check_modal_model)
 
@@ -70,20 +72,21 @@ def parameter_names(model: Model, n_modes: int) -> tuple[str, ...]:
 
 
 @njit(cache=True)
-def _pair_rates(vin, eta, deta, zb, zj, w2, cw, gd, gain, c, k, k3, f0, bw, jk, ev):  # pragma: no cover
+def _pair_rates(vin, eta, deta, zb, zj, w2, cw, gd, gain, c, k, k3, f0, bw, jk, ev, mp, mh, mst):  # pragma: no cover
     u = 0.0
     du = 0.0
     for j in range(eta.size):
         u += gd[j, 0] * eta[j]
         du += gd[j, 0] * deta[j]
-    r = _rates(0.0, u, du, zb, zj, 1.0, c, k, k3, f0, bw, jk, ev)
+    fm = masing_eval(int(mp[0]), mp[1:], mh, mst, u) if mp[0] >= 0.0 else 0.0
+    r = _rates(-fm, u, du, zb, zj, 1.0, c, k, k3, f0, bw, jk, ev)
     force = -r[1]                                  # F(u, u', z) of the law
     acc = gain * vin - cw * deta - w2 * eta - gd[:, 1] * force
     return acc, r[2], r[3]
 
 
 @njit(cache=True)
-def _pair(fine, h, substeps, w2, cw, gd, gain, c, k, k3, f0, bw, jk, ev, eta0, deta0):  # pragma: no cover
+def _pair(fine, h, substeps, w2, cw, gd, gain, c, k, k3, f0, bw, jk, ev, eta0, deta0, mp, mh, mst):  # pragma: no cover
     """(n, N, 3): eta, eta', eta'' of every mode at every sample (eq. 6); NaN from where it
     diverges."""
     n = (fine.size - 1) // (2 * substeps) + 1
@@ -92,29 +95,35 @@ def _pair(fine, h, substeps, w2, cw, gd, gain, c, k, k3, f0, bw, jk, ev, eta0, d
     eta, deta, zb, zj = eta0.copy(), deta0.copy(), 0.0, 0.0
     for i in range(n):
         a, _, _ = _pair_rates(fine[2 * i * substeps], eta, deta, zb, zj, w2, cw, gd, gain, c, k, k3,
-                              f0, bw, jk, ev)
+                              f0, bw, jk, ev, mp, mh, mst)
         out[i, :, 0], out[i, :, 1], out[i, :, 2] = eta, deta, a
         if i == n - 1 or not np.all(np.abs(eta) < 1e6):
             break
         for s in range(substeps):
             j = 2 * (i * substeps + s)
             v0, vm, v1 = fine[j], fine[j + 1], fine[j + 2]
-            a1, b1, c1 = _pair_rates(v0, eta, deta, zb, zj, w2, cw, gd, gain, c, k, k3, f0, bw, jk, ev)
+            a1, b1, c1 = _pair_rates(v0, eta, deta, zb, zj, w2, cw, gd, gain, c, k, k3, f0, bw, jk, ev,
+                                     mp, mh, mst)
             e2, d2 = eta + 0.5 * h * deta, deta + 0.5 * h * a1
             a2, b2, c2 = _pair_rates(vm, e2, d2, zb + 0.5 * h * b1, zj + 0.5 * h * c1, w2, cw, gd, gain,
-                                     c, k, k3, f0, bw, jk, ev)
+                                     c, k, k3, f0, bw, jk, ev, mp, mh, mst)
             e3, d3 = eta + 0.5 * h * d2, deta + 0.5 * h * a2
             a3, b3, c3 = _pair_rates(vm, e3, d3, zb + 0.5 * h * b2, zj + 0.5 * h * c2, w2, cw, gd, gain,
-                                     c, k, k3, f0, bw, jk, ev)
+                                     c, k, k3, f0, bw, jk, ev, mp, mh, mst)
             e4, d4 = eta + h * d3, deta + h * a3
             a4, b4, c4 = _pair_rates(v1, e4, d4, zb + h * b3, zj + h * c3, w2, cw, gd, gain,
-                                     c, k, k3, f0, bw, jk, ev)
+                                     c, k, k3, f0, bw, jk, ev, mp, mh, mst)
             eta = eta + h * (deta + 2.0 * d2 + 2.0 * d3 + d4) / 6.0
             deta = deta + h * (a1 + 2.0 * a2 + 2.0 * a3 + a4) / 6.0
             zb += h * (b1 + 2.0 * b2 + 2.0 * b3 + b4) / 6.0
             zj += h * (c1 + 2.0 * c2 + 2.0 * c3 + c4) / 6.0
             if jk[0] > 0.0:
                 zj = min(max(zj, -jk[1] * (1.0 - jk[2])), jk[1] * (1.0 + jk[2]))
+            if mp[0] >= 0.0:
+                u = 0.0
+                for jj in range(nm):
+                    u += gd[jj, 0] * eta[jj]
+                masing_commit(int(mp[0]), mp[1:], mh, mst, u)
     return out
 
 
@@ -145,8 +154,10 @@ def pair_states(model: Model | str, params: Mapping[str, Any], basis: ModalBasis
     for j in range(nm):
         eta0[j], deta0[j] = _start(drive, gain[j], w[j] ** 2, cw[j])
     gd = np.column_stack([d, d / mu])
+    mp = masing_coefficients(full, {**vals, "inertia.m": 1.0})
+    mh, mst = masing_state(float(d @ eta0))
     return _pair(drive.fine, 1.0 / (drive.fs * drive.substeps), drive.substeps, w * w, cw, gd, gain,
-                 c, k, k3, f0, bw, jk, ev, eta0, deta0)
+                 c, k, k3, f0, bw, jk, ev, eta0, deta0, mp, mh, mst)
 
 
 def pair_response(states: np.ndarray, basis: ModalBasis, sensor: str, quantity: str) -> np.ndarray:

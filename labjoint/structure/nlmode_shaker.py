@@ -46,8 +46,9 @@ from labjoint.errors import InputError
 from labjoint.models import Model
 from labjoint.models.shaker import SYMBOLS, Shaker, checked_values
 from labjoint.models.shaker_fit import require_voltage_only
-from labjoint.models.simulate import _coefficients
-from labjoint.structure.nlmode import Drive, ModalBasis, _mode_coil
+from labjoint.models.effects._masing import masing_state
+from labjoint.models.simulate import _coefficients, masing_coefficients
+from labjoint.structure.nlmode import Drive, ModalBasis, _masing_stiffness, _mode_coil
 
 COIL_NEGLECT = 10.0       # the coil's lag is left out when its corner is above this x mode 1 (<= 5.7 deg there)
 
@@ -155,6 +156,7 @@ class ShakerPath:
         full = Model.parse("+".join(("inertia", *model.names)))
         mu = 1 + sh.armature_mass_kg / m_d
         m, c, k, k3, f0, bw, jk, ev = _coefficients(full, {**vals, "inertia.m": mu})
+        mp = masing_coefficients(full, {**vals, "inertia.m": mu})    # iwan, richard_abbott
         c = c + sh.suspension_damping_ns_per_m / m_d
         k = k + sh.suspension_stiffness_n_per_m / m_d
         bl, R, L, G = (sh.force_factor_n_per_a, sh.coil_resistance_ohm, sh.coil_inductance_h,
@@ -164,14 +166,16 @@ class ShakerPath:
         if self.coil_used(drive, vals, mode_hz):
             s = 1.0 / (p * np.sqrt(m_d))
             coil = np.array([bl / np.sqrt(m_d), R, L, s * G])
-            y0, v0, i0 = _steady(drive, m, k, c, coil)
-            out = _mode_coil(drive.fine, h, m, c, k, k3, f0, bw, jk, ev, drive.substeps, y0, v0, coil, i0)
+            y0, v0, i0 = _steady(drive, m, k + _masing_stiffness(mp), c, coil)
+            out = _mode_coil(drive.fine, h, m, c, k, k3, f0, bw, jk, ev, drive.substeps, y0, v0, coil, i0,
+                             mp, *masing_state(y0))
             i = out[:, 3] / s
         else:
             gain = bl * G / (R * p * m_d)
-            y0, v0, _ = _steady(drive, m, k, c + bl * bl / (R * m_d), np.array([gain, 1.0, 0.0, 1.0]))
+            y0, v0, _ = _steady(drive, m, k + _masing_stiffness(mp), c + bl * bl / (R * m_d),
+                                np.array([gain, 1.0, 0.0, 1.0]))
             out = _mode_coil(gain * drive.fine, h, m, c + bl * bl / (R * m_d), k, k3, f0, bw, jk, ev,
-                             drive.substeps, y0, v0, np.zeros(4))
+                             drive.substeps, y0, v0, np.zeros(4), 0.0, mp, *masing_state(y0))
             v_hp = drive.fine[::2 * drive.substeps][:out.shape[0]]
             i = (G * v_hp - bl * p * out[:, 1]) / R
         F = bl * i - p * (sh.armature_mass_kg * out[:, 2] + sh.suspension_damping_ns_per_m * out[:, 1]

@@ -14,9 +14,12 @@ that linear solve at the optimum (conditional on the varied parameters).
 Start: from ``init`` (a fitted smaller model: the diagnosis and the ladder pass the
 baseline), else k = w_1^2, c = 2 zeta_1 w_1 of the measured mode 1 and ``modal.drive``
 from the linear model's projection; an added effect's parameters from a short list of
-physical starts (1 to 30 % of the linear force at the records' largest modal
-displacement, either sign; at most ``MAX_STARTS``), the one that simulates the records
-best. A trial whose
+physical starts, the one that simulates the records best (at most ``MAX_STARTS``): an
+elastic law 1 to 30 % of the linear force at the records' largest modal amplitude, either
+sign; a slip law (coulomb, iwan, bouc_wen, richard_abbott) stuck at 5 or 20 % of k and
+slipping at each level of the records' amplitude range (each record's sqrt(2) x rms of
+mode 1 over its judged samples: the smallest, the largest and their geometric mean), so
+a random test's micro-slip scale, far below the resonant sines', is started too. A trial whose
 simulation diverges is rejected (its residual made large); a fit that ends diverged or
 non-finite is refused naming the parameters.
 """
@@ -98,10 +101,63 @@ def project(ms: Sequence[ModalMeasurement], qs: Sequence[np.ndarray],
     return gains, stderr, np.concatenate(res)
 
 
-def _starts(model: Model, known: Mapping[str, float], amp: float) -> list[dict[str, float]]:
-    """Physical starts of the parameters not in ``known`` (module docstring)."""
+def record_amplitude(q: np.ndarray, m: ModalMeasurement) -> float:
+    """A record's modal amplitude: sqrt(2) x the rms of q over its judged samples (a sine's
+    amplitude; a random test's equivalent), its mean removed."""
+    x = q[m.judged]
+    x = x[np.isfinite(x)]
+    return float(np.sqrt(2.0 * np.mean((x - x.mean()) ** 2))) if x.size else float("nan")
+
+
+def amplitude_levels(amps: Sequence[float]) -> list[float]:
+    """The records' amplitude range as slip-law start scales: the smallest and the largest
+    record amplitude and, when they are more than 4x apart, their geometric mean."""
+    a = [x for x in amps if np.isfinite(x) and x > 0] or [1e-3]
+    lo, hi = min(a), max(a)
+    return [lo] if hi <= 1.5 * lo else [lo, float(np.sqrt(lo * hi)), hi] if hi > 4 * lo else [lo, hi]
+
+
+def _slip_starts(name: str, k: float, levels: Sequence[float]) -> list[dict[str, float]] | None:
+    """Starts of a slip law, one set per amplitude level a (module docstring): its stuck
+    stiffness 5 or 20 % of k, slipping fully at about a (coulomb: its slider at a / 2;
+    iwan: macro-slip at phi_max = a, chi -0.8 (micro-slip force share nearly constant with
+    amplitude) or -0.3; bouc_wen: z saturating near a; richard_abbott: yield at a / 2)."""
+    out = []
+    for a in levels:
+        for frac in (0.05, 0.2):
+            kt = frac * k
+            if name == "coulomb":
+                out.append({"coulomb.k": kt, "coulomb.f_s": 0.5 * kt * a})
+            elif name == "iwan":
+                for chi in (-0.8, -0.3):
+                    beta = 0.1
+                    d = beta + (chi + 1) / (chi + 2)
+                    out.append({"iwan.K_T": kt, "iwan.F_S": kt * a * d / (1 + beta), "iwan.chi": chi,
+                                "iwan.beta": beta})
+            elif name == "bouc_wen":
+                out.append({"bouc_wen.k0": kt, "bouc_wen.alpha": 0.5 / a, "bouc_wen.beta": 0.5 / a,
+                            "bouc_wen.n": 1.0})
+            elif name == "richard_abbott":
+                out.append({"richard_abbott.ke": kt, "richard_abbott.kp": 0.0,
+                            "richard_abbott.F_y": 0.5 * kt * a, "richard_abbott.n": 2.0})
+            else:
+                return None
+    return out
+
+
+#: a slip law's stuck stiffness taken from linear_stiffness at its start, so the mode's
+#: small-amplitude frequency stays the measured one
+STUCK = {"coulomb": "coulomb.k", "iwan": "iwan.K_T", "richard_abbott": "richard_abbott.ke"}
+
+
+def _starts(model: Model, known: Mapping[str, float], amp: float | Sequence[float]
+            ) -> list[dict[str, float]]:
+    """Physical starts of the parameters not in ``known`` (module docstring); ``amp``: the
+    records' amplitudes (each record's), slip laws started at every level of their range."""
+    amps = [float(amp)] if np.isscalar(amp) else [float(x) for x in amp]
     k = abs(known.get("linear_stiffness.k", 1.0))
-    a = max(amp, 1e-12)
+    levels = amplitude_levels(amps)
+    a = max(levels)
     sym = lambda base, *f: [s * x * base for x in f for s in (1, -1)]  # noqa: E731
     opts: dict[str, list[float]] = {
         "linear_stiffness.k": [k], "viscous.c": [known.get("viscous.c", 0.0)],
@@ -109,20 +165,28 @@ def _starts(model: Model, known: Mapping[str, float], amp: float) -> list[dict[s
         "cubic_stiffness.k3": sym(k / a**2, 0.01, 0.03, 0.1, 0.3),
         "bilinear_stiffness.dk": sym(k, 0.01, 0.03, 0.1, 0.3),
         "contact.k_c": sym(k, 0.03, 0.1, 0.3), "contact.gap": [0.1 * a, 0.5 * a],
-        "coulomb.k": [0.05 * k, 0.2 * k], "coulomb.f_s": [0.01 * k * a, 0.05 * k * a, 0.2 * k * a],
         "asymmetric_slip.asym": [0.3, -0.3, 0.1, -0.1],
-        "bouc_wen.k0": [0.05 * k, 0.2 * k], "bouc_wen.n": [1.0],
-        "bouc_wen.alpha": [10 / a, 1 / a], "bouc_wen.beta": [10 / a, 1 / a],
         "offset.F0": [0.0], "shaker.highpass_hz": list(HIGHPASS_STARTS),
     }
     new = [n for n in (*model.param_names, "shaker.highpass_hz") if n not in known]
-    grids = [opts.get(n, [0.0]) for n in new]
+    # a slip law's parameters go together (one set per amplitude level), the rest by product
+    slip: list[list[dict[str, float]]] = []
+    for e in model.names:
+        ps = [n for n in Model.parse(e).param_names if n in new]
+        sl = _slip_starts(e, k, levels) if ps else None
+        if sl is not None:
+            slip.append([{n: v for n, v in c.items() if n in ps} for c in sl])
+            new = [n for n in new if n not in ps]
+    # the slip sets vary fastest: ``MAX_STARTS`` cuts other values before any amplitude level
+    groups = [[{n: v} for v in opts.get(n, [0.0])] for n in new] + slip
     out = []
-    for combo in itertools.product(*grids):
+    for combo in itertools.product(*groups):
         d = dict(known)
-        d.update(zip(new, combo))
-        if "coulomb.k" in new and "linear_stiffness.k" in d:
-            d["linear_stiffness.k"] = known.get("linear_stiffness.k", k) - d["coulomb.k"]
+        for c in combo:
+            d.update(c)
+        for e, kn in STUCK.items():
+            if e in model.names and kn not in known and "linear_stiffness.k" in d:
+                d["linear_stiffness.k"] = known.get("linear_stiffness.k", k) - d[kn]
         out.append(d)
     return out[:MAX_STARTS]
 
@@ -243,10 +307,10 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
         return project(fit_ms, qs, vals)[2]
 
     sub = [e for e in model.names if all(p in known for p in Model.parse(e).param_names)]
-    amp = 1e-3
-    if sub:     # the records' largest modal displacement under the effects already known
+    amp: list[float] = [1e-3]
+    if sub:     # each record's modal amplitude under the effects already known
         q0 = [m.states(Model.parse("+".join(sub)), known) for m in fit_ms]
-        amp = max(float(np.nanmax(np.abs(q[:, 0]))) for q in q0)
+        amp = [record_amplitude(q[:, 0], m) for q, m in zip(q0, fit_ms)]
     best, best_cost = None, np.inf
     for cand in _starts(model, known, amp):
         lo_hi = [bnd[n] for n in names]

@@ -26,7 +26,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from labjoint.compare.kinds.modal import ModalMeasurement
-from labjoint.compare.kinds.modal_fit import HIGHPASS_RANGE, PENALTY, _bounds, _starts
+from labjoint.compare.kinds.modal_fit import HIGHPASS_RANGE, PENALTY, STUCK, _bounds, _starts
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model
 from labjoint.models.scores import nrmse_from_sums, pooled_nrmse
@@ -124,8 +124,9 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
 
     best, best_cost = None, np.inf
     for cand in _starts(model, {**known, "linear_stiffness.k": k_ref}, amp):
-        if "linear_stiffness.k" in known:
-            cand["linear_stiffness.k"] = known["linear_stiffness.k"]
+        if "linear_stiffness.k" in known:   # less a new slip law's stuck stiffness
+            cand["linear_stiffness.k"] = known["linear_stiffness.k"] - sum(
+                cand[kn] for e, kn in STUCK.items() if e in model.names and kn not in known)
         x = np.array([np.clip(cand.get(n, 0.0), *bnd[n]) for n in names])
         r = residual_of(dict(zip(names, x)))
         if r is not None and float(r @ r) < best_cost:

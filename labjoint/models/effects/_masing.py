@@ -48,52 +48,93 @@ def backbone(kind, p, x):  # pragma: no cover - numba
     return sg * (h + p[3] * ax)
 
 
+#: the Masing state carried between steps (:func:`masing_state`): reversal stack
+#: ``hist`` (2, STACK) of (u_r, F_r), and ``st`` = (top, direction, u_prev, F_prev, u0)
+M_TOP, M_DIR, M_PREV, M_FPREV, M_U0 = 0, 1, 2, 3, 4
+
+
+def masing_state(u0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """A relaxed Masing state at displacement ``u0``: (hist, st)."""
+    return np.zeros((2, STACK)), np.array([0.0, 0.0, u0, 0.0, u0])
+
+
+@njit(cache=True)
+def masing_eval(kind, p, hist, st, x):  # pragma: no cover - numba
+    """The force at ``x`` reached from the state's last point in one monotone move (an
+    RK4 stage), the state left unchanged: rules 1-3 with the last point a reversal if
+    the move turns back."""
+    return _masing_move(kind, p, hist, st, x, False)
+
+
+@njit(cache=True)
+def masing_commit(kind, p, hist, st, x):  # pragma: no cover - numba
+    """Move the state to ``x`` (the end of a step or a sample) and return the force."""
+    return _masing_move(kind, p, hist, st, x, True)
+
+
+@njit(cache=True)
+def _masing_move(kind, p, hist, st, x, commit):  # pragma: no cover - numba
+    prev, fprev = st[M_PREV], st[M_FPREV]
+    step = x - prev
+    if step == 0.0:
+        return fprev
+    top = int(st[M_TOP])
+    d = int(st[M_DIR])
+    nd = 1 if step > 0.0 else -1
+    push = d != 0 and nd != d
+    off = 0                         # hist[:, off:] is the stack
+    if push and top == STACK:       # forget the oldest unclosed pair
+        if commit:
+            for j in range(2, STACK):
+                hist[0, j - 2] = hist[0, j]
+                hist[1, j - 2] = hist[1, j]
+        else:
+            off = 2                 # the stack the commit will see, without shifting it
+        top -= 2
+    # the stack seen from x: hist[:, :top] plus (prev, fprev) when the move turns back
+    t = top + (1 if push else 0)
+    u0 = st[M_U0]
+    while t > 0:
+        if t >= 2:
+            ur2 = prev if (push and t - 2 == top) else hist[0, t - 2 + off]
+            if nd * (x - ur2) >= 0.0:
+                t -= 2
+                continue
+        else:
+            ur0 = prev if (push and top == 0) else hist[0, off]
+            if nd * (x - (2.0 * u0 - ur0)) >= 0.0:
+                t = 0
+                continue
+        break
+    if t == 0:
+        f = backbone(kind, p, x - u0)
+    else:
+        if push and t - 1 == top:
+            ur, frr = prev, fprev
+        else:
+            ur, frr = hist[0, t - 1 + off], hist[1, t - 1 + off]
+        f = frr + 2.0 * backbone(kind, p, 0.5 * (x - ur))
+    if commit:
+        if push:
+            hist[0, top] = prev
+            hist[1, top] = fprev
+        st[M_TOP] = t
+        st[M_DIR] = nd
+        st[M_PREV] = x
+        st[M_FPREV] = f
+    return f
+
+
 @njit(cache=True)
 def masing_force(u, kind, p):  # pragma: no cover - numba
     """Force along history ``u`` by the extended Masing rules, relaxed at u[0]."""
     n = u.size
     out = np.empty(n)
-    ur = np.empty(STACK)
-    fr = np.empty(STACK)
-    top = 0
-    u0 = u[0]
-    d = 0
-    prev = u0
-    fprev = 0.0
+    hist = np.empty((2, STACK))
+    st = np.array([0.0, 0.0, u[0], 0.0, u[0]])
     out[0] = 0.0
     for i in range(1, n):
-        x = u[i]
-        step = x - prev
-        if step == 0.0:
-            out[i] = fprev
-            continue
-        nd = 1 if step > 0.0 else -1
-        if d != 0 and nd != d:
-            if top == STACK:  # forget the oldest unclosed pair
-                for j in range(2, STACK):
-                    ur[j - 2] = ur[j]
-                    fr[j - 2] = fr[j]
-                top -= 2
-            ur[top] = prev
-            fr[top] = fprev
-            top += 1
-        d = nd
-        while top > 0:
-            if top >= 2:
-                if d * (x - ur[top - 2]) >= 0.0:
-                    top -= 2
-                    continue
-            elif d * (x - (2.0 * u0 - ur[0])) >= 0.0:
-                top = 0
-                continue
-            break
-        if top == 0:
-            f = backbone(kind, p, x - u0)
-        else:
-            f = fr[top - 1] + 2.0 * backbone(kind, p, 0.5 * (x - ur[top - 1]))
-        out[i] = f
-        prev = x
-        fprev = f
+        out[i] = masing_commit(kind, p, hist, st, u[i])
     return out
 
 
