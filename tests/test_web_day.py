@@ -227,6 +227,9 @@ def test_live_lists_every_job_and_the_stop_banner_leaves_every_page(day, width):
     page.wait_for_selector("#estop-msg:not(.sent)", state="attached", timeout=patience.ms(10000))
     page.click(f"tr[data-job='{late}'] button[data-action=cancel]")
     wait_for(lambda: _status(s, late), lambda st: st == "cancelled", timeout=10)
+    # the table re-renders (and may reorder) once it polls the cancel: click resume after
+    # that, not on a row that moves under the pointer
+    page.wait_for_selector(f"tr[data-job='{late}'][data-status=cancelled]", timeout=patience.ms(10000))
     page.click(f"tr[data-job='{held}'] button[data-action=resume]")
     assert wait_for(lambda: _status(s, held), lambda st: st in FINISHED, timeout=60) == "done"
     page.wait_for_selector(f"tr[data-job='{held}'][data-status=done]", timeout=patience.ms(10000))
