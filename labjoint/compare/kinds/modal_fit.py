@@ -31,15 +31,14 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from labjoint.compare.kinds.modal import ModalMeasurement
+from labjoint.compare.kinds.multistart import best_start_then_solve
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model
 from labjoint.models.scores import nrmse_from_sums, pooled_nrmse
 from labjoint.structure.nlmode import QUANTITY_ORDER, check_modal_model
 
-PENALTY = 1e3
 LINEAR_F_RANGE = (0.95, 1.05)       # the linear modes' frequency and damping, fitted within
 LINEAR_ZETA_RANGE = (0.2, 5.0)      # these factors of the measured ones
 HIGHPASS_RANGE = (0.0, 10.0)        # Hz: the shaker path's high-pass corner (nlmode eq. 4)
@@ -311,33 +310,10 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     if sub:     # each record's modal amplitude under the effects already known
         q0 = [m.states(Model.parse("+".join(sub)), known) for m in fit_ms]
         amp = [record_amplitude(q[:, 0], m) for q, m in zip(q0, fit_ms)]
-    best, best_cost = None, np.inf
-    for cand in _starts(model, known, amp):
-        lo_hi = [bnd[n] for n in names]
-        x = np.array([np.clip(cand[n], lo, hi) for n, (lo, hi) in zip(names, lo_hi)])
-        r = residual_of({**fixed, **dict(zip(names, x))})
-        if r is not None and float(r @ r) < best_cost:
-            best, best_cost = x, float(r @ r)
-    if best is None:
-        raise InputError(f"every start of {model.expr} diverges on the records", field="model")
-    size = best_cost ** 0.5
-    last = [np.zeros(0)]
-
-    def fun(x: np.ndarray) -> np.ndarray:
-        r = residual_of({**fixed, **dict(zip(names, x))})
-        if r is None:
-            return np.full(last[0].size, PENALTY * size / max(1, last[0].size) ** 0.5) \
-                if last[0].size else np.full(1, PENALTY * size)
-        last[0] = r
-        return r
-
-    fun(best)
-    lo = np.array([bnd[n][0] for n in names])
-    hi = np.array([bnd[n][1] for n in names])
-    scale = np.maximum(np.abs(best), 1e-12)
-    sol = least_squares(lambda z: fun(z * scale), best / scale, bounds=(lo / scale, hi / scale),
-                        max_nfev=max_nfev or 40 * len(names), x_scale=1.0, diff_step=1e-4)
-    x = sol.x * scale
+    starts = [np.array([np.clip(cand[n], *bnd[n]) for n in names]) for cand in _starts(model, known, amp)]
+    x, sol, scale = best_start_then_solve(lambda z: residual_of({**fixed, **dict(zip(names, z))}),
+                                          names, bnd, starts, max_nfev,
+                                          f"every start of {model.expr} diverges on the records")
     vals = {**fixed, **dict(zip(names, x))}
     qs = [m.states(model, vals) for m in fit_ms]
     if not all(np.all(np.isfinite(q)) for q in qs):

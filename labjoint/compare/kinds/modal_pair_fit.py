@@ -23,10 +23,10 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from labjoint.compare.kinds.modal import ModalMeasurement
-from labjoint.compare.kinds.modal_fit import HIGHPASS_RANGE, PENALTY, STUCK, _bounds, _starts
+from labjoint.compare.kinds.modal_fit import HIGHPASS_RANGE, STUCK, _bounds, _starts
+from labjoint.compare.kinds.multistart import best_start_then_solve
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model
 from labjoint.models.scores import nrmse_from_sums, pooled_nrmse
@@ -122,36 +122,17 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
             out.append(m.normalized(m.responses(model, vals, q)) - m.data.force)
         return np.concatenate(out)
 
-    best, best_cost = None, np.inf
+    starts = []
     for cand in _starts(model, {**known, "linear_stiffness.k": k_ref}, amp):
         if "linear_stiffness.k" in known:   # less a new slip law's stuck stiffness
             cand["linear_stiffness.k"] = known["linear_stiffness.k"] - sum(
                 cand[kn] for e, kn in STUCK.items() if e in model.names and kn not in known)
-        x = np.array([np.clip(cand.get(n, 0.0), *bnd[n]) for n in names])
-        r = residual_of(dict(zip(names, x)))
-        if r is not None and float(r @ r) < best_cost:
-            best, best_cost = x, float(r @ r)
-    if best is None:
-        raise InputError(f"every start of {model.expr} between {between[0]} and {between[1]} "
-                         "diverges on the records", field="model")
-    size = best_cost ** 0.5
-    last = [np.zeros(0)]
-
-    def fun(x: np.ndarray) -> np.ndarray:
-        r = residual_of(dict(zip(names, x)))
-        if r is None:
-            n = max(1, last[0].size)
-            return np.full(n, PENALTY * size / n ** 0.5)
-        last[0] = r
-        return r
-
-    fun(best)
+        starts.append(np.array([np.clip(cand.get(n, 0.0), *bnd[n]) for n in names]))
+    x, sol, scale = best_start_then_solve(
+        lambda z: residual_of(dict(zip(names, z))), names, bnd, starts, max_nfev,
+        f"every start of {model.expr} between {between[0]} and {between[1]} diverges on the records")
     lo = np.array([bnd[n][0] for n in names])
     hi = np.array([bnd[n][1] for n in names])
-    scale = np.maximum(np.abs(best), 1e-12)
-    sol = least_squares(lambda z: fun(z * scale), best / scale, bounds=(lo / scale, hi / scale),
-                        max_nfev=max_nfev or 40 * len(names), x_scale=1.0, diff_step=1e-4)
-    x = sol.x * scale
     vals = dict(zip(names, x))
     r = residual_of(vals)
     if r is None:

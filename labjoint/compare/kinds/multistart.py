@@ -1,0 +1,51 @@
+"""The modal kind's bounded simulation-error fit, shared by the joint on a mode
+(:mod:`.modal_fit`) and the joint between two points (:mod:`.modal_pair_fit`): the best
+of a list of starts by its residual, then ``scipy.optimize.least_squares`` inside the
+bounds in units of that start. A trial whose simulation diverges costs ``PENALTY`` times
+the start's residual norm (spread over the residual's length), so the solver backs off
+instead of stopping."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Mapping, Sequence
+
+import numpy as np
+from scipy.optimize import OptimizeResult, least_squares
+
+from labjoint.errors import InputError
+
+PENALTY = 1e3
+
+
+def best_start_then_solve(residual: Callable[[np.ndarray], np.ndarray | None], names: Sequence[str],
+                          bounds: Mapping[str, tuple[float, float]], starts: Iterable[np.ndarray],
+                          max_nfev: int | None, diverged: str
+                          ) -> tuple[np.ndarray, OptimizeResult, np.ndarray]:
+    """(x, the solver's result, the scale of its unknowns: x = sol.x * scale).
+    ``residual(x)`` is None where the model diverges; when every start does, InputError
+    with the message ``diverged``."""
+    best, best_cost = None, np.inf
+    for x in starts:
+        r = residual(x)
+        if r is not None and float(r @ r) < best_cost:
+            best, best_cost = x, float(r @ r)
+    if best is None:
+        raise InputError(diverged, field="model")
+    size = best_cost ** 0.5
+    last = [np.zeros(0)]
+
+    def fun(x: np.ndarray) -> np.ndarray:
+        r = residual(x)
+        if r is None:
+            n = max(1, last[0].size)
+            return np.full(n, PENALTY * size / n ** 0.5)
+        last[0] = r
+        return r
+
+    fun(best)
+    lo = np.array([bounds[n][0] for n in names])
+    hi = np.array([bounds[n][1] for n in names])
+    scale = np.maximum(np.abs(best), 1e-12)
+    sol = least_squares(lambda z: fun(z * scale), best / scale, bounds=(lo / scale, hi / scale),
+                        max_nfev=max_nfev or 40 * len(names), x_scale=1.0, diff_step=1e-4)
+    return sol.x * scale, sol, scale
