@@ -33,10 +33,9 @@ from typing import Any
 import numpy as np
 
 from labjoint.compare.kinds.modal import ModalMeasurement
-from labjoint.compare.kinds.multistart import best_start_then_solve
+from labjoint.compare.kinds.multistart import best_start_then_solve, modal_result
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model
-from labjoint.models.scores import nrmse_from_sums, pooled_nrmse
 from labjoint.structure.nlmode import QUANTITY_ORDER, check_modal_model
 
 LINEAR_F_RANGE = (0.95, 1.05)       # the linear modes' frequency and damping, fitted within
@@ -351,17 +350,5 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     for k in _gain_names(fit_ms[0]):
         if k not in params:
             params.add(k, 0.0)
-    sse, ssf = {}, {}
-    for m in (*fit_ms, *val_ms):
-        p = m.predict(model, params)
-        e = p - m.data.force
-        sse[m.name] = float(e @ e) if np.all(np.isfinite(e)) else float("inf")
-        ssf[m.name] = float(m.data.force @ m.data.force)
-    fn, vn = [m.name for m in fit_ms], [m.name for m in val_ms]
-    return FitResult(model, params, tuple(names), stderr, corr,
-                     pooled_nrmse([sse[n] for n in fn], [ssf[n] for n in fn]),
-                     {n: nrmse_from_sums(sse[n], ssf[n]) for n in fn},
-                     pooled_nrmse([sse[n] for n in vn], [ssf[n] for n in vn]) if vn else None,
-                     {n: nrmse_from_sums(sse[n], ssf[n]) for n in vn}, int(sol.nfev), bool(sol.success),
-                     str(sol.message), int(r.size), float(r @ r), (), tuple(fn), tuple(vn))
+    return modal_result(model, params, names, stderr, corr, sol, r, fit_ms, val_ms)
 

@@ -26,10 +26,9 @@ import numpy as np
 
 from labjoint.compare.kinds.modal import ModalMeasurement
 from labjoint.compare.kinds.modal_fit import HIGHPASS_RANGE, STUCK, _bounds, _starts
-from labjoint.compare.kinds.multistart import best_start_then_solve
+from labjoint.compare.kinds.multistart import best_start_then_solve, modal_result
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model
-from labjoint.models.scores import nrmse_from_sums, pooled_nrmse
 from labjoint.structure.nlmode import QUANTITY_ORDER, check_modal_model, linear_states
 from labjoint.structure.nlmode_pair import differences
 
@@ -164,15 +163,4 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     params.add("shaker.highpass_hz", vals["shaker.highpass_hz"], lower=0.0, upper=HIGHPASS_RANGE[1], unit="Hz")
     for k, e in stderr.items():
         params[k].stderr = e
-    sse, ssf = {}, {}
-    for m in (*fit_ms, *val_ms):
-        e = m.predict(model, params) - m.data.force
-        sse[m.name] = float(e @ e) if np.all(np.isfinite(e)) else float("inf")
-        ssf[m.name] = float(m.data.force @ m.data.force)
-    fn, vn = [m.name for m in fit_ms], [m.name for m in val_ms]
-    return FitResult(model, params, tuple(names), stderr, corr,
-                     pooled_nrmse([sse[n] for n in fn], [ssf[n] for n in fn]),
-                     {n: nrmse_from_sums(sse[n], ssf[n]) for n in fn},
-                     pooled_nrmse([sse[n] for n in vn], [ssf[n] for n in vn]) if vn else None,
-                     {n: nrmse_from_sums(sse[n], ssf[n]) for n in vn}, int(sol.nfev), bool(sol.success),
-                     str(sol.message), int(r.size), float(r @ r), (), tuple(fn), tuple(vn))
+    return modal_result(model, params, names, stderr, corr, sol, r, fit_ms, val_ms)

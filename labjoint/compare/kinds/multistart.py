@@ -8,11 +8,14 @@ instead of stopping."""
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
 
 from labjoint.errors import InputError
+from labjoint.models import FitResult
+from labjoint.models.scores import nrmse_from_sums, pooled_nrmse
 
 PENALTY = 1e3
 
@@ -49,3 +52,22 @@ def best_start_then_solve(residual: Callable[[np.ndarray], np.ndarray | None], n
     sol = least_squares(lambda z: fun(z * scale), best / scale, bounds=(lo / scale, hi / scale),
                         max_nfev=max_nfev or 40 * len(names), x_scale=1.0, diff_step=1e-4)
     return sol.x * scale, sol, scale
+
+
+def modal_result(model: Any, params: Any, names: Sequence[str], stderr: Mapping[str, float],
+                 corr: np.ndarray, sol: OptimizeResult, r: np.ndarray, fit_ms: Sequence[Any],
+                 val_ms: Sequence[Any]) -> FitResult:
+    """The FitResult of a modal fit: each record's NRMSE under the fitted ``params`` (a
+    diverging prediction counts as inf), pooled over the fit and the validation records."""
+    sse, ssf = {}, {}
+    for m in (*fit_ms, *val_ms):
+        e = m.predict(model, params) - m.data.force
+        sse[m.name] = float(e @ e) if np.all(np.isfinite(e)) else float("inf")
+        ssf[m.name] = float(m.data.force @ m.data.force)
+    fn, vn = [m.name for m in fit_ms], [m.name for m in val_ms]
+    return FitResult(model, params, tuple(names), dict(stderr), corr,
+                     pooled_nrmse([sse[n] for n in fn], [ssf[n] for n in fn]),
+                     {n: nrmse_from_sums(sse[n], ssf[n]) for n in fn},
+                     pooled_nrmse([sse[n] for n in vn], [ssf[n] for n in vn]) if vn else None,
+                     {n: nrmse_from_sums(sse[n], ssf[n]) for n in vn}, int(sol.nfev), bool(sol.success),
+                     str(sol.message), int(r.size), float(r @ r), (), tuple(fn), tuple(vn))
