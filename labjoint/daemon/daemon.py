@@ -27,23 +27,20 @@ import signal
 import socket
 import threading
 import time
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable
 
 from labjoint.acquisition.engine import RunEngine
-from labjoint.acquisition.plans import load_plan
 from labjoint.config import RigConfig
 from labjoint.daemon.gate import QueueGate
+from labjoint.daemon.jobs import JobRunner
 from labjoint.daemon.lock import DaemonLock
-from labjoint.daemon.monitor import (RunTracker, WatchedGenerator, expected_records, job_outcome,
-                                    observe)
-from labjoint.daemon.queue import Job, JobQueue, utc_now
+from labjoint.daemon.monitor import RunTracker, WatchedGenerator
+from labjoint.daemon.queue import Job, JobQueue
 from labjoint.daemon.setup import (Calibrations, LeftOut, default_paths, open_rig_lazily,
                                    switch_output_off)
-from labjoint.daemon.watch import JobWatcher
 from labjoint.errors import HardwareError
-from labjoint.storage import Catalog, RunWriter, catalog_for, recover_all
+from labjoint.storage import Catalog, catalog_for, recover_all
 
 log = logging.getLogger(__name__)
 
@@ -51,7 +48,7 @@ log = logging.getLogger(__name__)
 PUBLISH_INTERVAL_S = 1.0
 
 
-class Daemon:
+class Daemon(JobRunner):
     """Runs the queue's jobs on the rig described by ``config``.
 
     ``clock``/``sleep`` pace the engine's ramps; ``rig_factory(config) -> Rig`` replaces
@@ -245,106 +242,7 @@ class Daemon:
             self.last_error = f"closing the rig failed: {exc}"
             log.error(self.last_error)
 
-    # ---- jobs -----------------------------------------------------------------------
-    def run_one(self) -> Job | None:
-        """Run the oldest queued job to its end and return it; None if none was started
-        (empty queue, emergency stop pending, or stopping)."""
-        self.start()
-        if self._stopping():
-            return None
-        estop = self.queue.estop_requested()
-        if estop is not None:
-            if self._gen is not None and self._gen.output is not False:
-                self._output_off("emergency stop pending")
-            return None
-        self.uncatalogued.retry(self.catalog)
-        job = self.queue.claim_next(self.worker_id)
-        return None if job is None else self._execute(job)
-
-    def _execute(self, job: Job) -> Job:
-        log.info("job %s: plan %s", job.id, job.plan.get("plan"))
-        tracker = RunTracker()
-        n_expected = expected_records(job.plan)
-        self._job, self._tracker, self._abort_kind = job, tracker, None
-        self._state = "running"
-        writer = RunWriter(self.data_dir, catalog=self.catalog,
-                           flush_interval_s=self._flush_interval())
-        status, message, error, pending = "failed", "", None, None
-        watcher = None
-        try:
-            self._cal.refresh(self._daq)
-            engine = self._make_engine(job, [writer, tracker])
-            plan = observe(load_plan(dict(job.plan)), tracker, self._daq.sample_rate_hz)
-            plan.__name__ = str(job.plan.get("plan", "plan"))
-            watcher = JobWatcher(self.queue, job.id, engine, tracker, n_expected,
-                                 poll_s=self.poll_s, abort_request=self._abort_request,
-                                 on_abort=self._note_abort, publish=self._publish)
-            prefix = f"{datetime.now(timezone.utc):%Y%m%dT%H%M%SZ}-{job.id[:8]}"
-            result = engine.run(plan, name_prefix=prefix)
-            status, message, error = job_outcome(result, tracker.n_gaps, self._cancelled(job.id),
-                                                 tracker.unconverged)
-        except Exception as exc:  # plan code or a callback crashed: the engine cleaned up
-            error = f"{type(exc).__name__}: {exc}"
-            message = f"failed: {error}"
-            log.exception("job %s crashed", job.id)
-        except BaseException as exc:  # KeyboardInterrupt, SystemExit: finish, then re-raise
-            status, error, pending = "aborted", f"{type(exc).__name__}: {exc}", exc
-            message = f"aborted: {error}"
-        finally:
-            if watcher is not None:
-                watcher.finish()
-            try:
-                writer.close()  # a run that never got its RunStop is marked incomplete
-            except Exception as exc:
-                log.error("closing the run writer failed: %s", exc)
-            if writer.catalog_pending:  # a catalog outage: the files are complete
-                note = self.uncatalogued.add(writer.catalog_pending)
-                status, error = ("failed", note) if status == "done" else (status, error)
-                message += "; " + note
-            off = self._output_off(f"job {job.id} ended")
-            self._engine = self._gate = None
-            message += "; generator output OFF" if off else "; generator output state UNKNOWN"
-            final = self.queue.update(
-                job.id, status=status, finished_at=utc_now(), message=message, error=error,
-                runs=list(tracker.runs), gaps=list(tracker.gaps), waiting_for=None,
-                progress=1.0 if status == "done" else tracker.progress(n_expected))
-            self._job, self._state = None, "idle"
-            self._publish(force=True)
-        if pending is not None:
-            raise pending
-        log.info("job %s %s: %s", job.id, final.status, final.message)
-        return final
-
-    def _make_engine(self, job: Job, callbacks: list) -> RunEngine:
-        sim = getattr(self._rig, "sim", None)
-        on_operator = self.operator_torque if self.operator_torque is not None else sim is None
-        apply = getattr(sim, "set_torque", None) if on_operator else None
-        self._gate = QueueGate(self.queue, job.id, self.poll_s, apply_torque=apply)
-        self._engine = RunEngine(self._gen, self._daq, self.config.limits, callbacks,
-                                 clock=self.clock, sleep=self.sleep, torque_gate=self._gate,
-                                 rig=None if on_operator else sim, config=self.config,
-                                 calibration_sources=self._cal.sources)
-        return self._engine
-
-    def _cancelled(self, job_id: str) -> bool:
-        if self._abort_kind is not None:
-            return self._abort_kind == "cancel"
-        job = self.queue.get(job_id)  # the gate saw the cancel before the watcher did
-        return job is not None and job.cancel_requested
-
-    def _note_abort(self, kind: str) -> None:
-        self._abort_kind = self._abort_kind or kind
-
-    def _abort_request(self, job_id: str) -> tuple[str | None, str]:
-        if self._stopping():
-            return "stop", f"daemon stopping: {self.exit_reason or 'stop requested'}"
-        estop = self.queue.estop_requested()
-        if estop is not None:
-            return "estop", f"emergency stop: {estop}"
-        job = self.queue.get(job_id)
-        if job is not None and job.cancel_requested:
-            return "cancel", "cancelled by the operator"
-        return None, ""
+    # ---- jobs: run_one and the job's execution are in :class:`~labjoint.daemon.jobs.JobRunner`
 
     # ---- generator and status ---------------------------------------------------------
     def _output_off(self, why: str) -> bool:
