@@ -17,6 +17,7 @@ quantisation steps). Two look-alikes are told apart:
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from labjoint.errors import InputError
 
@@ -61,11 +62,14 @@ def flat_top_fraction(x: np.ndarray, reference: np.ndarray | None = None) -> tup
         return 0.0, float("nan")
     tol = 1e-9 * max(span, abs(hi), abs(lo))
     total, worst, level = 0, 0, float("nan")
-    for ext, sign in ((hi, 1.0), (lo, -1.0)):
-        at = x >= ext - tol if sign > 0 else x <= ext + tol   # one pass, no temporaries
-        n_at = int(np.count_nonzero(at))
+    # both counts in one compiled pass, no mask: the common case (one sample at each
+    # extreme) ends here; the masks are made only for a channel that may be clipped
+    counts = _count_at_extremes(x, hi - tol, lo + tol) if x.ndim == 1 else (
+        int(np.count_nonzero(x >= hi - tol)), int(np.count_nonzero(x <= lo + tol)))
+    for ext, sign, n_at in ((hi, 1.0, counts[0]), (lo, -1.0, counts[1])):
         if n_at < MIN_RUN:                               # the common case: one sample
             continue
+        at = x >= ext - tol if sign > 0 else x <= ext + tol
         band = int(np.count_nonzero(sign * (ext - x) <= BAND * span)) - n_at
         if band >= n_at:                                 # quantisation, not a clip
             continue
@@ -80,6 +84,17 @@ def flat_top_fraction(x: np.ndarray, reference: np.ndarray | None = None) -> tup
         if n > worst:
             worst, level = n, ext
     return total / x.size, level
+
+
+@njit(cache=True, nogil=True)
+def _count_at_extremes(x, hi_from, lo_to):  # pragma: no cover - compiled
+    """Samples of ``x`` at or above ``hi_from`` and at or below ``lo_to``."""
+    n_hi = 0
+    n_lo = 0
+    for i in range(x.size):
+        n_hi += 1 if x[i] >= hi_from else 0
+        n_lo += 1 if x[i] <= lo_to else 0
+    return n_hi, n_lo
 
 
 def _reverses(d: np.ndarray) -> bool:
