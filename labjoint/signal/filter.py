@@ -126,8 +126,8 @@ def filtfilt_rows(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
     """``sosfiltfilt`` along the last axis of a (rows, n) array, bit for bit.
 
     Same odd-extension padding, initial states and direct-form-II-transposed sections
-    as scipy's ``sosfiltfilt``, in one compiled pass per direction with the rows side by
-    side in SIMD lanes (:mod:`labjoint.signal.lanes`).
+    as scipy's ``sosfiltfilt``, in compiled passes per direction (three sections at a
+    time) with the rows side by side in SIMD lanes (:mod:`labjoint.signal.lanes`).
 
     >>> sos = butter_sos(50_000.0)
     >>> x = np.random.default_rng(0).standard_normal((2, 40_000))

@@ -5,7 +5,9 @@ operations on independent chains can: rows, and pieces of a long row, are interl
 sample by sample ("lanes"), so each section step of all lanes is a few vector
 instructions. Each lane is exactly scipy's ``sosfiltfilt`` of its stretch (odd
 extension, ``sosfilt_zi`` initial states, direct form II transposed): a whole row in one
-lane is filtered bit for bit as scipy does it.
+lane is filtered bit for bit as scipy does it. The stretches are copied into the lanes,
+filtered there in place forward and backward (three sections at a time, written out), and
+copied back out.
 """
 
 from __future__ import annotations
@@ -13,10 +15,6 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 from scipy import signal as sps
-
-
-#: Samples per tile when the lanes are filled from the rows and read back into them.
-TILE = 256
 
 
 def padlen(sos: np.ndarray) -> int:
@@ -91,8 +89,7 @@ def _groups(sos: np.ndarray, zi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _extend(x, starts, width, pad, lanes):  # pragma: no cover - compiled
     """Lane ``r * pieces + p`` of ``lanes`` (one row per sample) = row r of ``x`` from
     ``starts[p]``, ``width`` samples, odd-extended by ``pad`` at both ends (scipy's
-    ``odd_ext``). Copied in tiles of :data:`TILE` samples, all lanes per tile, so the
-    rows of ``lanes`` being filled stay in cache."""
+    ``odd_ext``). Filled a row of ``lanes`` at a time (written once, in order)."""
     rows = x.shape[0]
     pieces = starts.size
     for r in range(rows):
