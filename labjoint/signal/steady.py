@@ -141,13 +141,11 @@ def _in_band(a: np.ndarray, rel_tol: float, abs_tol: float, w: int,
     means = (cs[w:] - cs[:-w]) / w                       # means[s] = mean(a[s:s+w])
     slope = float(np.median((means[w:] - means[:-w]) / w)) if drift else 0.0
     reach = w + (w - 1) / 2.0                            # from j to the window centre
-    j = np.arange(n)
+    m = max(n - 2 * w + 1, 0)                           # cycles with a window after them
     after = np.full(n, np.nan)
-    ok = j + 2 * w <= n
-    after[ok] = means[j[ok] + w] - slope * reach
+    after[:m] = means[w:w + m] - slope * reach           # a[j] vs mean(a[j+w:j+2w])
     before = np.full(n, np.nan)
-    ok = j >= 2 * w
-    before[ok] = means[j[ok] - 2 * w] + slope * reach
+    before[2 * w:] = means[:max(n - 2 * w, 0)] + slope * reach   # vs mean(a[j-2w:j-w])
     second = not drift and n > 2                         # then a ramp is not noise either
     d = np.diff(a, 2 if second else 1)
     sigma = float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(6.0 if second else 2.0))
