@@ -15,7 +15,7 @@ raises the one and lowers the other); the range ends at ``RUN`` disagreeing poin
 row (the slip's onset), a lone disagreeing point is left out (a ringdown's window near
 the noise, or another method's small systematic offset); at least ``MIN_POINTS`` points. Its damping zeta_0 is their weighted mean,
 with that mean's standard uncertainty. When the range's damping still rises with amplitude
-(a weighted line zeta_0 + c A through its points, c beyond ``SIGMA`` sd: a joint that
+(a weighted line zeta_0 + c A through its points, c beyond ``RISE`` sd: a joint that
 micro-slips from the lowest amplitudes, as a continuous Iwan density does, adds damping
 ~ A^(1+chi) below any detectable onset), zeta_0 is that line's intercept instead (the
 points below the onset, outliers off the line left out one at a time): on the simulated
@@ -44,6 +44,8 @@ CHOICES = ("file", "measured")
 SIGMA = 3.0
 MIN_POINTS = 3
 RUN = 3
+#: the range's damping rises when its line's slope exceeds this many sd (then extrapolated)
+RISE = 2.0
 #: an uncertainty is never taken below this fraction of its value (as the backbone kind)
 MIN_SD_FRACTION = 1e-6
 
@@ -112,7 +114,7 @@ def _slips(p: Any, below: Sequence[Any]) -> bool:
 
 def _intercept(pts: Sequence[Any]) -> tuple[float, float, list[Any]] | None:
     """zeta at zero amplitude and its sd from a weighted line zeta_0 + c A through the
-    points (outliers beyond ``SIGMA`` left out) and the points kept, when their damping rises with amplitude beyond ``SIGMA`` sd of c (a joint that
+    points (outliers beyond ``SIGMA`` left out) and the points kept, when their damping rises with amplitude beyond ``RISE`` sd of c (a joint that
     micro-slips from the lowest amplitudes, as a continuous Iwan density does); else None."""
     a = np.array([q.amplitude for q in pts])
     z = np.array([q.damping_ratio for q in pts])
@@ -128,7 +130,7 @@ def _intercept(pts: Sequence[Any]) -> tuple[float, float, list[Any]] | None:
         keep[int(np.argmax(r))] = False
     else:
         return None
-    if not b[1] > SIGMA * np.sqrt(cov[1, 1]):
+    if not b[1] > RISE * np.sqrt(cov[1, 1]):
         return None
     return float(b[0]), float(np.sqrt(cov[0, 0])), [q for q, k in zip(pts, keep) if k]
 
