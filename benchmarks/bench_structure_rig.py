@@ -1,5 +1,6 @@
 """Simulated structural rig speed (seed 000's pipe assembly on a shaker): 60 s of simulated
-time read in DAQ blocks, per joint law; ratio to real time. Light damping needs seconds of
+time read in DAQ blocks, per joint law (iwan the continuous density, iwan_24 a discrete
+Iwan of 24 sliders); ratio to real time, and the continuous Iwan's CPU over the sliders'. Light damping needs seconds of
 simulated time per step-sine step, so this ratio is what a step-sine set costs.
 
 Run: .venv/bin/python benchmarks/bench_structure_rig.py [--seconds 60] [--repeats 3] [--smoke]
@@ -25,8 +26,12 @@ def main() -> None:
     if args.smoke:
         args.seconds = 0.5
     bench = Bench.from_args("structure_rig", args, repeats=3)
-    for law in ("iwan", "jenkins", "richard_abbott", "linear"):
-        cfg = load_config(CONFIG_DIR / "rig-structure-sim.toml", {"sim": {"joint": {"law": law}}})
+    cpu = {}
+    # iwan: the continuous density (Masing's rules with memory); iwan_24: 24 equal sliders
+    for law, joint in (("iwan", {}), ("iwan_24", {"elements": 24}), ("jenkins", {}),
+                       ("richard_abbott", {}), ("linear", {})):
+        joint = {"law": law.split("_24")[0], **joint}
+        cfg = load_config(CONFIG_DIR / "rig-structure-sim.toml", {"sim": {"joint": joint}})
         gen, daq, rig = open_sim(cfg)
         gen.apply(28.0, 4.0)
         gen.set_output(True)
@@ -46,8 +51,10 @@ def main() -> None:
               f"({rig.substeps} steps/sample, {rig.model.omega.size} modes) in {t.median:.3f} s")
         bench.figure(f"structural rig, {law} joint", simulated / t.median, "real time",
                      value=t.median, unit="s", timing=t)
+        cpu[law] = t.cpu_median
         daq.close()
         gen.close()
+    bench.figure("continuous Iwan over 24 sliders, CPU", cpu["iwan"] / cpu["iwan_24"], "24 sliders' CPU")
     bench.finish(simulated_s=args.seconds)
 
 

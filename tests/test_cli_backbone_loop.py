@@ -148,10 +148,10 @@ ringdown_s = 8.0
 @pytest.mark.slow
 def test_readme_commands_on_the_simulated_structural_rig_name_the_slip_law(tmp_path, capsys):
     """README "Backbones": the phase-resonance plan on the simulated structural rig (its
-    threads a hidden Iwan law of 24 discrete sliders, integrated in time, read through
-    the driver code path), its backbone file, and a diagnosis of a linear joint inside the
-    seed-000 structure file: the linear joint fails in damping at large amplitude and the
-    slip law is named."""
+    threads a hidden continuous Iwan law, integrated in time, read through the driver code
+    path), its backbone file, a diagnosis of a linear joint inside the seed-000 structure
+    file (the linear joint fails in damping at large amplitude and the slip law is named)
+    and the ladder with the linear damping measured from the backbones."""
     (tmp_path / "pr.toml").write_text(PR_PLAN)
     code, _, err = run(capsys, "simulate", "--config", "configs/rig-structure-sim.toml", "--plan",
                        tmp_path / "pr.toml", "--out", tmp_path / "data")
@@ -170,11 +170,24 @@ def test_readme_commands_on_the_simulated_structural_rig_name_the_slip_law(tmp_p
     top = [f["text"] for f in dg["failures"] if "phase_resonance/even damping_ratio" in f["where"]]
     assert top and top[0].startswith("damping too low above")
     best = dg["candidates"][0]
-    # with the phase-resonance points' slope error in their uncertainties (the top level's
-    # frequency sd 1e-5 -> 9e-5 Hz) the Iwan fit settles at chi ~ 0.4 and gains 17 % only
-    # (0.12x with the scatter alone): the slip law is named, the fit is not the hidden law's
+    # the structure file's linear damping (0.5 %, the rig's 0.42 %) left in: 0.19x
     assert best["effect"] == "iwan" and best["significant"]
-    assert best["nrmse_after_validation"] < 0.9 * dg["nrmse_validation"]
+    assert best["nrmse_after_validation"] < 0.3 * dg["nrmse_validation"]
+    code, out, err = run(capsys, "ladder", tmp_path / "pr.json", "--structure", "configs/structure-seed000.toml",
+                         "--model", "linear_stiffness", "--candidates", "viscous,iwan", "--max-steps", "2",
+                         "--linear-damping", "measured", "--no-save", "--json")
+    assert code == 0, err
+    lad = json.loads(out)
+    assert [s["added"] for s in lad["steps"][1:2]] == ["iwan"]
+    floor = lad["noise_floor_validation"]
+    assert lad["steps"][0]["nrmse_validation"] > 100 * floor
+    # the linear damping extrapolated to zero amplitude (the continuous Iwan's damping
+    # rises from the lowest amplitudes): 0.418 % where the structure's is 0.420 %
+    assert "extrapolated to zero amplitude" in lad["linear_damping"]
+    # not the noise yet: 5.1x (fit 4.3x) on this run, was 61-279x against 24 discrete
+    # sliders. What remains: phase resonance 11-16 sd soft at 9.8e-4 and 3.1e-3 m against
+    # the hidden law's EPMC, the force-corrected ringdown ~0.002 Hz stiff (see README)
+    assert lad["steps"][-1]["nrmse_validation"] < 8 * floor
 
 
 def test_model_json_shapes_a_backbone_model_takes(tmp_path, capsys):

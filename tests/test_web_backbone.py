@@ -1,7 +1,8 @@
 """The Backbones view in a real headless Chromium, at 1400 and 390 px: a stored backbone
 file with three methods drawn as points with error bars on a log amplitude axis (frequency
 and damping ratio), and at 1400 px a ladder from a linear joint inside the structure
-drawing each step's model curve; no page wider than the screen."""
+drawing each step's model curve, the linear damping it used and what remains after each
+step (then shown at 390 px too); no page wider than the screen."""
 
 from __future__ import annotations
 
@@ -70,6 +71,18 @@ def test_backbone_view_points_by_method_and_ladder_curves(data, width):
             assert got["step 0: linear_stiffness"][0] == "7"
             assert got["step 1: linear_stiffness+iwan"][0] == "7"
             assert "iwan" in page.text_content("#backbone-ladder tbody tr[data-step='1']")
+            # the linear damping used, and what remains after the linear step (where: the
+            # method and amplitude), in the ladder's own words
+            assert "structure file" in page.text_content("#backbone-linear-damping")
+            left = page.locator("#backbone-remaining [data-step='0'] li").all_text_contents()
+            assert left and all("[" in t and " m" in t for t in left), left
+            assert any(t.startswith(("frequency too", "damping too")) for t in left), left
+            # the ladder's output on a phone: nothing wider than the screen
+            page.set_viewport_size({"width": 390, "height": 900})
+            wide = page.evaluate("() => document.documentElement.scrollWidth")
+            assert wide <= 390, f"page {wide} px wide in a 390 px viewport with the ladder shown"
+            screenshot(page, "backbone-ladder-390")
+            page.set_viewport_size({"width": width, "height": 900})
         wide = page.evaluate("() => document.documentElement.scrollWidth")
         assert wide <= width, f"page {wide} px wide in a {width} px viewport"
         screenshot(page, f"backbone-{width}")

@@ -54,6 +54,7 @@ import numpy as np
 
 from labjoint.errors import InputError
 from labjoint.identify.backbone_levels import frf_levels_backbone, is_broadband
+from labjoint.identify.backbone_mass import mass_from_ringdown
 from labjoint.signal.backbone import Backbone, BackbonePoint, is_backbone_file, load_backbones
 from labjoint.signal.frf_steps import frfset_from_runs, phasors
 from labjoint.signal.frfset import FrfSet
@@ -106,8 +107,10 @@ def slope_sd(history) -> float:
 
 
 def phase_resonance_backbone(runs: Iterable[str | Path], *, modal_mass_kg: float | None = None,
-                             segments: int = 8) -> Backbone:
-    """The backbone of phase-resonance level runs (module docstring)."""
+                             segments: int = 8, modal_mass_sd_kg: float = 0.0,
+                             mass_note: str | None = None) -> Backbone:
+    """The backbone of phase-resonance level runs (module docstring); a given
+    ``modal_mass_kg`` with its standard uncertainty and a note saying where it came from."""
     pts = sorted((_resonance_point(Path(p), segments) for p in runs), key=lambda d: abs(d["R"]) / d["f"] ** 2)
     if not pts:
         raise InputError("no runs given", field="runs")
@@ -144,7 +147,8 @@ def phase_resonance_backbone(runs: Iterable[str | Path], *, modal_mass_kg: float
     elif not (math.isfinite(modal_mass_kg) and modal_mass_kg > 0):
         raise InputError(f"must be > 0 kg, got {modal_mass_kg!r}", field="modal_mass_kg")
     else:
-        notes.append(f"apparent modal mass {modal_mass_kg:g} kg (given)")
+        mass_rel = modal_mass_sd_kg / modal_mass_kg
+        notes.append(mass_note or f"apparent modal mass {modal_mass_kg:g} kg (given)")
     out = []
     for p, w, X, fr, fr_sd, rel, S in rows:
         zeta = abs(p["F"]) / (2 * modal_mass_kg * w * w * X)
@@ -322,14 +326,28 @@ def measured_backbones(inputs: Iterable[str | Path], sensor: str | None = None,
                              file=str(name), field="plan")
     out: list[Backbone] = []
     mass = modal_mass
+    pr = None
     if levels:
         pr = phase_resonance_backbone(levels, modal_mass_kg=modal_mass)
-        out.append(pr)
         if mass is None:
             mass = pr.points[0].extra["modal_mass_kg"]
+    forces = {}
     for path in rings:
         with open_run(path) as rf:
-            fch = rf.metadata.get("force_channel")
+            forces[path] = rf.metadata.get("force_channel")
+    if pr is not None and modal_mass is None and rings and forces[rings[0]] is not None:
+        # the slope's m_eff holds for a linear mode only: take the mass at which the
+        # force-corrected ringdown meets the levels' frequencies (labjoint.identify.backbone_mass)
+        got = mass_from_ringdown(pr, lambda m: ringdown_run_backbone(
+            rings[0], sensor, force_channel=forces[rings[0]], modal_mass_kg=m).by_method(), mass)
+        if got is not None:
+            mass = got[0]
+            pr = phase_resonance_backbone(levels, modal_mass_kg=got[0], modal_mass_sd_kg=got[1],
+                                          mass_note=got[2])
+    if pr is not None:
+        out.append(pr)
+    for path in rings:
+        fch = forces[path]
         use_force = mass is not None and fch is not None
         out += ringdown_run_backbone(path, sensor, force_channel=fch if use_force else None,
                                      modal_mass_kg=mass if use_force else None).by_method()

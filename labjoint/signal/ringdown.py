@@ -63,8 +63,9 @@ s = -sigma + i w_d gives the structure's own w and zeta. Their uncertainties are
 uncorrected ones (R's scatter is not propagated).
 
 Amplitudes are in the signal's own quantity and unit; ``to_displacement`` converts a
-velocity (/w) or an acceleration (/w^2, w the window's w_d; sign dropped) to a
-displacement amplitude (stated in the notes).
+velocity (/w) or an acceleration (/w^2, w the window's w_d as recorded, before any force
+removal: the motion's own frequency; sign dropped) to a displacement amplitude (stated in
+the notes).
 """
 
 from __future__ import annotations
@@ -236,11 +237,12 @@ def ringdown_backbone(x, fs: float, *, mode_hz: float | None = None, methods=MET
         above = [r for r in rows if _above_noise(r, noise_rms, snr_min)]
         counts[method] = (len(above), len(rows))
         for amp, amp_sd, wd, wd_sd, sig, sig_sd, _, t0, t1 in above:
+            w_seen = wd                     # the recorded motion's frequency: its amplitude's
             if yF is not None:
                 ratio = force_ratio(y, yF, t, fs, f0, trim, t0, t1, complex(-sig, wd),
                                     {"displacement": 0, "velocity": 1, "acceleration": 2}[quantity])
                 wd, sig = remove_force(wd, sig, ratio, modal_mass_kg)
-            pts.append(_point(amp, amp_sd, wd, wd_sd, sig, sig_sd, power, f"ringdown_{method}"))
+            pts.append(_point(amp, amp_sd, wd, wd_sd, sig, sig_sd, power, f"ringdown_{method}", w_seen))
     few = {m: c for m, c in counts.items() if c[0] < min_windows}
     if few:
         m, (n_ok, n_all) = next(iter(few.items()))
@@ -276,13 +278,16 @@ def remove_force(wd: float, sigma: float, ratio: complex, mass: float) -> tuple[
     return math.sqrt(max(w2 - sig * sig, 0.0)), sig
 
 
-def _point(amp, amp_sd, wd, wd_sd, sig, sig_sd, power, method) -> BackbonePoint:
+def _point(amp, amp_sd, wd, wd_sd, sig, sig_sd, power, method, w_seen) -> BackbonePoint:
+    """A window's point: w_d and sigma the mode's (the force removed), the amplitude
+    converted at ``w_seen``, the frequency of the motion recorded (with an exciter
+    attached, not the structure's own: a shaker's armature lowers it 2.5 % on the rig)."""
     wn = math.hypot(wd, sig)
     zeta = sig / wn
     # d wn = (wd dwd + sig dsig) / wn ; d zeta = (wd^2 dsig - sig wd dwd) / wn^3
     wn_sd = math.hypot(wd * wd_sd, sig * sig_sd) / wn
     z_sd = math.hypot(wd * wd * sig_sd, sig * wd * wd_sd) / wn ** 3
-    a, a_sd = amp / wd ** power, math.hypot(amp_sd, power * amp * wd_sd / wd) / wd ** power
+    a, a_sd = amp / w_seen ** power, math.hypot(amp_sd, power * amp * wd_sd / w_seen) / w_seen ** power
     return BackbonePoint(a, wn / (2 * np.pi), zeta, method, a_sd, wn_sd / (2 * np.pi), z_sd)
 
 

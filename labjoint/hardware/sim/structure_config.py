@@ -65,10 +65,14 @@ class JointLawConfig(_Strict):
     ``richard_abbott``: seed 000's Eq. 2 backbone (initial stiffness the sticking one,
     k_p = ``residual_fraction`` of it, reference force ``slip_force_n``, exponent
     ``ra_exponent``) with Masing unloading and reloading;
-    ``iwan``: ``elements`` Jenkins elements of equal stiffness whose slip displacements
-    follow a density phi^chi up to phi_max (Segalman's 4-parameter Iwan without its
-    Dirac term; ``residual_fraction`` of the sticking stiffness stays elastic after
-    macro-slip); ``jenkins``: one element. ``viscous_ns_per_m`` adds c du/dt.
+    ``iwan``: Segalman's 4-parameter Iwan without its Dirac term (seed 001): Jenkins
+    elements whose stiffness density over slip displacement is phi^chi up to phi_max,
+    macro-slip at ``slip_force_n``; ``residual_fraction`` of the sticking stiffness stays
+    elastic after macro-slip. With ``elements = 0`` (default) the continuous density,
+    exact by Masing's rules with memory on its closed-form backbone
+    (:mod:`.structure_iwan`); with N > 0 a deliberately discrete Iwan of N equal-stiffness
+    sliders at the density's quantile midpoints (the lowest at phi_max / (2N)^(1/(1+chi)):
+    linear below it). ``jenkins``: one element. ``viscous_ns_per_m`` adds c du/dt.
     """
 
     law: Literal["iwan", "jenkins", "richard_abbott", "linear"] = "iwan"
@@ -77,7 +81,7 @@ class JointLawConfig(_Strict):
     slip_force_n: float = Field(15000.0, gt=0, description="macro-slip force of the hysteretic part")
     residual_fraction: float = Field(0.3, ge=0, lt=1)
     chi: float = Field(0.0, gt=-1, le=1)
-    elements: int = Field(24, ge=1, le=200)
+    elements: int = Field(0, ge=0, le=200, description="0: the continuous density; N: N discrete sliders")
     viscous_ns_per_m: float = Field(0.0, ge=0)
     ra_exponent: float = Field(3.6, gt=0, description="Richard-Abbott n (seed 000 Table 4)")
 

@@ -18,6 +18,8 @@ import math
 
 from numba import njit
 
+from labjoint.hardware.sim.structure_iwan import iwan_step
+
 # par: A (half Vpp), offset, omega, on, G, R, L, Bl, c_s, k_s, m_a
 # state: phase, current, previous coil input G V - Bl v
 # out rows
@@ -69,11 +71,13 @@ def richard_abbott_step(u, p, st):
 @njit(cache=True, fastmath=True)
 def integrate(n_samples, n_sub, dt, par, omega, c_modal, phi_drive, phi_acc, phi_joint,
               radius, k_stick, k_res, k_el, phi_slip, c_t, eta, etad, accp, z, state, out,
-              law, ra, ras):
+              law, ra, ras, iw, ist, ihist):
     """Advance ``n_samples`` samples of ``n_sub`` steps; fill ``out`` (rows above, then one per
     accelerometer) with the values at each sample's last step. ``accp``: last accelerations.
-    ``law`` 1: Richard-Abbott threads (``ra`` rows k_e - k_p, k_p, F_0, n; ``ras`` their
-    Masing state, :func:`richard_abbott_step`) instead of the sliders."""
+    ``law`` 0: the sliders ``phi_slip`` (stiffness ``k_el`` each); 1: Richard-Abbott threads
+    (``ra`` rows k_e - k_p, k_p, F_0, n; ``ras`` their Masing state,
+    :func:`richard_abbott_step`); 2: the continuous Iwan (``iw`` its backbone's parameters,
+    ``ist``/``ihist`` each thread's state, :func:`~.structure_iwan.iwan_step`)."""
     amp, off, w, on, gain = par[0], par[1], par[2], par[3], par[4]
     res, ind, bl, cs, ks, ma = par[5], par[6], par[7], par[8], par[9], par[10]
     n_m = omega.size
@@ -118,6 +122,9 @@ def integrate(n_samples, n_sub, dt, par, omega, c_modal, phi_drive, phi_acc, phi
                 u = radius * th
                 if law == 1:
                     f = richard_abbott_step(u, ra[j], ras[j])
+                    n_e_j = 0
+                elif law == 2:
+                    f = k_res[j] * u + iwan_step(u, iw, ist, ihist, j)
                     n_e_j = 0
                 else:
                     f = k_res[j] * u

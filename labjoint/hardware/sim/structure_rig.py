@@ -21,6 +21,7 @@ from labjoint.hardware.sim.modules import get_module
 from labjoint.hardware.sim.sensors import InputStage, ac_coupling
 from labjoint.hardware.sim.structure_config import SIGNAL_ROLES, StructureSimConfig
 from labjoint.hardware.sim.structure_fe import Reduced, reduce
+from labjoint.hardware.sim.structure_iwan import iwan_parameters, iwan_state
 
 ROLE_QUANTITY = {"force": "force", "drive_voltage": "voltage", "amplifier_voltage": "voltage"}
 ROLE_ROW = {"force": sk.FORCE, "drive_voltage": sk.V_GEN, "amplifier_voltage": sk.V_AMP}
@@ -61,7 +62,8 @@ class SimStructureRig:
         kt = j.rotational_stiffness_nm_per_rad / j.radius_m**2
         n_j = self.model.joints.shape[0]
         hyst = 0.0 if j.law == "linear" else (1.0 - j.residual_fraction)
-        n_e = 1 if j.law in ("jenkins", "linear") else j.elements
+        continuous = j.law == "iwan" and j.elements == 0
+        n_e = j.elements if j.law == "iwan" and not continuous else 1
         s = slip_displacements(0.0 if n_e == 1 else j.chi, n_e) * (2.0 if n_e == 1 else 1.0)
         k_el = hyst * kt / n_e
         # slip force of the hysteretic part = k_el * sum(phi_i) = slip_force_n
@@ -71,7 +73,8 @@ class SimStructureRig:
         self._k_el = np.full(n_j, k_el)
         self._phi = np.tile(phi, (n_j, 1))
         self._c_t = np.full(n_j, j.viscous_ns_per_m)
-        self._law = 1 if j.law == "richard_abbott" else 0
+        self._law = 1 if j.law == "richard_abbott" else 2 if continuous else 0
+        self._iw = iwan_parameters(hyst * kt if hyst > 0 else 1.0, j.slip_force_n, j.chi)
         self._ra = np.tile([kt * (1 - j.residual_fraction), kt * j.residual_fraction, j.slip_force_n,
                             j.ra_exponent], (n_j, 1))
         self._c_modal = 2 * self.model.zeta * self.model.omega
@@ -90,6 +93,7 @@ class SimStructureRig:
         self._z = np.zeros_like(self._phi)
         self._ras = np.zeros((self._phi.shape[0], sk.N_RA_STATE))
         self._ras[:, 6] = 1.0   # virgin: on the backbone
+        self._ist, self._ihist = iwan_state(self._phi.shape[0])
         self._state = np.zeros(3)
         self._time, self._samples = 0.0, 0
         self._seeds = np.random.SeedSequence(self.config.seed)
@@ -172,7 +176,7 @@ class SimStructureRig:
             sk.integrate(b - a, self._n_sub, self._dt, par, m.omega, self._c_modal, m.drive, m.sensors,
                          m.joints, self.config.joint.radius_m, self._k_stick, self._k_res, self._k_el,
                          self._phi, self._c_t, self._eta, self._etad, self._accp, self._z, self._state, buf,
-                         self._law, self._ra, self._ras)
+                         self._law, self._ra, self._ras, self._iw, self._ist, self._ihist)
             out[:, a:b] = buf
         t0 = self._time
         self._time += n / self._fs

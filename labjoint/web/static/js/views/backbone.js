@@ -12,7 +12,7 @@ import { fmt, nrmse } from '../units.js';
 import { plotXY } from '../plot/plot.js';
 
 const state = { name: '', file: null, ladder: null, model: 'linear_stiffness', candidates: 'viscous,iwan',
-  steps: 2 };
+  steps: 2, damping: 'file' };
 
 export const METHODS = { phase_resonance: 'phase resonance', ringdown_hilbert: 'ringdown (Hilbert)',
   ringdown_peaks: 'ringdown (peaks)', step_sine: 'step sine', sdof_harmonic: 'single-DOF model',
@@ -72,16 +72,34 @@ function pointsTable(file) {
     'f (Hz)', 'ζ (%)'], rows, { id: 'backbone-points', class: 'table2' }));
 }
 
+// What remains after each step that is not adequate (the comparison's failures in the
+// field's words, each with where: method and amplitude), one list per step.
+function remainingList(res) {
+  const steps = res.steps.map((s, i) => [i, s]).filter(([, s]) => (s.remaining || []).length);
+  if (!steps.length) return '';
+  return h('div', { id: 'backbone-remaining' }, h('h3', {}, 'what remains, and where'),
+    ...steps.map(([i, s]) => h('div', { class: 'remaining', dataset: { step: i } },
+      h('p', {}, `step ${i}: ${s.model}`),
+      h('ul', {}, ...s.remaining.map((r) => h('li', {}, r))))));
+}
+
 function ladderTable(res) {
+  const floorV = res.noise_floor_validation;
   const rows = res.steps.map((s, i) => h('tr', { dataset: { step: i } }, h('td', { class: 'num' }, i),
     h('td', {}, s.model), h('td', {}, s.added || '–'), h('td', { class: 'num' }, nrmse(s.nrmse)),
-    h('td', { class: 'num' }, nrmse(s.nrmse_validation)), h('td', {}, s.adequate ? 'yes' : 'no')));
+    h('td', { class: 'num' }, nrmse(s.nrmse_validation)),
+    h('td', { class: 'num' }, floorV ? `${fmt(s.nrmse_validation / floorV, 3)}×` : '–'),
+    h('td', {}, s.adequate ? 'yes' : 'no')));
   const fails = (res.final_diagnosis && res.final_diagnosis.failures) || [];
   return h('div', { id: 'backbone-ladder-out' },
-    h('p', { id: 'backbone-ladder-summary' }, `noise floor ${nrmse(res.noise_floor)}; adequate: `
+    h('p', { id: 'backbone-ladder-summary' }, `noise floor ${nrmse(res.noise_floor)}`
+      + `${floorV ? ` (validation ${nrmse(floorV)})` : ''}; adequate: `
       + `${res.adequate ? 'yes' : 'no'} (${res.stop_reason})`),
-    h('div', { class: 'scroll' }, table(['step', 'model', 'added', 'NRMSE', 'validation', 'adequate'], rows,
-      { id: 'backbone-ladder', class: 'table2' })),
+    h('p', { id: 'backbone-linear-damping' }, `linear damping: ${res.linear_damping
+      || "the structure file's (not identified from the backbones)"}`),
+    h('div', { class: 'scroll' }, table(['step', 'model', 'added', 'NRMSE', 'validation', '× floor', 'adequate'],
+      rows, { id: 'backbone-ladder', class: 'table2' })),
+    remainingList(res),
     fails.length ? h('ul', { id: 'backbone-failures' }, ...fails.map((f) => h('li', {}, f.text))) : '');
 }
 
@@ -114,6 +132,9 @@ export async function show(el) {
   const expr = h('input', { id: 'backbone-model', value: state.model, size: 24 });
   const cand = h('input', { id: 'backbone-candidates', value: state.candidates, size: 24 });
   const steps = h('input', { id: 'backbone-steps', type: 'number', min: 1, max: 5, value: state.steps, size: 3 });
+  const damping = h('select', { id: 'backbone-linear-damping-opt' },
+    h('option', { value: 'file' }, "structure file's"), h('option', { value: 'measured' }, 'from the backbones'));
+  damping.value = state.damping;
   const progress = (job) => note(msg, `${job.status}${job.message ? `: ${job.message}` : ''}`, 'busy');
 
   async function open(n) {
@@ -155,10 +176,11 @@ export async function show(el) {
     state.model = expr.value.trim();
     state.candidates = cand.value.trim();
     state.steps = Number(steps.value) || 1;
+    state.damping = damping.value;
     const candidates = state.candidates ? state.candidates.split(',').map((x) => x.trim()) : undefined;
     state.ladder = await runJob(`/structures/${encodeURIComponent(st.value)}/models/ladder`, '/models/jobs',
       { backbones: [state.name], frfsets: [...fs.selectedOptions].map((o) => o.value), model: state.model,
-        max_steps: state.steps, options: { full: true, candidates } }, progress);
+        max_steps: state.steps, options: { full: true, candidates, linear_damping: state.damping } }, progress);
     view(out);
   });
   el.append(section('Backbones',
@@ -171,7 +193,7 @@ export async function show(el) {
     h('h3', {}, 'model ladder'),
     h('div', { class: 'toolbar' }, h('label', {}, 'structure ', st), h('label', {}, ' FRF sets ', fs)),
     h('div', { class: 'toolbar' }, h('label', {}, 'start ', expr), h('label', {}, ' candidates ', cand),
-      h('label', {}, ' steps ', steps), go),
+      h('label', {}, ' steps ', steps), h('label', {}, ' linear damping ', damping), go),
     token() ? '' : h('p', { class: 'note' }, 'measuring and the ladder need the control token (jobs)'),
     msg, out));
   if (state.file) view(out);
