@@ -90,7 +90,7 @@ def _generate(scale: float, joint: bool = True, inductance: float = 0.0):
 
     t = np.arange(int(T * FS)) / FS
     n = 7 if inductance else 6
-    kw = dict(method="Radau", jac=jac, rtol=1e-10, atol=1e-13) if inductance else \
+    kw = dict(method="Radau", jac=jac, rtol=1e-8, atol=1e-12) if inductance else \
         dict(method="DOP853", rtol=1e-11, atol=1e-14)
     sol = solve_ivp(rhs, (0, t[-1]), np.zeros(n), t_eval=t, **kw)
     acc = np.array([rhs(ti, si)[3:6] for ti, si in zip(t, sol.y.T)])

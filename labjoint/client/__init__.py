@@ -30,13 +30,15 @@ import httpx
 
 from labjoint.client.base import (DEFAULT_URL, ENV_TOKEN, ENV_URL, JOB_FINISHED, PLAN_FINISHED,
                                   TABLE_COLUMNS, ApiError, JobFailed, _error, _fmt, _params)
+from labjoint.client.modal import ModalMixin
 from labjoint.client.spectra import SpectraMixin
 from labjoint.client.structures import StructuresMixin
 
-class Client(StructuresMixin, SpectraMixin):
+class Client(StructuresMixin, SpectraMixin, ModalMixin):
     """The REST API at ``base_url`` (default ``$LABJOINT_API_URL`` or 127.0.0.1:8000).
     Structures and backbones come from :class:`~labjoint.client.structures.StructuresMixin`,
-    FRFs, modes and distortion from :class:`~labjoint.client.spectra.SpectraMixin`.
+    FRFs, modes and distortion from :class:`~labjoint.client.spectra.SpectraMixin`, the
+    modal kind from :class:`~labjoint.client.modal.ModalMixin`.
 
     ``token`` defaults to ``$LABJOINT_API_TOKEN``; reads work without one unless the
     server requires it.

@@ -125,7 +125,9 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
         known.setdefault(n, 1.0)
     w1 = 2 * np.pi * basis.modes[0].frequency_hz
     k_ref = w1 * w1 / max(d[0] ** 2, float(np.max(d ** 2)) * 1e-3)
-    names = [*model.param_names, *drives, *masses, "shaker.highpass_hz"]
+    every = [*model.param_names, *drives, *masses, "shaker.highpass_hz"]
+    fixed = {n: bnd[n][0] for n in every if bnd[n][0] == bnd[n][1]}     # a bound n=v:v holds n
+    names = [n for n in every if n not in fixed]
 
     def residual_of(vals: Mapping[str, float]) -> np.ndarray | None:
         out = []
@@ -146,11 +148,11 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
                 cand[kn] for e, kn in STUCK.items() if e in model.names and kn not in known)
         starts.append(np.array([np.clip(cand.get(n, 0.0), *bnd[n]) for n in names]))
     x, sol, scale = best_start_then_solve(
-        lambda z: residual_of(dict(zip(names, z))), names, bnd, starts, max_nfev,
+        lambda z: residual_of({**fixed, **dict(zip(names, z))}), names, bnd, starts, max_nfev,
         f"every start of {model.expr} between {between[0]} and {between[1]} diverges on the records")
     lo = np.array([bnd[n][0] for n in names])
     hi = np.array([bnd[n][1] for n in names])
-    vals = dict(zip(names, x))
+    vals = {**fixed, **dict(zip(names, x))}
     r = residual_of(vals)
     if r is None:
         raise InputError(f"the fitted model diverges on the records ({vals})", field="model")
