@@ -151,8 +151,8 @@ def test_shaker_drives_every_mode_of_the_two_point_model():
     series = m.responses("cubic_stiffness", vals, q)
     t, x, a, force = _generate(1.0)
     for ch, y in (("s1", a[:, 0]), ("s2", x[:, 1]), ("s3", a[:, 2])):
-        assert _nrmse(series[ch], y) < 2e-3, ch
-    assert _nrmse(m.structure_force(q, vals), force) < 2e-3
+        assert _nrmse(series[ch], y) < 3e-4, ch
+    assert _nrmse(m.structure_force(q, vals), force) < 3e-4
     _, x_lin, _, _ = _generate(1.0, joint=False)
     assert _nrmse(x_lin[:, 1], x[:, 1]) > 0.05
     # mode 1 alone through the shaker (the others undriven) is far off
@@ -243,10 +243,10 @@ def test_fit_through_the_shaker_recovers_the_joint_and_the_free_parameter(coil_r
     assert ms[0].setup.shaker.free == free
     fit = MODAL.fit("cubic_stiffness", ms[1:], ms[:1])
     v = fit.params_.valuesdict()
-    assert fit.nrmse_ < 2e-3 and fit.validation_nrmse_ < 2e-3
+    assert fit.nrmse_ < 1e-3 and fit.validation_nrmse_ < 1e-3
     assert not any(k.startswith("modal.drive") for k in fit.varied_)
     for k in ("cubic_stiffness.k3", "modal.mass2", "modal.mass3", free):
-        assert v[k] == pytest.approx(truth[k], rel=1e-2), k
+        assert v[k] == pytest.approx(truth[k], rel=3e-3), k
 
 
 @pytest.mark.slow
