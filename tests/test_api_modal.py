@@ -116,3 +116,25 @@ def test_modal_fit_stored_then_predicted_over_rest(served):
     with pytest.raises(ApiError) as e:
         c.predict("nosuch", ["low"])
     assert e.value.status == 422 and e.value.details["field"] == "model_file"
+
+
+def test_a_stored_frf_set_gives_its_modes_in_the_job(tmp_path, capsys):
+    """``options.modal`` naming a stored FRF set: resolved at submit to the set's file (the
+    modes found when the job runs), then its modes as `labjoint modes` finds them, against
+    the 2-DOF chain's closed form (tests/spectra_runs.py)."""
+    from labjoint.api.modal import check_modal, modes_of
+    from labjoint.cli.main import main
+    from spectra_runs import closed_modes, random_force
+
+    runs = [random_force(tmp_path / f"f{i}.h5", lv, seed=i) for i, lv in ((1, 0.5), (2, 1.0))]
+    (tmp_path / "frf").mkdir()
+    assert main(["frf", *map(str, runs), "--out", str(tmp_path / "frf" / "chain.json"), "--json"]) == 0
+    capsys.readouterr()
+    out = check_modal({"modal": "chain", "modal_band": [5.0, 120.0], "between": ["acc1", "acc2"]},
+                      "fit", tmp_path)
+    assert out["modal"] == (tmp_path / "frf" / "chain.json").resolve()
+    basis = modes_of(out["modal"], out["modal_band"])
+    got = [(m.frequency_hz, m.damping_ratio) for m in basis.modes]
+    for (fg, zg), (fw, zw) in zip(got, closed_modes(False), strict=True):
+        assert fg == pytest.approx(fw, rel=2e-3) and zg == pytest.approx(zw, rel=0.15)
+    assert set(basis.modes[0].shape) == {"acc1", "acc2"}

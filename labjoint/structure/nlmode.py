@@ -137,7 +137,7 @@ def basis_from_json(d: Any, source: str = "", reference: str | None = None) -> M
         basis = _basis_from_json(d, p, reference)
     except InputError:
         raise
-    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError, ArithmeticError) as exc:
         raise InputError(f"not a modes file ({type(exc).__name__}: {exc}): expected the JSON of "
                          "`labjoint modes --json`", file=p or None, field="modal") from None
     for m in basis.modes:
@@ -146,6 +146,9 @@ def basis_from_json(d: Any, source: str = "", reference: str | None = None) -> M
             raise InputError(f"mode at {m.frequency_hz} Hz (damping {m.damping_ratio}): a modal model "
                              "needs positive finite frequencies and damping and finite shapes",
                              file=p or None, field="modal")
+        if m.shape.get(basis.reference, 1.0) == 0:
+            raise InputError(f"mode at {m.frequency_hz} Hz does not move the reference sensor "
+                             f"{basis.reference!r}: shapes are relative to it", file=p or None, field="modal")
     if not basis.modes:
         raise InputError("no modes", file=p or None, field="modal")
     return basis
