@@ -275,3 +275,22 @@ def test_cli_fit_between_through_the_shaker_then_predict(tmp_path, capsys, coil_
     _, _, _, force = _generate(0.5, inductance=COIL_L)
     model_f = np.array(pred["force_on_structure_n"])
     assert _nrmse(model_f, force[:model_f.size]) < 5e-3
+
+
+def test_diagnose_names_the_cubic_joint_behind_the_shaker(tmp_path):
+    """`diagnose` of the linear model between s2 and s3 through the shaker, validated on
+    the other level: cubic stiffness named first and significant, to the noise; the drive
+    path says the shaker drives every mode."""
+    import labjoint.compare as compare
+
+    basis, _, _ = _basis_and_truth()
+    paths = [str(_store(tmp_path, _record(s, n, seed=i))) for i, (s, n) in enumerate(((0.5, "low"), (1.0, "high")))]
+    res = compare.diagnose(paths, "linear_stiffness", modal=basis, between=["s2", "s3"], shaker=_given(),
+                           drive_point="s1", bounds={"shaker.highpass_hz": [0.0, 0.0]}, validate=[paths[0]],
+                           candidates=["cubic_stiffness", "quadratic_stiffness", "viscous"])
+    assert res["nrmse"] > 0.1 and not res["adequate"]
+    first = res["candidates"][0]
+    assert first["effect"] == "cubic_stiffness" and first["significant"]
+    assert first["nrmse_after"] < 1e-3
+    assert [c["effect"] for c in res["candidates"] if c["significant"]] == ["cubic_stiffness"]
+    assert res["drive_path"].endswith("every mode at s1")
