@@ -21,6 +21,7 @@ from typing import Annotated, Any
 
 from pydantic import BaseModel, Field
 
+from labjoint.api.resolve import find_named
 from labjoint.api.schemas import RUN_NAME
 from labjoint.errors import InputError
 
@@ -62,11 +63,11 @@ class ModalOptions(BaseModel):
 
 
 def _named(data_dir: str | Path, folder: str, name: str, what: str, field: str) -> Path:
+    """``<folder>/<name>.json`` in the data directory, else InputError (422) naming ``field``."""
+    found = find_named(data_dir, folder, name, ".json")
+    if found is not None:
+        return found
     base = Path(data_dir) / folder
-    if base.is_dir():
-        for p in base.iterdir():
-            if p.is_file() and p.suffix == ".json" and p.stem == name:
-                return p.resolve()
     known = sorted(p.stem for p in base.glob("*.json")) if base.is_dir() else []
     raise InputError(f"no {what} {name!r} in {folder}/; stored: {known[:20]}", field=field)
 

@@ -152,6 +152,11 @@ class ShakerPath:
         c = c0 * mu - (sh.suspension_damping_ns_per_m + sh.force_factor_n_per_a ** 2 / sh.coil_resistance_ohm) / m_d
         return {"linear_stiffness.k": float(max(k, 0.1 * w1 * w1)), "viscous.c": float(max(c, 0.1 * c0))}
 
+    @property
+    def free_unit(self) -> str:
+        """The unit of the fitted parameter (``free``)."""
+        return {"mode1.mass_kg": "kg", "shaker.force_factor_n_per_a": "N/A"}.get(self.free or "", "ohm")
+
     def bounds(self) -> dict[str, tuple[float, float]]:
         return {self.free: (0.0, np.inf)} if self.free else {}
 

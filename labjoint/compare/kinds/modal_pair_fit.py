@@ -180,8 +180,7 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
         if path is None:
             params.add(n, vals[n], unit="m/s^2 per V")
         else:
-            params.add(n, vals[n], lower=0.0,
-                       unit={"mode1.mass_kg": "kg", "shaker.force_factor_n_per_a": "N/A"}.get(n, "ohm"))
+            params.add(n, vals[n], lower=0.0, unit=path.free_unit)
     for n in masses:
         params.add(n, vals[n], lower=MASS_RANGE[0], upper=MASS_RANGE[1], unit="1")
     params.add("shaker.highpass_hz", vals["shaker.highpass_hz"], lower=0.0, upper=HIGHPASS_RANGE[1], unit="Hz")
