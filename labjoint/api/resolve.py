@@ -64,6 +64,17 @@ class RunResolver:
         return open_run(self.path(name))
 
 
+def find_named(data_dir: str | Path, folder: str, name: str, suffix: str) -> Path | None:
+    """The file ``<name><suffix>`` among the data directory's ``folder`` (looked up among
+    its files: nothing a client sends is joined into a path), or None."""
+    base = Path(data_dir) / folder
+    if base.is_dir():
+        for p in base.iterdir():
+            if p.is_file() and p.suffix == suffix and p.stem == name:
+                return p.resolve()
+    return None
+
+
 def roles(rf: RunFile) -> dict[str, Any]:
     """Channels holding the relative displacement and the joint/reference force
     (:mod:`labjoint.storage.roles`); a role with no channel present is empty."""

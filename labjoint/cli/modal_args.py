@@ -1,6 +1,6 @@
 """The modal kind's command-line options (fit, diagnose, ladder): the measured modes, the
 joint between two points, the compared responses and the shaker between the voltage and
-mode 1 (:mod:`labjoint.structure.nlmode_shaker`)."""
+mode 1, or every mode with a two-point joint (:mod:`labjoint.structure.nlmode_shaker`)."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ def add_modal_arguments(p: argparse.ArgumentParser) -> None:
                         "records see of it instead")
     p.add_argument("--shaker", default=None, metavar="S.toml",
                    help="with --modal and a voltage drive: the electrodynamic shaker between the "
-                        "voltage and mode 1 (its [shaker] table; armature and two of Bl, R, "
+                        "voltage and mode 1, or every mode with --between (its [shaker] table; armature and two of Bl, R, "
                         "--modal-mass given, the third fitted); per-volt and per-newton predictions")
     p.add_argument("--drive-point", default=None, metavar="SENSOR",
                    help="with --shaker: the sensor of the modes at the shaker's attachment")

@@ -21,7 +21,6 @@ job that ends without a result raises :class:`JobFailed`.
 
 from __future__ import annotations
 
-import math
 import os
 import time
 from pathlib import Path
@@ -29,39 +28,17 @@ from typing import Any, Iterable
 
 import httpx
 
-from labjoint.errors import LabjointError
+from labjoint.client.base import (DEFAULT_URL, ENV_TOKEN, ENV_URL, JOB_FINISHED, PLAN_FINISHED,
+                                  TABLE_COLUMNS, ApiError, JobFailed, _error, _fmt, _params)
+from labjoint.client.modal import ModalMixin
+from labjoint.client.spectra import SpectraMixin
+from labjoint.client.structures import StructuresMixin
 
-ENV_URL = "LABJOINT_API_URL"
-ENV_TOKEN = "LABJOINT_API_TOKEN"
-DEFAULT_URL = "http://127.0.0.1:8000"
-PLAN_FINISHED = ("done", "failed", "cancelled", "aborted")
-JOB_FINISHED = ("complete", "failed", "cancelled")
-TABLE_COLUMNS = (("run", "run", 1.0), ("Vpp", "excitation_vpp", 1.0),
-                 ("U (um)", "displacement_amplitude_m", 1e6),
-                 ("F (N)", "force_amplitude_n", 1.0), ("W (mJ)", "energy_loss_j", 1e3),
-                 ("C (Ns/m)", "damping_ns_per_m", 1.0),
-                 ("K (MN/m)", "stiffness_n_per_m", 1e-6), ("cycles", "cycles", 1.0))
-
-
-class ApiError(LabjointError):
-    """The service refused or failed a request."""
-
-    def __init__(self, status: int, code: str, message: str, details: Any = None) -> None:
-        super().__init__(f"HTTP {status} {code}: {message}")
-        self.status, self.code, self.message, self.details = status, code, message, details
-
-
-class JobFailed(LabjointError):
-    """A job ended without a result (failed or cancelled); ``job`` is its record."""
-
-    def __init__(self, job: dict[str, Any]) -> None:
-        err = job.get("error") or {}
-        super().__init__(f"job {job['id']} {job['status']}: {err.get('message', '')}".rstrip(": "))
-        self.job = job
-
-
-class Client:
+class Client(StructuresMixin, SpectraMixin, ModalMixin):
     """The REST API at ``base_url`` (default ``$LABJOINT_API_URL`` or 127.0.0.1:8000).
+    Structures and backbones come from :class:`~labjoint.client.structures.StructuresMixin`,
+    FRFs, modes and distortion from :class:`~labjoint.client.spectra.SpectraMixin`, the
+    modal kind from :class:`~labjoint.client.modal.ModalMixin`.
 
     ``token`` defaults to ``$LABJOINT_API_TOKEN``; reads work without one unless the
     server requires it.
@@ -209,138 +186,6 @@ class Client:
         return self._result(self._wait(lambda: self.request("GET", f"/models/jobs/{job['id']}"),
                                        JOB_FINISHED, timeout, 0.5))
 
-    # -- structures (issue 15) -----------------------------------------------------
-    def backbones(self, runs: Iterable[str], modal_mass_kg: float | None = None,
-                  sensor: str | None = None, save_as: str | None = None, mode: int = 1,
-                  overwrite: bool = False) -> dict[str, Any]:
-        """Frequency and damping against amplitude of catalogued runs (phase_resonance
-        levels and ringdown, or step_sine runs): ``{"points", "notes", "sensor", "saved"}``;
-        ``save_as`` stores them as the backbone file ``backbones/<save_as>.json`` (of mode
-        ``mode``) for :meth:`backbone_model`."""
-        body: dict[str, Any] = {"runs": list(runs)}
-        if modal_mass_kg is not None:
-            body["modal_mass_kg"] = modal_mass_kg
-        if sensor is not None:
-            body["sensor"] = sensor
-        if save_as is not None:
-            body.update(save_as=save_as, mode=mode, overwrite=overwrite)
-        return self.request("POST", "/backbones", json=body)
-
-    def stored_backbones(self) -> list[str]:
-        """Names of the stored backbone files."""
-        return self.request("GET", "/backbones")["backbones"]
-
-    def stored_backbone(self, name: str) -> dict[str, Any]:
-        """A stored backbone file: {"format", "mode", "backbones": [...]}."""
-        return self.request("GET", f"/backbones/{name}")
-
-    def backbone_model(self, operation: str, structure: str, backbones: Iterable[str], model: str,
-                       frfsets: Iterable[str] = (), max_steps: int = 3, timeout: float = 3600.0,
-                       **options: Any) -> dict[str, Any]:
-        """``operation`` ("fit", "diagnose", "ladder") of a joint model inside ``structure`` on
-        stored backbones, with FRF sets judged beside them in one comparison; waited for."""
-        return self.frf_model(operation, structure, frfsets, model, max_steps, timeout,
-                              backbones=list(backbones), **options)
-
-    def structures(self) -> dict[str, list[str]]:
-        """Structure files and FRF sets of the data directory: {"structures", "frfsets"}."""
-        return self.request("GET", "/structures")
-
-    def structure_modes(self, name: str, count: int = 4) -> dict[str, Any]:
-        return self.request("GET", f"/structures/{name}/modes", params={"count": count})
-
-    def _structure_job(self, path: str, body: dict[str, Any], timeout: float) -> dict[str, Any]:
-        job = self.request("POST", path, json=body)
-        return self._result(self._wait(lambda: self.request("GET", f"/structures/jobs/{job['id']}"),
-                                       JOB_FINISHED, timeout, 0.5))
-
-    def structure_update(self, name: str, measured_hz: Iterable[float], parameter: str = "E_e_pa",
-                         timeout: float = 600.0) -> dict[str, Any]:
-        """Stage-1 updating from measured natural frequencies, waited for."""
-        return self._structure_job(f"/structures/{name}/update",
-                                   {"measured_hz": list(measured_hz), "parameter": parameter}, timeout)
-
-    def structure_frf(self, name: str, force_n: float, band_hz: tuple[float, float],
-                      harmonics: int = 3, modes: int = 10, timeout: float = 600.0) -> dict[str, Any]:
-        """Model FRF at constant force over ``band_hz``, waited for."""
-        return self._structure_job(f"/structures/{name}/frf",
-                                   {"force_n": force_n, "band_hz": list(band_hz),
-                                    "harmonics": harmonics, "modes": modes}, timeout)
-
-    def structure_curves(self, name: str, frfsets: Iterable[str], model: str,
-                         parameters: dict[str, float], points: int = 200, margin: float = 0.25,
-                         modes: int = 10, timeout: float = 600.0) -> dict[str, Any]:
-        """The joint model ``model`` with ``parameters`` evaluated densely beside the
-        measured steps of each sweep of the FRF sets (every sensor and harmonic, magnitude
-        per newton and phase), waited for."""
-        return self._structure_job(f"/structures/{name}/curves",
-                                   {"frfsets": list(frfsets), "model": model,
-                                    "parameters": dict(parameters), "points": points,
-                                    "margin": margin, "modes": modes}, timeout)
-
-    def structure_stage2(self, name: str, frfsets: Iterable[str],
-                         parameters: Iterable[str] | None = None, modes: int = 10,
-                         timeout: float = 3600.0) -> dict[str, Any]:
-        """Stage-2 updating of the joint law on FRF sets (seed 000 Eq. 9), waited for."""
-        return self._structure_job(f"/structures/{name}/stage2",
-                                   {"frfsets": list(frfsets), "modes": modes,
-                                    "parameters": None if parameters is None else list(parameters)},
-                                   timeout)
-
-    def frf_model(self, operation: str, structure: str, frfsets: Iterable[str], model: str,
-                  max_steps: int = 3, timeout: float = 3600.0, backbones: Iterable[str] = (),
-                  **options: Any) -> dict[str, Any]:
-        """``operation`` ("fit", "diagnose", "ladder") of a joint model inside ``structure`` on
-        FRF sets (and stored backbones beside them), waited for."""
-        body = {"frfsets": list(frfsets), "model": model, "max_steps": max_steps,
-                "options": options}
-        if backbones:
-            body["backbones"] = list(backbones)
-        job = self.request("POST", f"/structures/{structure}/models/{operation}", json=body)
-        return self._result(self._wait(lambda: self.request("GET", f"/models/jobs/{job['id']}"),
-                                       JOB_FINISHED, timeout, 0.5))
-
-    # -- FRFs, modes and distortion (issue 28) ------------------------------------
-    def _spectra_job(self, path: str, body: dict[str, Any], timeout: float) -> dict[str, Any]:
-        job = self.request("POST", f"/spectra/{path}", json=body)
-        return self._result(self._wait(lambda: self.request("GET", f"/spectra/jobs/{job['id']}"),
-                                       JOB_FINISHED, timeout, 0.3))
-
-    def frf(self, runs: Iterable[str], name: str, band: str | tuple[float, float] = "drive",
-            overwrite: bool = False, timeout: float = 3600.0, **options: Any) -> dict[str, Any]:
-        """FRFs (H1/H2/Hv, coherence, std) of broadband runs, one level per run, stored as
-        the FRF set ``name``; waited for: ``labjoint frf --json``'s answer ({"path",
-        "format", "levels", "name"}). ``options``: drive, responses (a list), estimator,
-        method, nperseg, overlap, window."""
-        body = {"runs": list(runs), "name": name, "overwrite": overwrite,
-                "band": band if isinstance(band, str) else list(band), **_params(**options)}
-        return self._spectra_job("frf", body, timeout)
-
-    def frf_set(self, name: str) -> dict[str, Any]:
-        """A stored FRF set (the ``labjoint.frfset/1`` JSON; ``FrfSet.from_dict`` reads it)."""
-        return self.request("GET", f"/spectra/frf/{name}")
-
-    def frf_sets(self) -> list[str]:
-        """Names of the stored FRF sets."""
-        return self.request("GET", "/spectra/frf")["frfsets"]
-
-    def modes(self, runs: Iterable[str] | None = None, frfsets: Iterable[str] | None = None,
-              band: tuple[float, float] | None = None, order: int | None = None,
-              timeout: float = 3600.0, **options: Any) -> dict[str, Any]:
-        """Natural frequency, damping ratio and mode shape per level, of runs or of stored
-        FRF sets (one of the two); waited for: ``labjoint modes --json``'s {"levels"}."""
-        body = _params(runs=None if runs is None else list(runs),
-                       frfsets=None if frfsets is None else list(frfsets),
-                       band=None if band is None else list(band), order=order, **options)
-        return self._spectra_job("modes", body, timeout)
-
-    def distortion(self, runs: Iterable[str], drive: str | None = None, orders: int = 5,
-                   blocks: int = 8, bands: int = 6, timeout: float = 600.0) -> dict[str, Any]:
-        """Harmonic ratios per channel (steady sines) or odd/even distortion per band
-        (multisines); waited for: ``labjoint distortion --json``'s {"runs"}."""
-        body = _params(runs=list(runs), drive=drive, orders=orders, blocks=blocks, bands=bands)
-        return self._spectra_job("distortion", body, timeout)
-
     @staticmethod
     def results_table(analysis: dict[str, Any]) -> str:
         """An aligned text table of hysteresis results (display units: um, mJ, MN/m)."""
@@ -374,27 +219,5 @@ class Client:
         return job["result"]
 
 
-def _params(**kw: Any) -> dict[str, Any]:
-    return {k: v for k, v in kw.items() if v is not None and v != []}
-
-
-def _fmt(value: Any, scale: float) -> str:
-    if value is None:
-        return "-"
-    if isinstance(value, str):
-        return value
-    if isinstance(value, int) and scale == 1.0:
-        return str(value)
-    x = float(value) * scale
-    return f"{x:.4g}" if math.isfinite(x) else "-"
-
-
-def _error(r: httpx.Response) -> ApiError:
-    try:
-        err = r.json()["error"]
-        return ApiError(r.status_code, err["code"], err["message"], err.get("details"))
-    except (ValueError, KeyError, TypeError):
-        return ApiError(r.status_code, "http_error", r.text[:200] or r.reason_phrase)
-
-
-__all__ = ["ApiError", "Client", "JobFailed"]
+__all__ = ["ApiError", "Client", "JobFailed", "DEFAULT_URL", "ENV_TOKEN", "ENV_URL",
+           "JOB_FINISHED", "PLAN_FINISHED", "TABLE_COLUMNS"]

@@ -124,8 +124,10 @@ def _measured(d: dict[str, Any], ms: Sequence[Measurement]) -> dict[str, Any]:
                          "standard uncertainties"}[k] for k in ("frf", "backbone") if k in kinds)
     if ms and ms[0].kind == "modal":
         d["measurement"] = "modal"
+        where = (f"between {ms[0].between[0]} and {ms[0].between[1]} (on every measured mode)"
+                 if getattr(ms[0], "between", None) else "on mode 1 of the measured modes")
         d["error"] = ("simulation error of the measured responses (each channel in its quantity, "
-                      "over its rms), the joint on mode 1 of the measured modes")
+                      f"over its rms), the joint {where}")
         d["drive_path"] = drive_path(d, ms[0])
         d["parameters_per"] = ("unit modal mass: the joint's parameters act on q, mode 1's "
                                "displacement at the reference sensor (m); N reads N/kg")
@@ -150,6 +152,8 @@ def drive_path(d: dict[str, Any], m: Any) -> str:
             or path.free in vals else None
     except InputError:
         coil = None
+    if m.between:          # the two-point model leaves the coil's lag out (nlmode_shaker)
+        return path.describe(vals, hp or 0.0, False, every=True)
     return path.describe(vals, hp or 0.0, coil)
 
 

@@ -75,7 +75,7 @@ def load_modal(items: Sequence[Any], validate: Sequence[Any] | None, options: di
 
 
 def shaker_path(options: dict[str, Any], basis: ModalBasis, ms: Sequence[ModalMeasurement]) -> ShakerPath | None:
-    """The shaker between the voltage and mode 1 (``shaker``: a [shaker] table's file or a
+    """The shaker between the voltage and mode 1, or every mode with ``between`` (``shaker``: a [shaker] table's file or a
     mapping of its fields; ``drive_point``: the sensor it drives; ``modal_mass``: mode 1's
     modal mass there, kg, when known), None without ``shaker``."""
     sh = options.get("shaker")
@@ -84,9 +84,6 @@ def shaker_path(options: dict[str, Any], basis: ModalBasis, ms: Sequence[ModalMe
             if options.get(k) is not None:
                 raise InputError("goes with a shaker (--shaker S.toml)", field=k)
         return None
-    if options.get("between") is not None:
-        raise InputError("the shaker path drives mode 1; with a joint between two points the "
-                         "drive stays per volt (not yet through the shaker)", field="shaker")
     if not options.get("drive_point"):
         raise InputError("names the sensor the shaker drives (--drive-point SENSOR)", field="drive_point")
     for m in ms:
@@ -205,18 +202,19 @@ def predict_modal(model_path: str | Path, record: str | Path) -> dict[str, Any]:
            "nrmse": float(np.sqrt(np.mean(e**2) / np.mean(m.data.force**2))),
            "sample_rate_hz": m.drive.fs, "channels": chans}
     if d.get("shaker"):
-        out.update(per_newton(m, q, series))
+        out.update(per_newton(m, q, series, vals))
         out["shaker"] = d["shaker"]
     return out
 
 
-def per_newton(m: ModalMeasurement, q: np.ndarray, series: dict[str, np.ndarray]) -> dict[str, Any]:
+def per_newton(m: ModalMeasurement, q: np.ndarray, series: dict[str, np.ndarray],
+               vals: dict[str, float] | None = None) -> dict[str, Any]:
     """With the shaker: the force on the structure the model gives (nlmode_shaker H2, N, on
     the judged samples) and, on a steady sine, every channel's response at the drive's
     fundamental per volt and per newton (amplitude and phase): the per-newton one is the
     per-volt one over the force per volt."""
     j = m.judged
-    force = q[j, 3]
+    force = m.structure_force(q, vals or {})[j]
     out: dict[str, Any] = {"force_on_structure_n": force.tolist(),
                            "force_rms_n": float(np.sqrt(np.mean((force - force.mean()) ** 2)))}
     f = m.frequency_hz

@@ -126,6 +126,37 @@ def load_basis(path: str | Path, reference: str | None = None) -> ModalBasis:
         d = json.loads(p.read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:
         raise InputError(f"cannot read the modes file: {exc}", file=str(p), field="modal") from None
+    return basis_from_json(d, str(p), reference)
+
+
+def basis_from_json(d: Any, source: str = "", reference: str | None = None) -> ModalBasis:
+    """The modes of ``labjoint modes --json`` (or a saved basis: ``reference`` and ``modes``)
+    as a :class:`ModalBasis` (:func:`load_basis`; ``source`` names where they came from)."""
+    p = source
+    try:
+        basis = _basis_from_json(d, p, reference)
+    except InputError:
+        raise
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError, ArithmeticError) as exc:
+        raise InputError(f"not a modes file ({type(exc).__name__}: {exc}): expected the JSON of "
+                         "`labjoint modes --json`", file=p or None, field="modal") from None
+    for m in basis.modes:
+        if not (np.isfinite(m.frequency_hz) and m.frequency_hz > 0 and np.isfinite(m.damping_ratio)
+                and m.damping_ratio > 0 and all(np.isfinite(v) for v in m.shape.values())):
+            raise InputError(f"mode at {m.frequency_hz} Hz (damping {m.damping_ratio}): a modal model "
+                             "needs positive finite frequencies and damping and finite shapes",
+                             file=p or None, field="modal")
+        if m.shape.get(basis.reference, 1.0) == 0:
+            raise InputError(f"mode at {m.frequency_hz} Hz does not move the reference sensor "
+                             f"{basis.reference!r}: shapes are relative to it", file=p or None, field="modal")
+    if not basis.modes:
+        raise InputError("no modes", file=p or None, field="modal")
+    return basis
+
+
+def _basis_from_json(d: Any, p: str, reference: str | None) -> ModalBasis:
+    if not isinstance(d, dict):
+        raise InputError("not a modes file: expected a JSON object", file=p or None, field="modal")
     if "modes" in d and "reference" in d:
         basis = ModalBasis.from_dict(d, str(p))
     else:

@@ -32,6 +32,28 @@ the third is fitted with the joint (it sets the drive, Bl G / (R phi_d m_d)). Th
 modes stay driven per volt (their gains projected, eq. 3): the shaker's loading of them is
 in their fitted f_j, zeta_j. The per-newton model is H1 alone (the structure), and the force
 H2 is returned with the states (mode 1's share of the drive point's motion).
+
+With the joint between two points (:mod:`labjoint.structure.nlmode_pair`) the shaker's
+force acts at d on every mode. The measured modes are then the structure as a per-volt
+test measures it: the joint at rest and the shaker attached (its armature, suspension and
+the coil's back-EMF Bl^2 / R at d are in f_j, zeta_j and the shapes), so with mode j's
+coordinate eta_j (its displacement at the reference), phi_dj its shape at d over the
+reference's and M_j = mu_j M_1 its modal mass (mu_j: ``modal.mass<j>``, mu_1 = 1),
+M_1 = phi_d1^2 (m_d + m_a) (m_d: the structure's own modal mass at d, ``mode1.mass_kg``,
+as above; the armature moves with d), the electromagnetic force Bl G V_hp / R less the
+back-EMF already in the modes drives mode j by (nlmode_pair eq. 6's g_j)
+
+    g_j = phi_dj Bl G / (R mu_j phi_d1^2 (m_d + m_a))   (m/s^2 per V)              (P1)
+
+and the force on the structure at d is H2 with x_d = sum_j phi_dj eta_j and the coil
+current of H3 with L = 0:
+
+    F = Bl (G V_hp - Bl x_d') / R - m_a x_d'' - c_a x_d' - k_a x_d                   (P2)
+
+The joint law stays per unit modal mass of mode 1 (N/kg: the physical force over M_1).
+The coil's lag is left out when its corner R / (2 pi L) lies at least ``COIL_NEGLECT`` x
+above the highest mode (at most 5.7 degrees there), else refused by name: the two-point
+model does not integrate the coil. The identifiability rules are the single mode's.
 """
 
 from __future__ import annotations
@@ -130,6 +152,11 @@ class ShakerPath:
         c = c0 * mu - (sh.suspension_damping_ns_per_m + sh.force_factor_n_per_a ** 2 / sh.coil_resistance_ohm) / m_d
         return {"linear_stiffness.k": float(max(k, 0.1 * w1 * w1)), "viscous.c": float(max(c, 0.1 * c0))}
 
+    @property
+    def free_unit(self) -> str:
+        """The unit of the fitted parameter (``free``)."""
+        return {"mode1.mass_kg": "kg", "shaker.force_factor_n_per_a": "N/A"}.get(self.free or "", "ohm")
+
     def bounds(self) -> dict[str, tuple[float, float]]:
         return {self.free: (0.0, np.inf)} if self.free else {}
 
@@ -182,6 +209,64 @@ class ShakerPath:
                           + sh.suspension_stiffness_n_per_m * out[:, 0])
         return np.column_stack([out[:, :3], F])
 
+    def participations(self, basis: ModalBasis) -> np.ndarray:
+        """phi_dj: every mode's shape at the drive point over the reference's (P1)."""
+        out = []
+        for j, mode in enumerate(basis.modes):
+            if self.drive_point not in mode.shape:
+                raise InputError(f"the drive point {self.drive_point!r} is not in mode {j + 1}'s shape "
+                                 f"({sorted(mode.shape)}); the shaker acts on every mode there",
+                                 field="drive_point")
+            out.append(mode.shape[self.drive_point] / mode.shape.get(basis.reference, 1.0))
+        return np.array(out, float)
+
+    def pair_drives(self, vals: Mapping[str, float], basis: ModalBasis) -> dict[str, float]:
+        """Every mode's drive per volt ``modal.drive<j>`` through the shaker (P1), the
+        relative modal masses ``modal.mass<j>`` from ``vals`` (default 1)."""
+        sh, m_d = self.shaker(vals)
+        phi = self.participations(basis)
+        b = sh.force_factor_n_per_a * sh.amplifier_gain_v_per_v / (
+            sh.coil_resistance_ohm * phi[0] ** 2 * (m_d + sh.armature_mass_kg))
+        mu = [1.0] + [float(vals.get(f"modal.mass{j}", 1.0)) for j in range(2, phi.size + 1)]
+        return {f"modal.drive{j + 1}": float(phi[j] * b / mu[j]) for j in range(phi.size)}
+
+    def pair_free_start(self, g1: float) -> dict[str, float]:
+        """The free parameter from mode 1's fitted drive per volt ``g1`` (P1 inverted)."""
+        if not self.free:
+            return {}
+        d = dict(self.given)
+        bl, r = d.get("force_factor_n_per_a"), d.get("coil_resistance_ohm")
+        G, m_a = d.get("amplifier_gain_v_per_v", 1.0), d["armature_mass_kg"]
+        b = abs(g1 * self.phi_d) or 1.0          # = Bl G / (R (m_d + m_a)) by P1
+        if self.free == "mode1.mass_kg":
+            return {self.free: float(max(bl * G / (r * b) - m_a, 1e-3 * m_a, 1e-9))}
+        m = float(self.modal_mass_kg) + m_a
+        if self.free == "shaker.force_factor_n_per_a":
+            return {self.free: float(b * r * m / G)}
+        return {self.free: float(bl * G / (b * m))}
+
+    def check_pair_coil(self, vals: Mapping[str, float], highest_hz: float) -> None:
+        """Refuse a coil whose corner lies within ``COIL_NEGLECT`` x the highest mode (the
+        two-point model leaves the coil's lag out; module doc)."""
+        sh, _ = self.shaker(vals)
+        L, R = sh.coil_inductance_h, sh.coil_resistance_ohm
+        if L > 0 and R / (2 * np.pi * L) < COIL_NEGLECT * highest_hz:
+            raise InputError(f"the coil's corner R / (2 pi L) = {R / (2 * np.pi * L):.4g} Hz is within "
+                             f"{COIL_NEGLECT:g}x the highest mode ({highest_hz:.4g} Hz): the joint "
+                             "between two points does not integrate the coil's lag",
+                             field="shaker.coil_inductance_h")
+
+    def pair_force(self, vals: Mapping[str, float], states: np.ndarray, drive: Drive,
+                   basis: ModalBasis) -> np.ndarray:
+        """The force on the structure at the drive point (P2, N) at every sample, from the
+        two-point model's (n, N, 3) states under the (high-passed) ``drive``."""
+        sh, _ = self.shaker(vals)
+        x = np.einsum("njk,j->nk", states, self.participations(basis))   # (n, 3): x_d and its rates
+        v_hp = drive.fine[::2 * drive.substeps][:x.shape[0]]
+        bl, R = sh.force_factor_n_per_a, sh.coil_resistance_ohm
+        return (bl * (sh.amplifier_gain_v_per_v * v_hp - bl * x[:, 1]) / R - sh.armature_mass_kg * x[:, 2]
+                - sh.suspension_damping_ns_per_m * x[:, 1] - sh.suspension_stiffness_n_per_m * x[:, 0])
+
     def to_dict(self, vals: Mapping[str, float] | None = None) -> dict[str, Any]:
         d: dict[str, Any] = {"given": {f"shaker.{k}": v for k, v in self.given},
                              "drive_point": self.drive_point, "drive_participation": self.phi_d,
@@ -198,7 +283,8 @@ class ShakerPath:
         return cls(given, str(d["drive_point"]), float(d["drive_participation"]),
                    None if d.get("modal_mass_kg") is None else float(d["modal_mass_kg"]), d.get("fitted"))
 
-    def describe(self, vals: Mapping[str, float], highpass_hz: float, coil: bool | None) -> str:
+    def describe(self, vals: Mapping[str, float], highpass_hz: float, coil: bool | None,
+                 every: bool = False) -> str:
         """The drive path in words (which model of the amplifier and shaker is used; ``coil``
         None: not stated, the parameters being unknown here)."""
         giv = ", ".join(SYMBOLS[k] for k, _ in self.given)
@@ -207,7 +293,7 @@ class ShakerPath:
         return (f"voltage -> {hp} -> electrodynamic shaker ({giv} given; "
                 f"{self.free or 'nothing'} fitted"
                 + ("" if coil is None else f"; coil lag {'integrated' if coil else 'left out'}") + ") "
-                f"-> mode 1 at {self.drive_point}")
+                f"-> {'every mode' if every else 'mode 1'} at {self.drive_point}")
 
 
 def _steady(drive: Drive, m: float, k: float, c: float, coil: np.ndarray) -> tuple[float, float, float]:

@@ -22,6 +22,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 import labjoint.compare as compare
 from labjoint.api.auth import require_control, require_read, token_label
 from labjoint.api.errors import errors_doc
+from labjoint.api.modal import MODELS, ModalOptions, _named, check_modal, predict_runs, run_modal
 from labjoint.api.progress import ModelProgress
 from labjoint.api.routes.analyses import JobStatus, cancel_job, get_job, job_page, runner
 from labjoint.api.schemas import JOB_ID, Job, JobList, ModelRequest, RunName
@@ -36,14 +37,15 @@ from labjoint.models.simulate import check_simulable
 
 router = APIRouter(prefix="/models", tags=["models"])
 OPERATIONS = ("fit", "diagnose", "ladder")
-KINDS = tuple(f"model_{op}" for op in OPERATIONS)
+KINDS = (*(f"model_{op}" for op in OPERATIONS), "model_predict")
 #: operations that may take minutes: they run in their own worker, so fits never wait
 LONG = ("diagnose", "ladder")
 Auto = Literal["auto"]
 
 
-class FitOptions(BaseModel):
-    """Options of every comparison job (see :mod:`labjoint.compare.api`)."""
+class FitOptions(ModalOptions):
+    """Options of every comparison job (see :mod:`labjoint.compare.api`; the modal kind's:
+    :mod:`labjoint.api.modal`)."""
 
     model_config = ConfigDict(extra="forbid")
 
@@ -91,8 +93,9 @@ OPTION_MODELS: dict[str, type[FitOptions]] = {
     "fit": FitOptions, "diagnose": DiagnoseOptions, "ladder": LadderOptions}
 
 
-def check_options(operation: str, options: dict[str, Any]) -> dict[str, Any]:
-    """The options as compare takes them; InputError (422) naming ``options.<key>``."""
+def check_options(operation: str, options: dict[str, Any], data_dir: Any = None) -> dict[str, Any]:
+    """The options as compare takes them; InputError (422) naming ``options.<key>``
+    (the modal kind's resolved in ``data_dir``: :func:`labjoint.api.modal.check_modal`)."""
     try:
         opts = OPTION_MODELS[operation].model_validate(options)
     except ValidationError as exc:
@@ -108,6 +111,7 @@ def check_options(operation: str, options: dict[str, Any]) -> dict[str, Any]:
                              f"(>= {0 if name == 'prime_cycles' else 1}), got {v}",
                              field=f"options.{name}")
     out = {k: v for k, v in opts.model_dump(by_alias=True).items() if k in options}
+    out = check_modal(out, operation, data_dir or ".")
     if "plausibility" in out or "max_displacement" in out:
         if out.get("error") == "simulation":
             raise InputError("the plausibility limits are checked by the equation-error pipeline; "
@@ -145,7 +149,7 @@ def _submit(request: Request, operation: str, body: ModelRequest, scope: str) ->
     res = request.app.state.resolver
     names = list(dict.fromkeys(body.runs))
     paths = [res.path(n) for n in names]
-    options = check_options(operation, body.options)
+    options = check_options(operation, body.options, res.data_dir)
     model = "+".join(p.strip() for p in body.model.split("+"))
     parsed = Model.parse(model)             # an unknown effect is 422 now, not a failed job
     simulation = options.get("error") == "simulation"
@@ -179,6 +183,8 @@ def _submit(request: Request, operation: str, body: ModelRequest, scope: str) ->
         kw["progress"] = lambda message: progress(tracker.update(message), str(message))
         if operation == "ladder":
             kw["max_steps"] = r["max_steps"]
+        if kw.get("modal") is not None:
+            return as_result(run_modal(operation, [str(p) for p in paths], model, kw, res.data_dir))
         fn = getattr(compare, operation)
         return as_result(fn([str(p) for p in paths], model, **kw))
 
@@ -211,6 +217,35 @@ def ladder(request: Request, body: ModelRequest,
     """Start from ``model`` and add up to ``max_steps`` effects while the error falls;
     the ladder is saved in the runs' files (``GET /runs/{name}/ladders``)."""
     return _submit(request, "ladder", body, scope)
+
+
+class PredictRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    model_file: RunName = Field(description="a modal model stored by a fit with options.save_as "
+                                            "(models/<model_file>.json)")
+    runs: list[RunName] = Field(min_length=1, max_length=50)
+    full: bool = Field(False, description="with the measured and model series of every channel")
+
+
+@router.post("/predict", response_model=Job, status_code=202, responses=errors_doc(),
+             summary="A stored modal model on runs it never saw (a job)")
+def predict(request: Request, body: PredictRequest,
+            scope: str = Depends(require_control)) -> dict[str, Any]:
+    """``labjoint predict MODEL.json RUN --json`` of a stored modal model on each run: per
+    channel and pooled NRMSE, and through the shaker the force on the structure and the
+    per-volt and per-newton responses at a sine's fundamental (``{"model_file", "runs"}``)."""
+    res = request.app.state.resolver
+    names = list(dict.fromkeys(body.runs))
+    paths = {n: str(res.path(n)) for n in names}
+    _named(res.data_dir, MODELS, body.model_file, "modal model", "model_file")
+
+    def work(r: dict[str, Any], progress: Callable[[float, str], None]) -> dict[str, Any]:
+        progress(0.0, f"predict {body.model_file}")
+        return predict_runs(res.data_dir, body.model_file, paths, body.full)
+
+    return runner(request).submit("model_predict", body.model_dump(), work,
+                                  submitted_by=token_label(scope)).to_dict()
 
 
 @router.get("/jobs", response_model=JobList, responses=errors_doc(), summary="List model jobs",

@@ -24,6 +24,7 @@ import labjoint.compare as compare
 from labjoint.api.auth import require_control, require_read, token_label
 from labjoint.api.errors import errors_doc, not_found
 from labjoint.api.routes.analyses import JobStatus, cancel_job, get_job, job_page, runner
+from labjoint.api.resolve import find_named
 from labjoint.api.routes.models import as_result
 from labjoint.api.schemas import JOB_ID, MODEL_EXPR, RUN_NAME, Job, JobList
 from labjoint.compare.api import settings_from
@@ -101,11 +102,9 @@ def named_file(request: Request, folder: str, name: str, suffix: str) -> FsPath:
     if name in RESERVED:
         raise InputError(f"{name!r} is a reserved name (the /structures/{name}/ routes); rename "
                          f"{folder}/{name}{suffix}", field="name")
-    base = FsPath(request.app.state.resolver.data_dir) / folder
-    if base.is_dir():
-        for p in base.iterdir():
-            if p.is_file() and p.suffix == suffix and p.stem == name:
-                return p.resolve()
+    found = find_named(request.app.state.resolver.data_dir, folder, name, suffix)
+    if found is not None:
+        return found
     raise not_found({STRUCTURES: "structure", FRFSETS: "frf set"}.get(folder, "backbone file"), name)
 
 

@@ -125,9 +125,16 @@ class ModalMeasurement:
     def states(self, model: Model, params: Parameters | dict) -> np.ndarray:
         """Mode 1's (n, 3) states, or every mode's (n, N, 3) with a two-point joint."""
         vals = {k: float(v.value if hasattr(v, "value") else v) for k, v in params.items()}
-        if self.between:
-            return pair_states(model, vals, self.basis, self.between, self.drive_at(vals))
         path = self.setup.shaker
+        if self.between:
+            if path is not None:        # the shaker drives every mode at its drive point (nlmode_shaker P1)
+                if self.metadata.get("drive_quantity") == "force":
+                    raise InputError("a joint between two points through the shaker is per volt: its "
+                                     "measured modes hold the shaker, so a force record is not "
+                                     "predicted per newton", file=self.path, field="shaker")
+                path.check_pair_coil(vals, max(m.frequency_hz for m in self.basis.modes))
+                vals = {**vals, **path.pair_drives(vals, self.basis)}
+            return pair_states(model, vals, self.basis, self.between, self.drive_at(vals))
         if path is not None and self.metadata.get("drive_quantity") == "force":
             # per newton: the structure alone (nlmode_shaker H1), driven by the measured force
             _, m_d = path.shaker(vals)
@@ -136,6 +143,14 @@ class ModalMeasurement:
         if path is not None:       # (n, 4): the force on the structure beside
             return path.states(model, vals, self.drive_at(vals), self.basis.modes[0].frequency_hz)
         return mode_states(model, vals, self.drive_at(vals))
+
+    def structure_force(self, q: np.ndarray, vals: Mapping[str, Any]) -> np.ndarray:
+        """With the shaker: the force on the structure at the drive point at every sample (N;
+        nlmode_shaker H2 on mode 1, P2 with a two-point joint) from :meth:`states`' ``q``."""
+        if self.between:
+            v = {k: float(getattr(x, "value", x)) for k, x in vals.items()}
+            return self.setup.shaker.pair_force(v, q, self.drive_at(v), self.basis)
+        return q[:, 3]
 
     def other_drive(self, vals: Mapping[str, Any], q: np.ndarray | None) -> tuple[Drive, Any]:
         """What drives the linear modes and the residual terms, and its cache tag: the

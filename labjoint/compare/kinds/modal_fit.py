@@ -335,8 +335,7 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     if path is None:
         params.add("modal.drive", vals["modal.drive"], lower=0.0, unit="m/s^2 per V")
     elif drive_name:
-        params.add(drive_name, vals[drive_name], lower=0.0,
-                   unit={"mode1.mass_kg": "kg", "shaker.force_factor_n_per_a": "N/A"}.get(drive_name, "ohm"))
+        params.add(drive_name, vals[drive_name], lower=0.0, unit=path.free_unit)
     params.add("shaker.highpass_hz", vals["shaker.highpass_hz"], lower=bnd["shaker.highpass_hz"][0],
                upper=bnd["shaker.highpass_hz"][1],
                unit="Hz")

@@ -15,6 +15,12 @@ effect's parameters from the single-mode fit's physical starts
 stiffness that would double mode 1's) at the largest relative displacement the linear
 model gives; from ``init`` (a smaller fitted model) its values. A trial whose simulation
 diverges is rejected; a fit that ends diverged is refused naming the parameters.
+
+Through the shaker (a voltage drive with ``setup.shaker``): the drives are no longer free;
+every mode's is the shaker's force at the drive point (:mod:`labjoint.structure.nlmode_shaker`
+P1), and the one shaker parameter the records determine (``path.free``: one of Bl, R and
+``mode1.mass_kg``, the single mode's identifiability rules) is varied in their place,
+started from mode 1's linear drive; the relative masses from the linear drives' ratios.
 """
 
 from __future__ import annotations
@@ -78,14 +84,18 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     if init is not None:
         prev = init.params_.valuesdict() if hasattr(init, "params_") else dict(init)
         known = {k: float(v) for k, v in prev.items() if k in model.param_names
-                 or k.startswith(("modal.drive", "modal.mass", "shaker."))}
+                 or k.startswith(("modal.drive", "modal.mass", "shaker.", "mode1."))}
     for n in LINEAR_TERMS:
         if n in model.param_names:
             known.setdefault(n, 0.0)
+    path = fit_ms[0].setup.shaker                 # the shaker at its drive point, on every mode
+    if path is not None:
+        path.participations(basis)
+        drives = [path.free] if path.free else []
     bnd = _bounds(model, bounds and {k: v for k, v in bounds.items() if k in model.param_names})
     bnd.pop("modal.drive", None)
     for n in drives:
-        bnd[n] = (-np.inf, np.inf)
+        bnd[n] = (-np.inf, np.inf) if path is None else (0.0, np.inf)
     for n in masses:
         bnd[n] = MASS_RANGE
     bnd["shaker.highpass_hz"] = HIGHPASS_RANGE
@@ -101,13 +111,23 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
         if init is None or n not in known:       # a smaller fitted model's values stay
             known[n] = float(v)
     g, amp = _linear_drives(fit_ms, d)
-    for n, v in g.items():
-        known.setdefault(n, v)
+    if path is None:
+        for n, v in g.items():
+            known.setdefault(n, v)
+    else:           # the free shaker parameter from mode 1's drive, the masses from the ratios
+        for n, v in path.pair_free_start(g["modal.drive1"]).items():
+            known.setdefault(n, v)
+        phi = path.participations(basis)
+        for j, n in enumerate(masses, start=1):
+            mu = phi[j] / phi[0] * g["modal.drive1"] / g[f"modal.drive{j + 1}"] if g[f"modal.drive{j + 1}"] else 0.0
+            known.setdefault(n, float(np.clip(mu, *MASS_RANGE)) if np.isfinite(mu) and mu > 0 else 1.0)
     for n in masses:
         known.setdefault(n, 1.0)
     w1 = 2 * np.pi * basis.modes[0].frequency_hz
     k_ref = w1 * w1 / max(d[0] ** 2, float(np.max(d ** 2)) * 1e-3)
-    names = [*model.param_names, *drives, *masses, "shaker.highpass_hz"]
+    every = [*model.param_names, *drives, *masses, "shaker.highpass_hz"]
+    fixed = {n: bnd[n][0] for n in every if bnd[n][0] == bnd[n][1]}     # a bound n=v:v holds n
+    names = [n for n in every if n not in fixed]
 
     def residual_of(vals: Mapping[str, float]) -> np.ndarray | None:
         out = []
@@ -128,11 +148,11 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
                 cand[kn] for e, kn in STUCK.items() if e in model.names and kn not in known)
         starts.append(np.array([np.clip(cand.get(n, 0.0), *bnd[n]) for n in names]))
     x, sol, scale = best_start_then_solve(
-        lambda z: residual_of(dict(zip(names, z))), names, bnd, starts, max_nfev,
+        lambda z: residual_of({**fixed, **dict(zip(names, z))}), names, bnd, starts, max_nfev,
         f"every start of {model.expr} between {between[0]} and {between[1]} diverges on the records")
     lo = np.array([bnd[n][0] for n in names])
     hi = np.array([bnd[n][1] for n in names])
-    vals = dict(zip(names, x))
+    vals = {**fixed, **dict(zip(names, x))}
     r = residual_of(vals)
     if r is None:
         raise InputError(f"the fitted model diverges on the records ({vals})", field="model")
@@ -157,7 +177,10 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
             pass
     params = model.make_params(values={n: vals[n] for n in model.param_names})
     for n in drives:
-        params.add(n, vals[n], unit="m/s^2 per V")
+        if path is None:
+            params.add(n, vals[n], unit="m/s^2 per V")
+        else:
+            params.add(n, vals[n], lower=0.0, unit=path.free_unit)
     for n in masses:
         params.add(n, vals[n], lower=MASS_RANGE[0], upper=MASS_RANGE[1], unit="1")
     params.add("shaker.highpass_hz", vals["shaker.highpass_hz"], lower=0.0, upper=HIGHPASS_RANGE[1], unit="Hz")
