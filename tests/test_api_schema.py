@@ -60,7 +60,22 @@ def base_url(tmp_path_factory):
 @settings(max_examples=20, deadline=None, database=None,
           suppress_health_check=list(HealthCheck))
 def test_api_conforms_to_its_schema(case, base_url):
-    response = case.call_and_validate(base_url=base_url, headers=AUTH,
-                                      excluded_checks=[positive_data_acceptance],
-                                      timeout=patience.HTTP_TIMEOUT_S)   # requests' 10 s timed out under load
+    kwargs = {"timeout": patience.HTTP_TIMEOUT_S}   # requests' 10 s timed out under load
+    response = case.call(base_url=base_url, headers=AUTH, **kwargs)
+    if _refused_by_http_parser(response):
+        # the drawn request is not valid HTTP/1.1 (uvicorn's parser answers 400 text/plain
+        # before the app sees it): the API's schema does not apply, and nothing was served
+        assert response.status_code == 400
+        return
+    case.validate_response(response, excluded_checks=[positive_data_acceptance],
+                           transport_kwargs={"base_url": base_url, "headers": dict(AUTH), **kwargs})
     assert response.status_code < 500
+
+
+def _refused_by_http_parser(response) -> bool:
+    """True for uvicorn's protocol-level refusal of a malformed request (h11 or httptools:
+    a 400 with the fixed text/plain body), which never reaches labjoint's routes."""
+    ctype = response.headers.get("content-type") or [""]     # schemathesis: a list per header
+    ctype = ctype[0] if isinstance(ctype, list) else ctype
+    return (response.status_code == 400 and ctype.startswith("text/plain")
+            and response.text.startswith("Invalid HTTP request received"))
