@@ -43,6 +43,7 @@ def estimate_streamed(read: Callable[[int, int], tuple[np.ndarray, np.ndarray]],
     """FRFs of a record of ``n`` samples read through ``read`` (module docstring)."""
     if estimator not in broadband.ESTIMATORS:
         raise InputError(f"must be one of {broadband.ESTIMATORS}", field="estimator")
+    broadband.check_nperseg(nperseg, n)
     exc = detect_streamed(read_drive, n, fs)
     broadband.refuse_narrowband(exc)
     if method not in ("auto", "welch"):
@@ -62,6 +63,7 @@ def estimate_streamed(read: Callable[[int, int], tuple[np.ndarray, np.ndarray]],
                                   overlap=overlap, window=window)
     a0, a1 = broadband.active_from(rms, win, n)
     L, ov = broadband.segment_length(a1 - a0, fs)
+    broadband.check_nperseg(nperseg, a1 - a0, "the active drive's length")
     L = int(nperseg or L)
     ov = ov if overlap is None else float(overlap)
     if a1 - a0 < L:
@@ -74,7 +76,7 @@ def estimate_streamed(read: Callable[[int, int], tuple[np.ndarray, np.ndarray]],
     for a in range(a0, a1, BLOCK):
         w.feed(*read(a, min(a1, a + BLOCK)))      # each segment's mean removed (detrend)
     e = w.estimates()
-    return broadband._result(w.freq_hz, e, estimator, rms_drive, (a0 / fs, a1 / fs),
+    return broadband.result(w.freq_hz, e, estimator, rms_drive, (a0 / fs, a1 / fs),
                              f"Welch {estimator} over the active drive ({a0 / fs:.4g}-{a1 / fs:.4g} s), "
                              f"{window} segments of {L} samples, overlap {ov:g}, {w.count} segments, "
                              f"read in blocks of {BLOCK} samples")
