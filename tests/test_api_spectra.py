@@ -116,6 +116,8 @@ def test_bad_input_is_4xx_naming_the_run_or_channel(served):
             (dict(runs=["nosuchrun"], name="x"), 404, ["nosuchrun"]),
             (dict(runs=["force_lo"], name="x", window="nowindow"), 422, ["nowindow"]),
             (dict(runs=["force_lo"], name="x", band=(50.0, 10.0)), 422, ["band"]),
+            (dict(runs=["force_lo"], name="x", nperseg=1 << 24), 422,
+             ["force_lo", "nperseg", "16 to 65536", "16777216"]),
         ]
         for kw, status, words in cases:
             with pytest.raises(ApiError) as e:
