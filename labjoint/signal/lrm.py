@@ -40,6 +40,8 @@ from labjoint.errors import InputError
 
 #: lines each side of the local window, and the degree of the local polynomials
 HALF_WIDTH, DEGREE = 7, 2
+#: lines fitted at once (the local systems of a chunk: CHUNK_LINES x (2R + 1) x (3q + 2))
+CHUNK_LINES = 1 << 14
 
 
 def local_rational(U: Any, Y: Any, half_width: int = HALF_WIDTH,
@@ -56,27 +58,39 @@ def local_rational(U: Any, Y: Any, half_width: int = HALF_WIDTH,
         raise InputError(f"the local rational method needs more than {max(width, p)} lines, "
                          f"got {U.size}", field="drive")
     n = U.size
-    k = np.arange(n)
-    start = np.clip(k - R, 0, n - width)                      # each line's window
-    idx = start[:, None] + np.arange(width)[None, :]          # (n, width)
-    r = (idx - k[:, None]).astype(float) / R                  # scaled offsets: conditioning
-    powers = r[:, :, None] ** np.arange(q + 1)[None, None, :]  # (n, width, q + 1)
-    u = U[idx][:, :, None]
     h = np.empty(Y.shape, complex)
     std = np.empty(Y.shape)
+    for c0 in range(0, n, CHUNK_LINES):                        # bounded temporaries
+        k = np.arange(c0, min(n, c0 + CHUNK_LINES))
+        h[:, k], std[:, k] = _fit(U, Y, k, R, q)
+    return h, std
+
+
+def _fit(U: np.ndarray, Y: np.ndarray, k: np.ndarray, R: int, q: int) -> tuple[np.ndarray, np.ndarray]:
+    """The local rational fits at lines ``k`` (:func:`local_rational`)."""
+    n, width, p = U.size, 2 * R + 1, 3 * q + 2
+    start = np.clip(k - R, 0, n - width)                      # each line's window
+    idx = start[:, None] + np.arange(width)[None, :]          # (m, width)
+    r = (idx - k[:, None]).astype(float) / R                  # scaled offsets: conditioning
+    powers = r[:, :, None] ** np.arange(q + 1)[None, None, :]  # (m, width, q + 1)
+    u = U[idx][:, :, None]
+    m = k.size
+    h = np.empty((Y.shape[0], m), complex)
+    std = np.empty((Y.shape[0], m))
+    e0 = np.zeros((m, p, 1), complex)
+    e0[:, 0, 0] = 1.0
     for s in range(Y.shape[0]):
-        y = Y[s, idx]                                          # (n, width)
+        y = Y[s, idx]                                          # (m, width)
         A = np.concatenate([powers * u, powers, -powers[:, :, 1:] * y[:, :, None]], axis=2)
         scale = np.linalg.norm(A, axis=1, keepdims=True)      # column scaling
         scale[scale == 0] = 1.0
-        Q, Rm = np.linalg.qr(A / scale)
+        A /= scale
+        Q, Rm = np.linalg.qr(A)
         theta = np.linalg.solve(Rm, np.einsum("nwp,nw->np", Q.conj(), y)[:, :, None])[:, :, 0]
-        res = y - np.einsum("nwp,np->nw", A / scale, theta)
+        res = y - np.einsum("nwp,np->nw", A, theta)
         sigma2 = np.sum(np.abs(res) ** 2, axis=1) / (width - p)
         # var(theta_0) = sigma^2 [(A^H A)^-1]_00 = sigma^2 |row 0 of R^-1|^2, and that row
         # is the solution of R^H x = e_0 (conjugated)
-        e0 = np.zeros((n, p, 1), complex)
-        e0[:, 0, 0] = 1.0
         row = np.linalg.solve(np.conj(np.swapaxes(Rm, 1, 2)), e0)[:, :, 0]
         var0 = sigma2 * np.sum(np.abs(row) ** 2, axis=1)
         h[s] = theta[:, 0] / scale[:, 0, 0]
