@@ -11,14 +11,18 @@ The method follows the excitation found in the drive (:mod:`labjoint.signal.exci
   the ratio), coherence from the same sums.
 - **burst** (a random or impact drive that rests after each burst, for at least a tenth
   of the block; the bursts found from the drive's moving RMS, above 5 % of the median of
-  its driven part): one block per burst, from its start to the next burst's (the last to
-  the record's end), no window, the blocks averaged. The free decay after a burst is the
-  response to that burst: it belongs to its block unwindowed, never averaged as a driven
-  stretch. The method names how far the response has decayed at the block's end (what
-  is left leaks). Several bursts give H1, H2, Hv, coherence and the Bendat & Piersol
-  errors with n_d = bursts; a single burst one average, its std from the scatter of H
-  between neighbouring lines (second differences: var = 1.5 sigma^2 per component for
-  independent errors, a running median over 17 lines) and the coherence that std implies.
+  its driven part; :mod:`labjoint.signal.burst`): each burst over its driven part only,
+  unwindowed, through the local rational method (:mod:`labjoint.signal.lrm`: the
+  transient left by cutting the response while the modes ring is fitted and removed,
+  exact for a linear system), the bursts averaged. The free decay after the drive is left
+  out: a nonlinear joint rings there at a lower amplitude (another frequency and
+  damping), which the textbook block of burst + decay mixes into the level's FRF. The
+  std comes from the local fits' residuals (and the spread between bursts), the
+  coherence from that std. A drive shorter than a quarter of its block (an impact) is
+  answered through its whole block, hit and free decay, unwindowed: one average gives
+  its std from the scatter of H between neighbouring lines (second differences: var =
+  1.5 sigma^2 per component, a running median over 17 lines), several the Bendat &
+  Piersol errors with n_d = impacts.
 - **random** (steady): Welch's spectra (:mod:`labjoint.signal.spectra`) over the active
   part of the drive only (its moving RMS above 5 % of the median of its driven part).
   Segment: the largest power of two that gives at least three segments at half overlap
@@ -27,7 +31,7 @@ The method follows the excitation found in the drive (:mod:`labjoint.signal.exci
   Hv, coherence and the Bendat & Piersol random errors (Eq. 9.90).
 - **swept sine** (or ``method="block"``): the whole record as one block, no window (the
   record is assumed to start at rest and the response to decay within it), one average,
-  std from the scatter as for a single burst.
+  std from the scatter as for a single impact.
 
 The drive and the estimator are explicit: :class:`BroadbandFrf` carries the response
 quantities and units, and the drive quantity ("force", N, or "voltage", V).
