@@ -68,7 +68,7 @@ def active_part(drive: np.ndarray, fs: float) -> tuple[int, int]:
 
 
 def result(fr: np.ndarray, e: dict[str, np.ndarray], estimator: str, rms: float,
-            active: tuple[float, float], method: str, std: np.ndarray | None = None) -> BroadbandFrf:
+           active: tuple[float, float], method: str, std: np.ndarray | None = None) -> BroadbandFrf:
     keep = (fr > 0) & np.all(np.isfinite(e["H1"]), axis=0) & np.all(np.isfinite(e[estimator]), axis=0)
     h = e[estimator][:, keep]
     if std is None:
@@ -107,7 +107,7 @@ def scatter_std(h: np.ndarray) -> np.ndarray:
 
 
 def blocks(F: np.ndarray, Y: np.ndarray, fs: float, nb: int, estimator: str,
-            active: tuple[float, float], rms: float, method: str) -> BroadbandFrf:
+           active: tuple[float, float], rms: float, method: str) -> BroadbandFrf:
     """Estimates from ``nb`` unwindowed blocks' spectra F (nb, f), Y (nb, S, f)."""
     gff = np.sum(np.abs(F) ** 2, axis=0)
     gyy = np.sum(np.abs(Y) ** 2, axis=0)
