@@ -10,7 +10,7 @@ import numpy as np
 from labjoint.errors import InputError
 from labjoint.signal.broadband_base import (ACTIVE_FRACTION, ESTIMATORS, BroadbandFrf, blocks,
                                             envelope, result, window_sums)
-from labjoint.signal.lrm import HALF_WIDTH, local_rational
+from labjoint.signal.lrm import local_rational
 
 
 def bursts(drive: np.ndarray, fs: float) -> list[tuple[int, int]]:
@@ -79,24 +79,6 @@ def impulse_blocks(f: np.ndarray, y: np.ndarray, fs: float, estimator: str,
                    + ("; std from the scatter between neighbouring lines" if len(found) == 1 else ""))
 
 
-#: lines fitted: from the first to the last whose drive power (smoothed over 1/256 of the
-#: lines) reaches this fraction of its largest (a band-limited drive on a fast sampling
-#: leaves most lines silent, and each fit costs ~10 us per line and channel)
-POWERED = 1e-10
-
-
-def _powered_span(power: np.ndarray) -> tuple[int, int]:
-    """[lo, hi) of the lines carrying drive power (POWERED), at least the fit's window."""
-    m = max(1, power.size // 256)
-    ps = np.convolve(power, np.ones(m) / m, mode="same") if m > 1 else power
-    on = np.flatnonzero(ps >= POWERED * ps.max()) if ps.max() > 0 else np.arange(power.size)
-    lo, hi = int(on[0]), int(on[-1]) + 1
-    width = 2 * HALF_WIDTH + 1
-    if hi - lo < width:
-        lo, hi = max(0, min(lo, power.size - width)), min(power.size, max(hi, lo + width))
-    return lo, hi
-
-
 def burst(f: np.ndarray, y: np.ndarray, fs: float, estimator: str = "H1",
           found: list[tuple[int, int]] | None = None) -> BroadbandFrf:
     """Burst excitation: the driven part of each burst, unwindowed, through the local
@@ -115,12 +97,7 @@ def burst(f: np.ndarray, y: np.ndarray, fs: float, estimator: str = "H1",
     seg = lambda x, a: x[..., a:a + L] - np.mean(x[..., a:a + L], axis=-1, keepdims=True)  # noqa: E731
     F = np.array([np.fft.rfft(seg(f, a))[1:] for a, _ in found])            # DC left out
     Y = np.array([np.fft.rfft(seg(y, a), axis=1)[:, 1:] for a, _ in found])
-    lo, hi = _powered_span(np.sum(np.abs(F) ** 2, axis=0))
-    fits = []
-    for Fb, Yb in zip(F, Y):            # fitted where the drive carries power, NaN elsewhere
-        hb, sb = np.full(Yb.shape, np.nan + 0j), np.full(Yb.shape, np.nan)
-        hb[:, lo:hi], sb[:, lo:hi] = local_rational(Fb[lo:hi], Yb[:, lo:hi])
-        fits.append((hb, sb))
+    fits = [local_rational(Fb, Yb) for Fb, Yb in zip(F, Y)]
     nb = len(found)
     h = np.mean([hb for hb, _ in fits], axis=0)
     std = np.sqrt(np.sum([sb ** 2 for _, sb in fits], axis=0)) / nb
