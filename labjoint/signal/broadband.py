@@ -11,18 +11,26 @@ The method follows the excitation found in the drive (:mod:`labjoint.signal.exci
   the ratio), coherence from the same sums.
 - **burst** (a random or impact drive that rests after each burst, for at least a tenth
   of the block; the bursts found from the drive's moving RMS, above 5 % of the median of
-  its driven part; :mod:`labjoint.signal.burst`): each burst over its driven part only,
-  unwindowed, through the local rational method (:mod:`labjoint.signal.lrm`: the
-  transient left by cutting the response while the modes ring is fitted and removed,
-  exact for a linear system), the bursts averaged. The free decay after the drive is left
-  out: a nonlinear joint rings there at a lower amplitude (another frequency and
-  damping), which the textbook block of burst + decay mixes into the level's FRF. The
-  std comes from the local fits' residuals (and the spread between bursts), the
-  coherence from that std. A drive shorter than a quarter of its block (an impact) is
-  answered through its whole block, hit and free decay, unwindowed: one average gives
-  its std from the scatter of H between neighbouring lines (second differences: var =
-  1.5 sigma^2 per component, a running median over 17 lines), several the Bendat &
-  Piersol errors with n_d = impacts.
+  its driven part; :mod:`labjoint.signal.burst`), by ``burst=``:
+
+  - ``"block"`` (default): one block per burst, from its start to the next burst's (the
+    last to the record's end), no window, the blocks averaged: the textbook burst-random
+    H1, as Simcenter Testlab computes it. The free decay after a burst is the response to
+    that burst: it belongs to its block unwindowed, never averaged as a driven stretch.
+    The method names how far the response has decayed at the block's end (what is left
+    leaks). Several bursts give H1, H2, Hv, coherence and the Bendat & Piersol errors
+    with n_d = bursts; a single burst one average, its std from the scatter of H between
+    neighbouring lines (second differences: var = 1.5 sigma^2 per component for
+    independent errors, a running median over 17 lines) and the coherence that std
+    implies.
+  - ``"driven"``: each burst over its driven part only, unwindowed, through the local
+    rational method (:mod:`labjoint.signal.lrm`: the transient left by cutting the
+    response while the modes ring is fitted and removed, exact for a linear system), the
+    bursts averaged: the FRF at the burst's own amplitude. The free decay, where a
+    nonlinear joint rings at a lower amplitude (another frequency and damping), is left
+    out; the std comes from the local fits' residuals (and the spread between bursts).
+    For level-dependent FRFs of a nonlinear structure; about 16x the CPU of "block". A
+    drive shorter than a quarter of its block (an impact) is answered through its blocks.
 - **random** (steady): Welch's spectra (:mod:`labjoint.signal.spectra`) over the active
   part of the drive only (its moving RMS above 5 % of the median of its driven part).
   Segment: the largest power of two that gives at least three segments at half overlap
@@ -31,7 +39,7 @@ The method follows the excitation found in the drive (:mod:`labjoint.signal.exci
   Hv, coherence and the Bendat & Piersol random errors (Eq. 9.90).
 - **swept sine** (or ``method="block"``): the whole record as one block, no window (the
   record is assumed to start at rest and the response to decay within it), one average,
-  std from the scatter as for a single impact.
+  std from the scatter as for a single burst.
 
 The drive and the estimator are explicit: :class:`BroadbandFrf` carries the response
 quantities and units, and the drive quantity ("force", N, or "voltage", V).
@@ -55,7 +63,9 @@ from labjoint.signal import validate
 from labjoint.signal.broadband_base import (ACTIVE_FRACTION, ESTIMATORS, BroadbandFrf,  # noqa: F401
                                             active_from, active_part, blocks, drive_band, envelope,
                                             result, scatter_std, window_sums)
-from labjoint.signal.burst import burst, bursts, bursts_from, impulse_blocks  # noqa: F401
+from labjoint.signal.burst import (BURST_MODES, burst, burst_blocks, bursts, bursts_from,  # noqa: F401
+                                   check_burst, driven)
+from labjoint.signal.burst import burst as burst_estimate
 from labjoint.signal.excitation import Excitation, detect_excitation
 from labjoint.signal.spectra import Welch, estimates_from
 
@@ -78,9 +88,10 @@ def segment_length(n: int, fs: float) -> tuple[int, float]:
 def estimate(drive: Any, responses: Any, fs: float, *, estimator: str = "H1",
              excitation: Excitation | None = None, nperseg: int | None = None,
              overlap: float | None = None, window: str = "hann",
-             method: str = "auto") -> BroadbandFrf:
+             method: str = "auto", burst: str = "block") -> BroadbandFrf:
     """FRFs of ``responses`` (S, n) over ``drive`` (n,) sampled at ``fs`` (module doc).
-    ``method``: "auto" (from the excitation), "welch", "periodic", "burst" or "block"."""
+    ``method``: "auto" (from the excitation), "welch", "periodic", "burst" or "block";
+    ``burst``: the estimator of a burst record, "block" or "driven"."""
     fs = validate.sample_rate(fs)
     f = validate.signal(drive, "drive", min_samples=16)
     y = np.atleast_2d(validate.signal(responses, "responses", min_samples=16, ndim=(1, 2)))
@@ -88,6 +99,7 @@ def estimate(drive: Any, responses: Any, fs: float, *, estimator: str = "H1",
     if estimator not in ESTIMATORS:
         raise InputError(f"must be one of {ESTIMATORS}", field="estimator")
     check_nperseg(nperseg, f.size)
+    mode = check_burst(burst)
     if method == "auto":
         exc = excitation or detect_excitation(f, fs)
         per = exc.period_s * fs if exc.kind == "multisine" and exc.period_s else 0.0
@@ -97,7 +109,7 @@ def estimate(drive: Any, responses: Any, fs: float, *, estimator: str = "H1",
         refuse_narrowband(exc)
         found = bursts(f, fs) if exc.kind in ("random", "transient") else []
         if found:
-            return burst(f, y, fs, estimator, found)
+            return burst_estimate(f, y, fs, estimator, found, mode)
         method = "block" if exc.kind in ("transient", "swept_sine") else "welch"
     if method == "periodic":
         exc = excitation or detect_excitation(f, fs)
@@ -107,7 +119,7 @@ def estimate(drive: Any, responses: Any, fs: float, *, estimator: str = "H1",
     if method == "block":
         return block(f, y, fs, estimator)
     if method == "burst":
-        return burst(f, y, fs, estimator)
+        return burst_estimate(f, y, fs, estimator, None, mode)
     if method != "welch":
         raise InputError("must be auto, welch, periodic, burst or block", field="method")
     a0, a1 = active_part(f, fs)

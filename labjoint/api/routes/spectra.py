@@ -48,6 +48,11 @@ class FrfOptions(_In):
                                          description="response channels (default: all)")
     estimator: Literal["H1", "H2", "Hv"] = "H1"
     method: Literal["auto", "welch", "periodic", "burst", "block"] = "auto"
+    burst: Literal["block", "driven"] = Field(
+        "block", description="a burst record's estimator: 'block' (one unwindowed block per burst, "
+                             "its free decay included: Testlab's burst-random H1) or 'driven' (the "
+                             "driven part through the local rational method: the FRF at the "
+                             "burst's own amplitude, for a nonlinear structure)")
     nperseg: int | None = Field(None, ge=16, le=1 << 24, description="Welch segment (samples)")
     overlap: float | None = Field(None, ge=0, lt=1)
     window: str = Field("hann", pattern=r"^[a-z_]{1,40}$", description="Welch window (scipy)")
