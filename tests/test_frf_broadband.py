@@ -59,16 +59,39 @@ def test_multisine_is_exact_at_the_excited_lines_and_its_std_follows_the_noise()
     assert 0.6 < np.std(np.concatenate([z.real, z.imag])) < 1.5
 
 
-def test_a_burst_is_taken_over_its_driven_part_with_the_transients_removed():
-    """One 32 s burst, then 32 s of rest: the driven part alone, cut unwindowed while the
-    modes ring, through the local rational method gives the sampled system's FRF (the
-    transient at the cut removed) wherever the drive has power."""
+def test_a_burst_and_its_free_decay_form_one_unwindowed_block():
+    """The default (burst="block"): one 32 s burst, then 32 s of rest: the block holds the
+    burst's whole response, so H1 is the sampled system's FRF (no window, no leakage)
+    wherever the drive has power."""
     fs = 256.0
     rng = np.random.default_rng(7)
     u = np.concatenate([rng.normal(size=1 << 13), np.zeros(1 << 13)])
     y = simulate(u, fs, shaker=False)
     r = estimate(u, y["v2"][None] + 1e-6 * rng.normal(size=u.size), fs)
+    assert r.method.startswith("H1 over 1 burst block") and r.averages == 1
+    assert "burst=block" in r.method
+    assert r.active_s[1] == pytest.approx(32.0, abs=0.1)
+    assert r.freq_hz[1] - r.freq_hz[0] == pytest.approx(1 / 64.0, rel=0.01)
+    band = (r.freq_hz > 2) & (r.freq_hz < 100)
+    want = closed_frf(r.freq_hz[band], False, 1, fs)
+    assert np.median(np.abs(r.h[0, band] / want - 1)) < 1e-3
+    modes = find_modes(r.freq_hz, r.h, "velocity", ["v2"], (5.0, 60.0))
+    for m, (fn, z) in zip(modes, closed_modes(False)):
+        assert m["frequency_hz"] == pytest.approx(fn, rel=1e-3)
+        assert m["damping_ratio"] == pytest.approx(z, rel=0.02)
+
+
+def test_the_driven_option_takes_a_burst_over_its_driven_part_with_the_transients_removed():
+    """burst="driven": the driven part alone, cut unwindowed while the modes ring, through
+    the local rational method gives the sampled system's FRF (the transient at the cut
+    removed) wherever the drive has power."""
+    fs = 256.0
+    rng = np.random.default_rng(7)
+    u = np.concatenate([rng.normal(size=1 << 13), np.zeros(1 << 13)])
+    y = simulate(u, fs, shaker=False)
+    r = estimate(u, y["v2"][None] + 1e-6 * rng.normal(size=u.size), fs, burst="driven")
     assert r.method.startswith("H1 over the driven part of 1 burst(s)") and r.averages == 1
+    assert "burst=driven" in r.method
     assert r.active_s[1] == pytest.approx(32.0, abs=0.1)
     assert r.freq_hz[1] - r.freq_hz[0] == pytest.approx(1 / 32.0, rel=0.01)
     band = (r.freq_hz > 2) & (r.freq_hz < 100)
@@ -80,35 +103,45 @@ def test_a_burst_is_taken_over_its_driven_part_with_the_transients_removed():
         assert m["damping_ratio"] == pytest.approx(z, rel=0.02)
 
 
-def test_several_bursts_are_averaged_with_their_coherence():
+@pytest.mark.parametrize("mode,text", [("block", "6 burst block(s)"), ("driven", "6 burst(s)")])
+def test_several_bursts_are_averaged_with_their_coherence(mode, text):
     fs = 256.0
     rng = np.random.default_rng(8)
     on, off = 1 << 12, 1 << 12
     u = np.concatenate([np.concatenate([rng.normal(size=on), np.zeros(off)]) for _ in range(6)])
     v = simulate(u, fs, shaker=False)["v2"]
     y = v + 0.05 * v.std() * rng.normal(size=u.size)
-    r = estimate(u, y[None], fs)
-    assert r.averages == 6 and "6 burst(s)" in r.method
+    r = estimate(u, y[None], fs, burst=mode)
+    assert r.averages == 6 and text in r.method
     band = (r.freq_hz > 5) & (r.freq_hz < 60)
     assert 0.5 < np.median(r.coherence[0, band]) < 1.0
-    # the errors from the coherence (Bendat & Piersol, n_d = 6) match the actual scatter
+    # the errors (block: Bendat & Piersol from the coherence, n_d = 6; driven: the local
+    # fits' residuals and the spread between bursts) match the actual scatter
     z = (r.h[0, band] - closed_frf(r.freq_hz[band], False, 1, fs)) / r.std[0, band]
     assert 0.7 < np.sqrt(np.mean(np.abs(z) ** 2) / 2) < 1.4
 
 
-def test_an_impact_is_answered_through_its_whole_block():
+@pytest.mark.parametrize("mode,text", [("block", "4 burst block(s)"), ("driven", "4 impulse block(s)")])
+def test_an_impact_is_answered_through_its_whole_block(mode, text):
     """Hammer-like pulses 20 ms long every 16 s: the drive is far too short to hold the
-    response, so each block runs from the hit through the free decay, unwindowed."""
+    response, so each block runs from the hit through the free decay, unwindowed (the
+    driven option too)."""
     fs = 256.0
     pulse = np.hanning(7)
     u = np.zeros(1 << 14)
     for a in (0, 1 << 12, 2 << 12, 3 << 12):
         u[a + 10:a + 17] = 50.0 * pulse
     v = simulate(u, fs, shaker=False)["v2"]
-    r = estimate(u, v[None], fs)
-    assert "4 impulse block(s)" in r.method
+    r = estimate(u, v[None], fs, burst=mode)
+    assert text in r.method
     band = (r.freq_hz > 5) & (r.freq_hz < 60)
     assert np.median(np.abs(r.h[0, band] / closed_frf(r.freq_hz[band], False, 1, fs) - 1)) < 2e-3
+
+
+def test_an_unknown_burst_estimator_is_refused_by_name():
+    u = np.concatenate([np.random.default_rng(1).normal(size=4096), np.zeros(4096)])
+    with pytest.raises(InputError, match=r"'burst': must be one of block, driven .* got 'lrm'"):
+        estimate(u, u[None], 256.0, burst="lrm")
 
 
 def test_bendat_piersol_error_matches_the_scatter():
