@@ -72,12 +72,15 @@ def _response(u: np.ndarray, shaker: bool) -> tuple[np.ndarray, np.ndarray]:
     return np.vstack([y["v1"], y["v2"]]), np.vstack([y["a1"], y["a2"]])   # velocities, accelerations
 
 
-def random_force(path: Path, level_n: float, seed: int, n: int = 1 << 16) -> Path:
-    """Band-limited random force (rms ``level_n``), accelerations of both masses."""
+def random_force(path: Path, level_n: float, seed: int, n: int = 1 << 16, rest: float = 0.0) -> Path:
+    """Band-limited random force (rms ``level_n``), accelerations of both masses; with
+    ``rest`` > 0 one burst: the force is zero over the record's last ``rest`` share."""
     rng = np.random.default_rng(seed)
     b, a = sps.butter(4, 150.0, fs=FS)
     f = sps.lfilter(b, a, rng.normal(size=n))
-    f *= level_n / f.std()
+    on = n - int(rest * n)
+    f[on:] = 0.0
+    f *= level_n / f[:on].std()
     _, acc = _response(f, False)
     acc = acc + 1e-4 * acc.std() * rng.normal(size=acc.shape)
     return _run_file(path, {"force": ("force", "N", f), "acc1": ("acceleration", "m/s^2", acc[0]),
