@@ -29,7 +29,7 @@ The method follows the excitation found in the drive (:mod:`labjoint.signal.exci
     bursts averaged: the FRF at the burst's own amplitude. The free decay, where a
     nonlinear joint rings at a lower amplitude (another frequency and damping), is left
     out; the std comes from the local fits' residuals (and the spread between bursts).
-    For level-dependent FRFs of a nonlinear structure; about 16x the CPU of "block". A
+    For level-dependent FRFs of a nonlinear structure; about 10x the CPU of "block". A
     drive shorter than a quarter of its block (an impact) is answered through its blocks.
 - **random** (steady): Welch's spectra (:mod:`labjoint.signal.spectra`) over the active
   part of the drive only (its moving RMS above 5 % of the median of its driven part).

@@ -2,8 +2,7 @@
 
 One response over one force, through the broadband estimator every FRF of labjoint uses
 (:func:`labjoint.signal.broadband.estimate`: whole periods of a multisine at its excited
-lines, each burst over its driven part (transients removed by the local rational method), an
-impact over its block with its free decay, Welch over the active part of
+lines, one unwindowed block per burst with its free decay, Welch over the active part of
 a steady random drive, one block for a sweep or an impact; a steady sine through Welch,
 meaningful at its line only).
 

@@ -8,7 +8,7 @@ Written per run (SI units, the unit exponents set in records 8-10 of each data-s
 - the FRF (function type 4, complex double) of the displacement at node 1 over the force
   at node 2 (receptance, m/N), H1 (:func:`labjoint.signal.frf.frf_h1`), at the excited
   lines of a periodic excitation (unevenly spaced abscissa) or on the estimator's grid
-  (a burst over its driven part, or Welch over a steady random drive's active part), and its
+  (one block per burst, or Welch over a steady random drive's active part), and its
   coherence (function type 6, real double) on the same abscissa.
 
 The file is written under a temporary name and renamed when complete.
