@@ -1,4 +1,4 @@
-"""Run files for the /spectra tests, from a generator written here (scipy lsim, not
+"""Run files for the /spectra and broadband-FRF tests, from a generator written here (scipy lsim, not
 labjoint's simulator): a 2-DOF chain (masses 1 and 0.5 kg) under a random force, and the
 same chain driven by a voltage through a shaker coil (L di/dt + R i + Bl v = V, force
 Bl i on mass 1); both masses measured (accelerations under the force, velocities under
@@ -45,21 +45,42 @@ def closed_modes(shaker: bool) -> list[tuple[float, float]]:
     return sorted((abs(p) / (2 * np.pi), -p.real / abs(p)) for p in lam)
 
 
-def _response(u: np.ndarray, shaker: bool) -> tuple[np.ndarray, np.ndarray]:
+def simulate(u: np.ndarray, fs: float, shaker: bool) -> dict[str, np.ndarray]:
+    """Velocities v1, v2 and accelerations a1, a2 of the chain under ``u`` sampled at
+    ``fs`` (lsim: the input held linearly between samples, from rest)."""
     A, B = state(shaker)
     n = A.shape[0]
     Cm = np.vstack([np.eye(n)[2:4], A[2:4]])
     Dm = np.vstack([np.zeros((2, 1)), B[2:4]])
-    _, y, _ = sps.lsim((A, B, Cm, Dm), u, np.arange(u.size) / FS)
-    return y[:, :2].T, y[:, 2:].T                   # velocities, accelerations
+    _, y, _ = sps.lsim((A, B, Cm, Dm), u, np.arange(u.size) / fs)
+    return dict(zip(("v1", "v2", "a1", "a2"), y.T))
 
 
-def random_force(path: Path, level_n: float, seed: int, n: int = 1 << 16) -> Path:
-    """Band-limited random force (rms ``level_n``), accelerations of both masses."""
+def closed_frf(f: np.ndarray, shaker: bool, out: int, fs: float) -> np.ndarray:
+    """The sampled chain's FRF from ``u`` to velocity ``out`` (0, 1): lsim holds the input
+    linearly between samples, so the closed form is the first-order-hold discretisation's
+    H(z) at z = exp(i w / fs)."""
+    A, B = state(shaker)
+    n = A.shape[0]
+    Ad, Bd, Cd, Dd, _ = sps.cont2discrete((A, B, np.eye(n)[[2 + out]], np.zeros((1, 1))), 1 / fs, "foh")
+    z = np.exp(2j * np.pi * f / fs)
+    return np.array([(Cd @ np.linalg.solve(zi * np.eye(n) - Ad, Bd))[0, 0] + Dd[0, 0] for zi in z])
+
+
+def _response(u: np.ndarray, shaker: bool) -> tuple[np.ndarray, np.ndarray]:
+    y = simulate(u, FS, shaker)
+    return np.vstack([y["v1"], y["v2"]]), np.vstack([y["a1"], y["a2"]])   # velocities, accelerations
+
+
+def random_force(path: Path, level_n: float, seed: int, n: int = 1 << 16, rest: float = 0.0) -> Path:
+    """Band-limited random force (rms ``level_n``), accelerations of both masses; with
+    ``rest`` > 0 one burst: the force is zero over the record's last ``rest`` share."""
     rng = np.random.default_rng(seed)
     b, a = sps.butter(4, 150.0, fs=FS)
     f = sps.lfilter(b, a, rng.normal(size=n))
-    f *= level_n / f.std()
+    on = n - int(rest * n)
+    f[on:] = 0.0
+    f *= level_n / f[:on].std()
     _, acc = _response(f, False)
     acc = acc + 1e-4 * acc.std() * rng.normal(size=acc.shape)
     return _run_file(path, {"force": ("force", "N", f), "acc1": ("acceleration", "m/s^2", acc[0]),

@@ -28,6 +28,7 @@ def served(tmp_path_factory):
     random_force(d / "force_lo.h5", 0.5, seed=1)
     random_force(d / "force_hi.h5", 1.0, seed=2)
     random_voltage(d / "volt.h5", 0.3, seed=3)
+    random_force(d / "burst.h5", 0.5, seed=4, rest=0.5)
     sine_voltage(d / "sine.h5")
     odd_multisine_cubic(d / "ms.h5")
     Catalog(d / "catalog.sqlite").rebuild(d)
@@ -107,6 +108,21 @@ def test_client_voltage_drive_and_distortion(served):
         assert m["channels"]["acc"]["units"] == "m/s^2"
 
 
+def test_a_burst_run_by_either_burst_estimator(served):
+    """burst: "block" (the default: burst + free decay as one unwindowed block) and
+    "driven" (the driven part through the local rational method), both the closed-form
+    modes of the chain; the method text says which."""
+    url, d = served
+    with Client(url, CONTROL) as c:
+        for mode, text in ((None, "1 burst block(s)"), ("block", "1 burst block(s)"),
+                           ("driven", "driven part of 1 burst(s)")):
+            got = c.frf(["burst"], "burst", overwrite=True, **({"burst": mode} if mode else {}))
+            assert text in got["levels"][0]["method"], (mode, got["levels"][0]["method"])
+            modes = c.modes(frfsets=["burst"], band=(5.0, 120.0))["levels"][0]["modes"]
+            want = closed_modes(False)
+            assert [m["frequency_hz"] for m in modes] == pytest.approx([w[0] for w in want], rel=2e-3)
+
+
 def test_bad_input_is_4xx_naming_the_run_or_channel(served):
     url, d = served
     with Client(url, CONTROL) as c:
@@ -116,6 +132,9 @@ def test_bad_input_is_4xx_naming_the_run_or_channel(served):
             (dict(runs=["nosuchrun"], name="x"), 404, ["nosuchrun"]),
             (dict(runs=["force_lo"], name="x", window="nowindow"), 422, ["nowindow"]),
             (dict(runs=["force_lo"], name="x", band=(50.0, 10.0)), 422, ["band"]),
+            (dict(runs=["force_lo"], name="x", nperseg=1 << 24), 422,
+             ["force_lo", "nperseg", "16 to 65536", "16777216"]),
+            (dict(runs=["force_lo"], name="x", burst="lrm"), 422, ["burst", "block", "driven"]),
         ]
         for kw, status, words in cases:
             with pytest.raises(ApiError) as e:

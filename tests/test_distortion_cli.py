@@ -131,6 +131,10 @@ def test_cli_bad_input_is_one_line_and_exit_2(tmp_path, capsys):
                  "--nperseg", "256", "--json"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "short.h5" in err[0]
+    assert main(["frf", str(q), "--out", str(tmp_path / "f.json"), "--burst", "lrm", "--json"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "'burst'" in err[0] and "block, driven" in err[0] and "'lrm'" in err[0]
+    assert not (tmp_path / "f.json").exists()
     r = _run_file(tmp_path / "ok.h5", {"amp": ("voltage", "V", x), "laser": ("acceleration", "m/s^2", x)}, fs)
     main(["frf", str(r), "--out", str(tmp_path / "g.json")])
     capsys.readouterr()

@@ -1,6 +1,7 @@
-"""Broadband FRFs and modes against closed forms: a 2-DOF system integrated here (scipy
-lsim), measured in acceleration and velocity, driven by a force and by a voltage through a
-shaker (coil: L di/dt + R i + Bl v = V, force Bl i); random and multisine drives."""
+"""Broadband FRFs and modes against closed forms: a 2-DOF system integrated by scipy lsim
+(the builder in tests/spectra_runs.py, shared with the /spectra tests), measured in
+acceleration and velocity, driven by a force and by a voltage through a shaker (coil:
+L di/dt + R i + Bl v = V, force Bl i); random and multisine drives."""
 
 from __future__ import annotations
 
@@ -13,54 +14,7 @@ from labjoint.identify.modes import find_modes
 from labjoint.signal.broadband import estimate
 from labjoint.signal.frf_levels import frfset_from_arrays
 from labjoint.signal.frfset import FrfSet
-
-M = np.diag([1.0, 0.5])
-K = np.array([[3.0e4, -1.5e4], [-1.5e4, 1.5e4]])
-C = 2e-4 * K + 0.5 * M                      # proportional: real modes
-BL, R, L = 10.0, 2.0, 2e-3
-
-
-def _state(shaker: bool) -> tuple[np.ndarray, np.ndarray]:
-    """x' = A x + B u; states x1, x2, v1, v2 (+ coil current); u a force or a voltage."""
-    Mi = np.linalg.inv(M)
-    n = 5 if shaker else 4
-    A = np.zeros((n, n))
-    A[:2, 2:4] = np.eye(2)
-    A[2:4, :2], A[2:4, 2:4] = -Mi @ K, -Mi @ C
-    B = np.zeros((n, 1))
-    if shaker:
-        A[2:4, 4] = Mi[:, 0] * BL             # coil force on mass 1
-        A[4, 2], A[4, 4] = -BL / L, -R / L    # back EMF, resistance
-        B[4, 0] = 1 / L
-    else:
-        B[2:4, 0] = Mi[:, 0]
-    return A, B
-
-
-def _modes(A: np.ndarray) -> list[tuple[float, float]]:
-    lam = np.linalg.eigvals(A)
-    lam = lam[(lam.imag > 0)]
-    return sorted((abs(p) / (2 * np.pi), -p.real / abs(p)) for p in lam)
-
-
-def _simulate(u: np.ndarray, fs: float, shaker: bool) -> dict[str, np.ndarray]:
-    A, B = _state(shaker)
-    n = A.shape[0]
-    Cm = np.vstack([np.eye(n)[2:4], A[2:4]])          # velocities, accelerations
-    Dm = np.vstack([np.zeros((2, 1)), B[2:4]])
-    t = np.arange(u.size) / fs
-    _, y, _ = sps.lsim((A, B, Cm, Dm), u, t)
-    return {"v2": y[:, 1], "a1": y[:, 2], "a2": y[:, 3]}
-
-
-def _closed(f: np.ndarray, shaker: bool, out: int, fs: float) -> np.ndarray:
-    """The sampled system's FRF: lsim holds the input linearly between samples, so the
-    closed form is the first-order-hold discretisation's H(z) at z = exp(i w / fs)."""
-    A, B = _state(shaker)
-    n = A.shape[0]
-    Ad, Bd, Cd, Dd, _ = sps.cont2discrete((A, B, np.eye(n)[[2 + out]], np.zeros((1, 1))), 1 / fs, "foh")
-    z = np.exp(2j * np.pi * f / fs)
-    return np.array([(Cd @ np.linalg.solve(zi * np.eye(n) - Ad, Bd))[0, 0] + Dd[0, 0] for zi in z])
+from spectra_runs import closed_frf, closed_modes, simulate
 
 
 @pytest.mark.parametrize("shaker", [False, True])
@@ -68,7 +22,7 @@ def test_random_drive_modes_within_a_tenth_of_a_percent(shaker):
     fs, n = 256.0, 1 << 17
     rng = np.random.default_rng(3)
     u = rng.normal(size=n) * (0.2 if shaker else 10.0)
-    y = _simulate(u, fs, shaker)
+    y = simulate(u, fs, shaker)
     s = frfset_from_arrays(u, "voltage" if shaker else "force",
                            {"v2": ("velocity", y["v2"]), "a1": ("acceleration", y["a1"]),
                             "a2": ("acceleration", y["a2"])}, fs, run="r")
@@ -76,7 +30,7 @@ def test_random_drive_modes_within_a_tenth_of_a_percent(shaker):
     assert s.metadata["converted"] == {"a1": "acceleration -> velocity", "a2": "acceleration -> velocity"}
     h = s.response[:, :, 0].T
     modes = find_modes(s.frequencies_hz, h, s.quantity, s.sensors, (5.0, 60.0))
-    want = _modes(_state(shaker)[0])
+    want = closed_modes(shaker)
     assert len(modes) == 2
     for m, (fn, z) in zip(modes, want):
         assert m["frequency_hz"] == pytest.approx(fn, rel=1e-3)
@@ -94,10 +48,10 @@ def test_multisine_is_exact_at_the_excited_lines_and_its_std_follows_the_noise()
     U[k] = np.exp(2j * np.pi * rng.random(k.size))
     u1 = np.fft.irfft(U, N) * N / k.size
     u = np.tile(u1, P + 2)
-    y = _simulate(u, fs, shaker=True)
+    y = simulate(u, fs, shaker=True)
     r = estimate(u, np.vstack([y["v2"], y["a1"]]), fs)
     assert "steady periods" in r.method and r.freq_hz.size == k.size
-    want = _closed(r.freq_hz, True, 1, fs)
+    want = closed_frf(r.freq_hz, True, 1, fs)
     assert np.max(np.abs(r.h[0] / want - 1)) < 1e-3
     noisy = y["v2"] + 1e-4 * rng.normal(size=u.size)
     r2 = estimate(u, noisy[None], fs)
@@ -106,38 +60,88 @@ def test_multisine_is_exact_at_the_excited_lines_and_its_std_follows_the_noise()
 
 
 def test_a_burst_and_its_free_decay_form_one_unwindowed_block():
-    """One 32 s burst, then 32 s of rest: the block holds the burst's whole response, so
-    H1 is the sampled system's FRF (no window, no leakage) wherever the drive has power."""
+    """The default (burst="block"): one 32 s burst, then 32 s of rest: the block holds the
+    burst's whole response, so H1 is the sampled system's FRF (no window, no leakage)
+    wherever the drive has power."""
     fs = 256.0
     rng = np.random.default_rng(7)
     u = np.concatenate([rng.normal(size=1 << 13), np.zeros(1 << 13)])
-    y = _simulate(u, fs, shaker=False)
+    y = simulate(u, fs, shaker=False)
     r = estimate(u, y["v2"][None] + 1e-6 * rng.normal(size=u.size), fs)
     assert r.method.startswith("H1 over 1 burst block") and r.averages == 1
+    assert "burst=block" in r.method
     assert r.active_s[1] == pytest.approx(32.0, abs=0.1)
+    assert r.freq_hz[1] - r.freq_hz[0] == pytest.approx(1 / 64.0, rel=0.01)
     band = (r.freq_hz > 2) & (r.freq_hz < 100)
-    want = _closed(r.freq_hz[band], False, 1, fs)
+    want = closed_frf(r.freq_hz[band], False, 1, fs)
     assert np.median(np.abs(r.h[0, band] / want - 1)) < 1e-3
     modes = find_modes(r.freq_hz, r.h, "velocity", ["v2"], (5.0, 60.0))
-    for m, (fn, z) in zip(modes, _modes(_state(False)[0])):
+    for m, (fn, z) in zip(modes, closed_modes(False)):
         assert m["frequency_hz"] == pytest.approx(fn, rel=1e-3)
         assert m["damping_ratio"] == pytest.approx(z, rel=0.02)
 
 
-def test_several_bursts_are_averaged_with_their_coherence():
+def test_the_driven_option_takes_a_burst_over_its_driven_part_with_the_transients_removed():
+    """burst="driven": the driven part alone, cut unwindowed while the modes ring, through
+    the local rational method gives the sampled system's FRF (the transient at the cut
+    removed) wherever the drive has power."""
+    fs = 256.0
+    rng = np.random.default_rng(7)
+    u = np.concatenate([rng.normal(size=1 << 13), np.zeros(1 << 13)])
+    y = simulate(u, fs, shaker=False)
+    r = estimate(u, y["v2"][None] + 1e-6 * rng.normal(size=u.size), fs, burst="driven")
+    assert r.method.startswith("H1 over the driven part of 1 burst(s)") and r.averages == 1
+    assert "burst=driven" in r.method
+    assert r.active_s[1] == pytest.approx(32.0, abs=0.1)
+    assert r.freq_hz[1] - r.freq_hz[0] == pytest.approx(1 / 32.0, rel=0.01)
+    band = (r.freq_hz > 2) & (r.freq_hz < 100)
+    want = closed_frf(r.freq_hz[band], False, 1, fs)
+    assert np.median(np.abs(r.h[0, band] / want - 1)) < 1e-3
+    modes = find_modes(r.freq_hz, r.h, "velocity", ["v2"], (5.0, 60.0))
+    for m, (fn, z) in zip(modes, closed_modes(False)):
+        assert m["frequency_hz"] == pytest.approx(fn, rel=1e-3)
+        assert m["damping_ratio"] == pytest.approx(z, rel=0.02)
+
+
+@pytest.mark.parametrize("mode,text", [("block", "6 burst block(s)"), ("driven", "6 burst(s)")])
+def test_several_bursts_are_averaged_with_their_coherence(mode, text):
     fs = 256.0
     rng = np.random.default_rng(8)
     on, off = 1 << 12, 1 << 12
     u = np.concatenate([np.concatenate([rng.normal(size=on), np.zeros(off)]) for _ in range(6)])
-    v = _simulate(u, fs, shaker=False)["v2"]
+    v = simulate(u, fs, shaker=False)["v2"]
     y = v + 0.05 * v.std() * rng.normal(size=u.size)
-    r = estimate(u, y[None], fs)
-    assert r.averages == 6 and "6 burst block(s)" in r.method
+    r = estimate(u, y[None], fs, burst=mode)
+    assert r.averages == 6 and text in r.method
     band = (r.freq_hz > 5) & (r.freq_hz < 60)
     assert 0.5 < np.median(r.coherence[0, band]) < 1.0
-    # the errors from the coherence (Bendat & Piersol, n_d = 6) match the actual scatter
-    z = (r.h[0, band] - _closed(r.freq_hz[band], False, 1, fs)) / r.std[0, band]
+    # the errors (block: Bendat & Piersol from the coherence, n_d = 6; driven: the local
+    # fits' residuals and the spread between bursts) match the actual scatter
+    z = (r.h[0, band] - closed_frf(r.freq_hz[band], False, 1, fs)) / r.std[0, band]
     assert 0.7 < np.sqrt(np.mean(np.abs(z) ** 2) / 2) < 1.4
+
+
+@pytest.mark.parametrize("mode,text", [("block", "4 burst block(s)"), ("driven", "4 impulse block(s)")])
+def test_an_impact_is_answered_through_its_whole_block(mode, text):
+    """Hammer-like pulses 20 ms long every 16 s: the drive is far too short to hold the
+    response, so each block runs from the hit through the free decay, unwindowed (the
+    driven option too)."""
+    fs = 256.0
+    pulse = np.hanning(7)
+    u = np.zeros(1 << 14)
+    for a in (0, 1 << 12, 2 << 12, 3 << 12):
+        u[a + 10:a + 17] = 50.0 * pulse
+    v = simulate(u, fs, shaker=False)["v2"]
+    r = estimate(u, v[None], fs, burst=mode)
+    assert text in r.method
+    band = (r.freq_hz > 5) & (r.freq_hz < 60)
+    assert np.median(np.abs(r.h[0, band] / closed_frf(r.freq_hz[band], False, 1, fs) - 1)) < 2e-3
+
+
+def test_an_unknown_burst_estimator_is_refused_by_name():
+    u = np.concatenate([np.random.default_rng(1).normal(size=4096), np.zeros(4096)])
+    with pytest.raises(InputError, match=r"'burst': must be one of block, driven .* got 'lrm'"):
+        estimate(u, u[None], 256.0, burst="lrm")
 
 
 def test_bendat_piersol_error_matches_the_scatter():
@@ -158,10 +162,18 @@ def test_a_steady_sine_is_not_broadband():
         estimate(np.sin(2 * np.pi * 20 * t), np.ones((1, t.size)), 256.0)
 
 
-def test_a_record_shorter_than_a_segment_is_refused():
-    with pytest.raises(InputError, match="fewer than one segment"):
-        estimate(np.random.default_rng(0).normal(size=64), np.ones((1, 64)), 100.0,
-                 method="welch", nperseg=128)
+def test_a_segment_longer_than_the_data_is_refused_naming_nperseg_and_its_range():
+    rng = np.random.default_rng(0)
+    with pytest.raises(InputError, match=r"'nperseg': must be .* from 16 to 64 \(the record's"):
+        estimate(rng.normal(size=64), np.ones((1, 64)), 100.0, method="welch", nperseg=128)
+    # a burst record (its method takes no segments) never swallows an impossible one
+    u = np.concatenate([rng.normal(size=4096), np.zeros(4096)])
+    with pytest.raises(InputError, match=r"'nperseg': .* 16 to 8192 .* got 16777216"):
+        estimate(u, u[None], 256.0, nperseg=1 << 24)
+    with pytest.raises(InputError, match=r"'nperseg': .* 16 to 4[01]\d\d \(the active drive's"):
+        estimate(u, u[None], 256.0, method="welch", nperseg=6000)
+    with pytest.raises(InputError, match="'nperseg'"):
+        estimate(u, u[None], 256.0, method="welch", nperseg=8)
 
 
 def test_frfset_keeps_old_files_and_carries_drive_and_coherence(tmp_path):
@@ -172,7 +184,7 @@ def test_frfset_keeps_old_files_and_carries_drive_and_coherence(tmp_path):
     assert s.drive_quantity == "force" and s.units == "m/s^2/N" and s.coherence is None
     fs = 256.0
     u = np.random.default_rng(2).normal(size=1 << 14)
-    y = _simulate(u, fs, shaker=True)
+    y = simulate(u, fs, shaker=True)
     b = frfset_from_arrays(u, "voltage", {"v2": ("velocity", y["v2"])}, fs, level=0.25, run="x")
     b.save(tmp_path / "f.json")
     back = FrfSet.load(tmp_path / "f.json")

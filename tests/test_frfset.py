@@ -53,3 +53,21 @@ def test_file_round_trip_and_subset(tmp_path):
     p.write_text(json.dumps({**s.to_dict(), "format": "other"}))
     with pytest.raises(InputError, match="format"):
         FrfSet.load(p)
+
+
+@pytest.mark.parametrize("command", ["modes", "backbone"])
+def test_a_bad_frf_file_is_one_line_naming_the_file(tmp_path, capsys, command):
+    """`labjoint modes` and `labjoint backbone` on a broken FRF set: exit 2 and one line on
+    stderr naming the file, whether the JSON, its format or one of its arrays is bad."""
+    from labjoint.cli.main import main
+
+    good = _set().to_dict()
+    broken = {"not_json.json": "{\"format\": ", "format.json": json.dumps({"a": 1}),
+              "array.json": json.dumps({**good, "level_n": good["level_n"][:2]}),
+              "quantity.json": json.dumps({**good, "quantity": "banana"})}
+    for name, text in broken.items():
+        p = tmp_path / name
+        p.write_text(text)
+        assert main([command, str(p)]) == 2, name
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and str(p) in err[0], (name, err)

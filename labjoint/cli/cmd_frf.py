@@ -15,9 +15,14 @@ def _frf_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--responses", default=None, help="response channels, comma-separated (default: all)")
     p.add_argument("--estimator", choices=["H1", "H2", "Hv"], default="H1")
     p.add_argument("--method", choices=["auto", "welch", "periodic", "burst", "block"], default="auto",
-                   help="auto: from the excitation (whole periods of a multisine; one unwindowed block "
-                        "per burst of a burst record, its free decay included; Welch over the active "
-                        "drive of a steady random record; one block for a sweep)")
+                   help="auto: from the excitation (whole periods of a multisine; a burst record by "
+                        "--burst; Welch over the active drive of a steady random record; one block for "
+                        "a sweep)")
+    p.add_argument("--burst", default="block", metavar="block|driven",
+                   help="a burst record's estimator: block (default: one unwindowed block per burst, "
+                        "its free decay included, raw Y/U: the textbook burst-random H1 as Testlab "
+                        "computes it) or driven (each burst's driven part through the local rational "
+                        "method: the FRF at the burst's own amplitude, for a nonlinear structure)")
     p.add_argument("--nperseg", type=int, default=None, help="Welch segment length (samples)")
     p.add_argument("--overlap", type=float, default=None, help="Welch overlap, 0..1")
     p.add_argument("--window", default="hann", help="Welch window (scipy name)")

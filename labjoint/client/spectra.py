@@ -26,7 +26,7 @@ class SpectraMixin:
         """FRFs (H1/H2/Hv, coherence, std) of broadband runs, one level per run, stored as
         the FRF set ``name``; waited for: ``labjoint frf --json``'s answer ({"path",
         "format", "levels", "name"}). ``options``: drive, responses (a list), estimator,
-        method, nperseg, overlap, window."""
+        method, burst ("block" or "driven"), nperseg, overlap, window."""
         body = {"runs": list(runs), "name": name, "overwrite": overwrite,
                 "band": band if isinstance(band, str) else list(band), **_params(**options)}
         return self._spectra_job("frf", body, timeout)

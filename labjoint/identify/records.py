@@ -158,3 +158,16 @@ def header(path: str) -> Record:
     with open_run(p) as rf:
         chans = {s.name: (q[0], q[2], np.zeros(0)) for s in rf.channels for q in [spec_quantity(s)]}
         return Record(str(p), rf.name, float(rf.sample_rate_hz), chans, dict(rf.metadata))
+
+
+def sample_count(path: str) -> int:
+    """Samples per channel of a run file, from its header (a CSV is read)."""
+    from labjoint.storage.reader import is_csv, open_run
+
+    p = Path(path)
+    if not p.exists():
+        raise InputError("no such file", file=str(p))
+    if is_csv(p):
+        return min(c[2].size for c in load(path).channels.values())
+    with open_run(p) as rf:
+        return int(rf.n_samples)

@@ -25,6 +25,7 @@ class SpectralOptions:
     responses: str | None = None          # comma-separated channel names
     estimator: str = "H1"
     method: str = "auto"
+    burst: str = "block"                  # a burst record: "block" (Testlab's H1) or "driven"
     nperseg: int | None = None
     overlap: float | None = None
     window: str = "hann"
@@ -39,8 +40,10 @@ class SpectralOptions:
 def frf_levels(paths: list[str], args: Any, progress: Any = None) -> list[Any]:
     """One FrfSet level per record; ``progress(fraction, message)`` before each."""
     from labjoint.identify.records import level_of, load, streamed
+    from labjoint.signal.burst import check_burst
     from labjoint.signal.frf_levels import frfset_from_arrays
 
+    check_burst(getattr(args, "burst", "block"))      # before any record is read
     resp = [x.strip() for x in args.responses.split(",") if x.strip()] if args.responses else None
     out = []
     for i, path in enumerate(paths):
@@ -59,6 +62,7 @@ def frf_levels(paths: list[str], args: Any, progress: Any = None) -> list[Any]:
                                    rec.fs, level=level_of(rec), run=rec.name, estimator=args.estimator,
                                    source=path, nperseg=args.nperseg, overlap=args.overlap,
                                    window=args.window, method=args.method,
+                                   burst=getattr(args, "burst", "block"),
                                    band=frf_band(getattr(args, "frf_band", "drive")))
         except InputError as exc:
             raise InputError(f"{path}: {exc}") from None
@@ -81,7 +85,8 @@ def streamed_level(st: Any, resp: list[str] | None, args: Any) -> Any:
         r = estimate_streamed(lambda a, b: (st.read([d], a, b)[0], st.read(names, a, b)),
                               lambda a, b: st.read([d], a, b)[0], st.n, st.fs, len(names),
                               estimator=args.estimator, nperseg=args.nperseg, overlap=args.overlap,
-                              window=args.window, method=args.method)
+                              window=args.window, method=args.method,
+                              burst=getattr(args, "burst", "block"))
         s = frfset_from_result(r, st.channels[d][0], quantities,
                                level=level_of(st), run=st.name, estimator=args.estimator,
                                source=st.path, band=frf_band(getattr(args, "frf_band", "drive")))

@@ -11,14 +11,26 @@ The method follows the excitation found in the drive (:mod:`labjoint.signal.exci
   the ratio), coherence from the same sums.
 - **burst** (a random or impact drive that rests after each burst, for at least a tenth
   of the block; the bursts found from the drive's moving RMS, above 5 % of the median of
-  its driven part): one block per burst, from its start to the next burst's (the last to
-  the record's end), no window, the blocks averaged. The free decay after a burst is the
-  response to that burst: it belongs to its block unwindowed, never averaged as a driven
-  stretch. The method names how far the response has decayed at the block's end (what
-  is left leaks). Several bursts give H1, H2, Hv, coherence and the Bendat & Piersol
-  errors with n_d = bursts; a single burst one average, its std from the scatter of H
-  between neighbouring lines (second differences: var = 1.5 sigma^2 per component for
-  independent errors, a running median over 17 lines) and the coherence that std implies.
+  its driven part; :mod:`labjoint.signal.burst`), by ``burst=``:
+
+  - ``"block"`` (default): one block per burst, from its start to the next burst's (the
+    last to the record's end), no window, the blocks averaged: the textbook burst-random
+    H1, as Simcenter Testlab computes it. The free decay after a burst is the response to
+    that burst: it belongs to its block unwindowed, never averaged as a driven stretch.
+    The method names how far the response has decayed at the block's end (what is left
+    leaks). Several bursts give H1, H2, Hv, coherence and the Bendat & Piersol errors
+    with n_d = bursts; a single burst one average, its std from the scatter of H between
+    neighbouring lines (second differences: var = 1.5 sigma^2 per component for
+    independent errors, a running median over 17 lines) and the coherence that std
+    implies.
+  - ``"driven"``: each burst over its driven part only, unwindowed, through the local
+    rational method (:mod:`labjoint.signal.lrm`: the transient left by cutting the
+    response while the modes ring is fitted and removed, exact for a linear system), the
+    bursts averaged: the FRF at the burst's own amplitude. The free decay, where a
+    nonlinear joint rings at a lower amplitude (another frequency and damping), is left
+    out; the std comes from the local fits' residuals (and the spread between bursts).
+    For level-dependent FRFs of a nonlinear structure; about 10x the CPU of "block". A
+    drive shorter than a quarter of its block (an impact) is answered through its blocks.
 - **random** (steady): Welch's spectra (:mod:`labjoint.signal.spectra`) over the active
   part of the drive only (its moving RMS above 5 % of the median of its driven part).
   Segment: the largest power of two that gives at least three segments at half overlap
@@ -42,74 +54,25 @@ quantities and units, and the drive quantity ("force", N, or "voltage", V).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from labjoint.errors import InputError
 from labjoint.signal import validate
+from labjoint.signal.broadband_base import (ACTIVE_FRACTION, ESTIMATORS, BroadbandFrf,  # noqa: F401
+                                            active_from, active_part, blocks, drive_band, envelope,
+                                            result, scatter_std, window_sums)
+from labjoint.signal.burst import (BURST_MODES, burst, burst_blocks, bursts, bursts_from,  # noqa: F401
+                                   check_burst, driven)
+from labjoint.signal.burst import burst as burst_estimate
 from labjoint.signal.excitation import Excitation, detect_excitation
 from labjoint.signal.spectra import Welch, estimates_from
 
-ESTIMATORS = ("H1", "H2", "Hv")
 MAX_SEGMENT = 1 << 16
 #: a record holding this many segments end to end is averaged without overlap (the
 #: random error is then below ~3 % at coherence 0.9; overlap would double the work)
 LONG_RECORD_SEGMENTS = 128
-#: the active part: drive's moving RMS above this fraction of the driven part's median
-ACTIVE_FRACTION = 0.05
-
-
-@dataclass(frozen=True)
-class BroadbandFrf:
-    """FRFs (S responses x n lines) with their estimators, coherence and std."""
-
-    freq_hz: np.ndarray           # (n,)
-    h: np.ndarray                 # (S, n) the chosen estimator
-    std: np.ndarray               # (S, n) std of each component (re, im) of h
-    coherence: np.ndarray         # (S, n)
-    alternatives: dict[str, np.ndarray]   # every estimator, (S, n) each
-    averages: float               # independent averages n_d
-    method: str
-    drive_rms: float              # RMS of the drive over the part used (its units)
-    active_s: tuple[float, float]
-    extra: dict[str, Any] = field(default_factory=dict)
-
-
-def window_sums(drive: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray, int]:
-    """(sum of x, sum of x^2) over consecutive windows of 0.05 s (at least 8 samples),
-    and the window length: what the drive's envelope is made of (a record read in
-    pieces of whole windows gives the same sums piece by piece)."""
-    win = max(8, int(round(0.05 * fs)))
-    k = drive.size // win
-    x = np.asarray(drive[:k * win], float).reshape(k, win)
-    return x.sum(axis=1), np.einsum("kw,kw->k", x, x), win
-
-
-def envelope(s1: np.ndarray, s2: np.ndarray, win: int) -> np.ndarray:
-    """The moving RMS about the record's mean from :func:`window_sums`."""
-    m = s1.sum() / max(1, s1.size * win)
-    return np.sqrt(np.maximum(s2 / win - 2 * m * s1 / win + m * m, 0.0))
-
-
-def active_from(rms: np.ndarray, win: int, n: int) -> tuple[int, int]:
-    """First and last+1 sample where the drive acts (module docstring); the whole record
-    when the drive never falls silent."""
-    k = rms.size
-    if k < 4 or not np.any(rms > 0):
-        return 0, n
-    driven = rms > 0.1 * rms.max()
-    on = rms > ACTIVE_FRACTION * np.median(rms[driven])
-    idx = np.flatnonzero(on)
-    a0, a1 = int(idx[0]) * win, (int(idx[-1]) + 1) * win
-    return a0, (n if a1 >= k * win else a1)
-
-
-def active_part(drive: np.ndarray, fs: float) -> tuple[int, int]:
-    """:func:`active_from` of a drive held in memory."""
-    s1, s2, win = window_sums(drive, fs)
-    return active_from(envelope(s1, s2, win), win, drive.size)
 
 
 def segment_length(n: int, fs: float) -> tuple[int, float]:
@@ -125,15 +88,18 @@ def segment_length(n: int, fs: float) -> tuple[int, float]:
 def estimate(drive: Any, responses: Any, fs: float, *, estimator: str = "H1",
              excitation: Excitation | None = None, nperseg: int | None = None,
              overlap: float | None = None, window: str = "hann",
-             method: str = "auto") -> BroadbandFrf:
+             method: str = "auto", burst: str = "block") -> BroadbandFrf:
     """FRFs of ``responses`` (S, n) over ``drive`` (n,) sampled at ``fs`` (module doc).
-    ``method``: "auto" (from the excitation), "welch", "periodic", "burst" or "block"."""
+    ``method``: "auto" (from the excitation), "welch", "periodic", "burst" or "block";
+    ``burst``: the estimator of a burst record, "block" or "driven"."""
     fs = validate.sample_rate(fs)
     f = validate.signal(drive, "drive", min_samples=16)
     y = np.atleast_2d(validate.signal(responses, "responses", min_samples=16, ndim=(1, 2)))
     validate.same_length(f, y, "drive", "responses")
     if estimator not in ESTIMATORS:
         raise InputError(f"must be one of {ESTIMATORS}", field="estimator")
+    check_nperseg(nperseg, f.size)
+    mode = check_burst(burst)
     if method == "auto":
         exc = excitation or detect_excitation(f, fs)
         per = exc.period_s * fs if exc.kind == "multisine" and exc.period_s else 0.0
@@ -143,7 +109,7 @@ def estimate(drive: Any, responses: Any, fs: float, *, estimator: str = "H1",
         refuse_narrowband(exc)
         found = bursts(f, fs) if exc.kind in ("random", "transient") else []
         if found:
-            return burst(f, y, fs, estimator, found)
+            return burst_estimate(f, y, fs, estimator, found, mode)
         method = "block" if exc.kind in ("transient", "swept_sine") else "welch"
     if method == "periodic":
         exc = excitation or detect_excitation(f, fs)
@@ -153,13 +119,14 @@ def estimate(drive: Any, responses: Any, fs: float, *, estimator: str = "H1",
     if method == "block":
         return block(f, y, fs, estimator)
     if method == "burst":
-        return burst(f, y, fs, estimator)
+        return burst_estimate(f, y, fs, estimator, None, mode)
     if method != "welch":
         raise InputError("must be auto, welch, periodic, burst or block", field="method")
     a0, a1 = active_part(f, fs)
     L, ov = segment_length(a1 - a0, fs)
     L = int(nperseg or L)
     ov = ov if overlap is None else float(overlap)
+    check_nperseg(nperseg, a1 - a0, "the active drive's length")
     if a1 - a0 < L:
         raise InputError(f"the active drive holds {a1 - a0} samples, fewer than one segment of {L}",
                          field="drive")
@@ -167,9 +134,24 @@ def estimate(drive: Any, responses: Any, fs: float, *, estimator: str = "H1",
     mu = np.mean(f[a0:a1]), np.mean(y[:, a0:a1], axis=1, keepdims=True)
     w.feed(f[a0:a1] - mu[0], y[:, a0:a1] - mu[1])
     e = w.estimates()
-    return _result(w.freq_hz, e, estimator, float(np.std(f[a0:a1])), (a0 / fs, a1 / fs),
+    return result(w.freq_hz, e, estimator, float(np.std(f[a0:a1])), (a0 / fs, a1 / fs),
                    f"Welch {estimator} over the active drive ({a0 / fs:.4g}-{a1 / fs:.4g} s), "
                    f"{window} segments of {L} samples, overlap {ov:g}, {w.count} segments")
+
+
+MIN_SEGMENT = 16
+
+
+def check_nperseg(nperseg: Any, n: int, what: str = "the record's length") -> None:
+    """A given segment length is a whole number of samples from 16 to ``n``, or InputError
+    naming ``nperseg`` and the range (a segment longer than the data is never silently
+    replaced by another method's choice)."""
+    if nperseg is None:
+        return
+    ok = isinstance(nperseg, (int, np.integer)) and not isinstance(nperseg, bool)
+    if not ok or not MIN_SEGMENT <= int(nperseg) <= n:
+        raise InputError(f"must be a whole number of samples from {MIN_SEGMENT} to {n} "
+                         f"({what}), got {nperseg!r}", field="nperseg")
 
 
 def refuse_narrowband(exc: Excitation) -> None:
@@ -180,32 +162,6 @@ def refuse_narrowband(exc: Excitation) -> None:
         raise InputError(f"the drive is {exc.describe()}, not broadband: an FRF set of step sines is "
                          "`labjoint structure measured`, its harmonics `labjoint distortion`",
                          field="drive")
-
-
-def _result(fr: np.ndarray, e: dict[str, np.ndarray], estimator: str, rms: float,
-            active: tuple[float, float], method: str, std: np.ndarray | None = None) -> BroadbandFrf:
-    keep = (fr > 0) & np.all(np.isfinite(e["H1"]), axis=0) & np.all(np.isfinite(e[estimator]), axis=0)
-    h = e[estimator][:, keep]
-    if std is None:
-        std = np.abs(h) * np.minimum(e["eps"][:, keep], 1e6)
-    else:
-        std = std[:, keep]
-    return BroadbandFrf(fr[keep], h, std, e["coherence"][:, keep],
-                        {k: e[k][:, keep] for k in ESTIMATORS}, float(e["n_d"]), method, rms, active,
-                        {"drive_power": e["gff"][keep]})
-
-
-def drive_band(r: BroadbandFrf) -> list[float]:
-    """First and last line where the drive's power (smoothed over ~1/256 of the lines)
-    is above 1 % of its largest: the band the FRF is measured in."""
-    p = np.asarray(r.extra.get("drive_power", np.ones(r.freq_hz.size)), float)
-    if p.size == 0:
-        return [0.0, 0.0]
-    m = max(1, p.size // 256)
-    ps = np.convolve(p, np.ones(m) / m, mode="same") if m > 1 else p
-    ok = np.flatnonzero(ps > 0.01 * ps.max())
-    return [float(r.freq_hz[ok[0]]), float(r.freq_hz[ok[-1]])]
-
 
 def periodic(f: np.ndarray, y: np.ndarray, fs: float, n: int, estimator: str = "H1") -> BroadbandFrf:
     """Whole periods of ``n`` samples after the first: exact at the excited lines."""
@@ -229,111 +185,15 @@ def periodic(f: np.ndarray, y: np.ndarray, fs: float, n: int, estimator: str = "
     cov = np.mean((Y - Ym[:, None]) * np.conj(F - Fm)[None], axis=1) * P / (P - 1) / P
     var_h = (vy + np.abs(h) ** 2 * vf - 2 * np.real(np.conj(h) * cov)) / np.abs(Fm) ** 2
     std = np.sqrt(np.maximum(var_h, 0) / 2)   # per component (re, im)
-    return _result(lines * fs / n, e, estimator, float(np.std(f[n:])), (0.0, f.size / fs),
+    return result(lines * fs / n, e, estimator, float(np.std(f[n:])), (0.0, f.size / fs),
                    f"{estimator} over {P} steady periods of {n} samples at the {lines.size} excited "
                    "lines, no window", std)
-
-
-def _scatter_std(h: np.ndarray) -> np.ndarray:
-    """Per-component std of single-average FRFs from the scatter between neighbouring
-    lines: second differences (var = 1.5 sigma^2 per component), running median of 17."""
-    from scipy.ndimage import median_filter
-
-    std = np.full(h.shape, np.inf)
-    if h.shape[1] >= 20:
-        d = h[:, 1:-1] - 0.5 * (h[:, :-2] + h[:, 2:])
-        d2 = np.abs(np.nan_to_num(d, nan=0.0)) ** 2
-        std[:, 1:-1] = np.sqrt(median_filter(d2, size=(1, 17), mode="nearest") / np.log(2) / 3.0)
-        std[:, 0], std[:, -1] = std[:, 1], std[:, -2]
-    return std
-
-
-def _blocks(F: np.ndarray, Y: np.ndarray, fs: float, nb: int, estimator: str,
-            active: tuple[float, float], rms: float, method: str) -> BroadbandFrf:
-    """Estimates from ``nb`` unwindowed blocks' spectra F (nb, f), Y (nb, S, f)."""
-    gff = np.sum(np.abs(F) ** 2, axis=0)
-    gyy = np.sum(np.abs(Y) ** 2, axis=0)
-    gfy = np.sum(np.conj(F)[:, None] * Y, axis=0)
-    e = estimates_from(gff, gyy, gfy, float(nb))
-    std = None
-    if nb == 1:   # one average: coherence is 1 by construction; the scatter tells the noise
-        std = _scatter_std(e[estimator])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            rel = np.where(np.abs(e[estimator]) > 0, std / np.abs(e[estimator]), np.inf)
-        e["coherence"] = np.nan_to_num(1.0 / (1.0 + 2.0 * rel ** 2), nan=0.0)
-    fr = np.fft.rfftfreq(2 * (F.shape[-1] - 1), 1 / fs)
-    return _result(fr, e, estimator, rms, active, method, std)
-
 
 def block(f: np.ndarray, y: np.ndarray, fs: float, estimator: str = "H1") -> BroadbandFrf:
     """The whole record as one block, no window (an impact, a sweep)."""
     n = f.size - f.size % 2
     F = np.fft.rfft(f[:n] - f[: max(1, n // 50)].mean())[None]
     Y = np.fft.rfft(y[:, :n] - y[:, : max(1, n // 50)].mean(axis=1, keepdims=True), axis=1)[None]
-    return _blocks(F, Y, fs, 1, estimator, (0.0, n / fs), float(np.std(f[:n])),
+    return blocks(F, Y, fs, 1, estimator, (0.0, n / fs), float(np.std(f[:n])),
                    f"{estimator} of the whole record as one block ({n} samples), no window, "
                    "one average (std from the scatter between neighbouring lines)")
-
-
-def bursts(drive: np.ndarray, fs: float) -> list[tuple[int, int]]:
-    """:func:`bursts_from` of a drive held in memory."""
-    s1, s2, win = window_sums(drive, fs)
-    return bursts_from(envelope(s1, s2, win), win, drive.size)
-
-
-def bursts_from(rms: np.ndarray, win: int, n: int) -> list[tuple[int, int]]:
-    """(start, end of drive) of each burst: active stretches (as :func:`active_from`) with
-    silence after each of at least a tenth of its block; [] when the drive never rests so."""
-    k = rms.size
-    if k < 8 or not np.any(rms > 0):
-        return []
-    on = rms > ACTIVE_FRACTION * np.median(rms[rms > 0.1 * rms.max()])
-    runs, i = [], 0
-    while i < k:
-        if on[i]:
-            j = i
-            while j < k and on[j]:
-                j += 1
-            if runs and i - runs[-1][1] < 4:      # a dip of less than 0.2 s: the same burst
-                runs[-1] = (runs[-1][0], j)
-            else:
-                runs.append((i, j))
-            i = j
-        else:
-            i += 1
-    starts = [a for a, _ in runs] + [n // win]
-    out = []
-    for (a, b), nxt in zip(runs, starts[1:]):
-        if (nxt - b) < 0.1 * (nxt - a):
-            return []
-        out.append((a * win, b * win))
-    return out
-
-
-def burst(f: np.ndarray, y: np.ndarray, fs: float, estimator: str = "H1",
-          found: list[tuple[int, int]] | None = None) -> BroadbandFrf:
-    """Burst excitation: one block per burst from its start to the next burst (the last to
-    the record's end), no window: the free decay is the burst's own response, not a
-    driven stretch; the blocks (cut to the shortest) are averaged."""
-    found = found or bursts(f, fs)
-    if not found:
-        raise InputError("no burst found: the drive does not rest after its active part", field="drive")
-    starts = [a for a, _ in found] + [f.size]
-    L = min(b - a for a, b in zip(starts, starts[1:]))
-    L -= L % 2
-    if L < 16:
-        raise InputError(f"a burst block holds {L} samples, too few", field="drive")
-    seg = lambda x, a: x[..., a:a + L] - np.mean(x[..., a:a + L], axis=-1, keepdims=True)  # noqa: E731
-    F = np.array([np.fft.rfft(seg(f, a)) for a, _ in found])
-    Y = np.array([np.fft.rfft(seg(y, a), axis=1) for a, _ in found])
-    a0 = found[0][0]
-    tail = y[:, a0 + L - max(1, L // 20): a0 + L]
-    peak = max(float(np.max(np.abs(y[:, a0:a0 + L]))), 1e-300)
-    left = float(np.max(np.sqrt(np.mean(tail ** 2, axis=1)))) / peak
-    active = float(np.mean([b - a for a, b in found]))
-    rms = float(np.sqrt(np.mean([np.mean(f[a:b] ** 2) for a, b in found])))
-    return _blocks(F, Y, fs, len(found), estimator, (a0 / fs, found[-1][1] / fs), rms,
-                   f"{estimator} over {len(found)} burst block(s) of {L} samples ({L / fs:.4g} s: "
-                   f"{active / fs:.4g} s of drive, then the free decay, to {left:.1%} of the peak "
-                   "response at the block's end), no window"
-                   + ("; std from the scatter between neighbouring lines" if len(found) == 1 else ""))

@@ -39,16 +39,18 @@ def estimate_streamed(read: Callable[[int, int], tuple[np.ndarray, np.ndarray]],
                       read_drive: Callable[[int, int], np.ndarray], n: int, fs: float,
                       responses: int, *, estimator: str = "H1", nperseg: int | None = None,
                       overlap: float | None = None, window: str = "hann", method: str = "auto",
-                      dtype: Any = np.float32) -> broadband.BroadbandFrf:
+                      burst: str = "block", dtype: Any = np.float32) -> broadband.BroadbandFrf:
     """FRFs of a record of ``n`` samples read through ``read`` (module docstring)."""
     if estimator not in broadband.ESTIMATORS:
         raise InputError(f"must be one of {broadband.ESTIMATORS}", field="estimator")
+    broadband.check_nperseg(nperseg, n)
+    broadband.check_burst(burst)
     exc = detect_streamed(read_drive, n, fs)
     broadband.refuse_narrowband(exc)
     if method not in ("auto", "welch"):
         f, y = read(0, n)
         return broadband.estimate(f, y, fs, estimator=estimator, excitation=exc, nperseg=nperseg,
-                                  overlap=overlap, window=window, method=method)
+                                  overlap=overlap, window=window, method=method, burst=burst)
     win = max(8, int(round(0.05 * fs)))
     step = max(win, BLOCK // win * win)
     sums = [broadband.window_sums(read_drive(a, min(n, a + step)), fs) for a in range(0, n, step)]
@@ -59,9 +61,10 @@ def estimate_streamed(read: Callable[[int, int], tuple[np.ndarray, np.ndarray]],
     if method == "auto" and not steady:
         f, y = read(0, n)
         return broadband.estimate(f, y, fs, estimator=estimator, excitation=exc, nperseg=nperseg,
-                                  overlap=overlap, window=window)
+                                  overlap=overlap, window=window, burst=burst)
     a0, a1 = broadband.active_from(rms, win, n)
     L, ov = broadband.segment_length(a1 - a0, fs)
+    broadband.check_nperseg(nperseg, a1 - a0, "the active drive's length")
     L = int(nperseg or L)
     ov = ov if overlap is None else float(overlap)
     if a1 - a0 < L:
@@ -74,7 +77,7 @@ def estimate_streamed(read: Callable[[int, int], tuple[np.ndarray, np.ndarray]],
     for a in range(a0, a1, BLOCK):
         w.feed(*read(a, min(a1, a + BLOCK)))      # each segment's mean removed (detrend)
     e = w.estimates()
-    return broadband._result(w.freq_hz, e, estimator, rms_drive, (a0 / fs, a1 / fs),
+    return broadband.result(w.freq_hz, e, estimator, rms_drive, (a0 / fs, a1 / fs),
                              f"Welch {estimator} over the active drive ({a0 / fs:.4g}-{a1 / fs:.4g} s), "
                              f"{window} segments of {L} samples, overlap {ov:g}, {w.count} segments, "
                              f"read in blocks of {BLOCK} samples")

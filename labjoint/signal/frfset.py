@@ -241,8 +241,14 @@ class FrfSet:
         try:
             d = orjson.loads(p.read_bytes())
         except (OSError, orjson.JSONDecodeError) as exc:
-            raise InputError(f"{p}: not a readable FRF set ({exc})", field="path") from None
-        return cls.from_dict(d)
+            raise InputError(f"not a readable FRF set ({exc})", file=str(p)) from None
+        try:
+            return cls.from_dict(d)
+        except InputError as exc:   # a bad key or array: the one line names the file too
+            if exc.file is not None:
+                raise
+            raise InputError(exc.message, file=str(p), line=exc.line, column=exc.column,
+                             field=exc.field) from None
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, FrfSet):

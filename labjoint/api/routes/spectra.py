@@ -48,6 +48,11 @@ class FrfOptions(_In):
                                          description="response channels (default: all)")
     estimator: Literal["H1", "H2", "Hv"] = "H1"
     method: Literal["auto", "welch", "periodic", "burst", "block"] = "auto"
+    burst: Literal["block", "driven"] = Field(
+        "block", description="a burst record's estimator: 'block' (one unwindowed block per burst, "
+                             "its free decay included: Testlab's burst-random H1) or 'driven' (the "
+                             "driven part through the local rational method: the FRF at the "
+                             "burst's own amplitude, for a nonlinear structure)")
     nperseg: int | None = Field(None, ge=16, le=1 << 24, description="Welch segment (samples)")
     overlap: float | None = Field(None, ge=0, lt=1)
     window: str = Field("hann", pattern=r"^[a-z_]{1,40}$", description="Welch window (scipy)")
@@ -125,6 +130,21 @@ def _check(request: Request, names: list[str], drive: str | None,
     return paths
 
 
+def _segment(names: list[str], paths: list[str], nperseg: int | None) -> None:
+    """A given Welch segment fits every run (16 to its samples): 422 naming the run, the
+    field and the range before any job is queued."""
+    from labjoint.identify.records import sample_count
+    from labjoint.signal.broadband import check_nperseg
+
+    if nperseg is None:
+        return
+    for n, p in zip(names, paths):
+        try:
+            check_nperseg(nperseg, sample_count(p))
+        except InputError as exc:
+            raise InputError(f"run {n!r}: {exc.message}", field=exc.field) from None
+
+
 def _window(name: str) -> None:
     from scipy.signal import get_window
 
@@ -184,6 +204,7 @@ def frf(request: Request, body: FrfRequest,
     band = _band_text(body.band)
     names = list(dict.fromkeys(body.runs))
     paths = _check(request, names, body.drive, body.responses)
+    _segment(names, paths, body.nperseg)
     folder = FsPath(request.app.state.resolver.data_dir) / FRFSETS
     out = folder / f"{body.name}.json"
     if out.exists() and not body.overwrite:
@@ -210,7 +231,9 @@ def modes(request: Request, body: ModesRequest,
     if body.frfsets is not None:
         inputs = [str(named_file(request, FRFSETS, n, ".json")) for n in dict.fromkeys(body.frfsets)]
     else:
-        inputs = _check(request, list(dict.fromkeys(body.runs or [])), body.drive, body.responses)
+        names = list(dict.fromkeys(body.runs or []))
+        inputs = _check(request, names, body.drive, body.responses)
+        _segment(names, inputs, body.nperseg)
     opts = _options(body, band=band)
 
     def run(progress: Callable[[float, str], None]) -> dict[str, Any]:
