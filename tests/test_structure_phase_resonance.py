@@ -39,10 +39,14 @@ def test_a_linear_two_dof_systems_forced_quadrature_is_the_closed_forms_not_the_
     F = a / abs(H(wq))
     ep = EPMC(s, 0, 3, 32, "m2")
     bb, sols = ep.backbone([a])
-    m = 0.8
-    (f, z), = phase_resonance_points(ep, [a], sols, [m])
+    (f, z, m), = phase_resonance_points(ep, [a], sols)
     assert f == pytest.approx(wq / (2 * np.pi), rel=1e-10)
     assert z == pytest.approx(F / (2 * m * wq * wq * a), rel=1e-9)
+    # the apparent mass of mode 1 at the drive point (the EPMC's shape: the undamped mode's
+    # up to the non-proportional damping's small imaginary part)
+    lam_, phi = np.linalg.eig(np.linalg.solve(s.M, Kt))
+    p = phi[:, np.argmin(lam_.real)].real
+    assert m == pytest.approx(p @ s.M @ p / p[1] ** 2, rel=1e-3)
     # with non-proportional damping and one force the two definitions differ measurably
     assert abs(bb.points[0].frequency_hz - f) > 1e-6 * f
 
@@ -53,8 +57,9 @@ def test_a_single_dof_with_a_cubic_spring_is_the_epmc_point_and_its_force_balanc
     ep = EPMC(s, 0, 5, 64, "x")
     A = np.array([1e-3, 3e-3])
     bb, sols = ep.backbone(A)
-    out = phase_resonance_points(ep, A, sols, [m, m])
-    for (f, z), p, a in zip(out, bb.points, A):
+    out = phase_resonance_points(ep, A, sols)
+    assert out[:, 2] == pytest.approx([m, m], rel=1e-12)
+    for (f, z, _), p, a in zip(out, bb.points, A):
         assert f == pytest.approx(p.frequency_hz, rel=1e-7)     # (the harmonics: 3e-9 apart)
         # the force at quadrature balances the dashpot alone: F = c w a, up to what the
         # dashpot takes from the harmonics (9 (X3 / X1)^2: < 1e-5 here)

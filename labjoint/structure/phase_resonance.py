@@ -21,9 +21,10 @@ phase condition does:
 
 g the excitation vector in the sine-1 rows, r the sensor's row. Newton from the EPMC's
 solution at the same amplitude (its force F_0 the projection of its xi M x' on g). The
-damping ratio then follows from the measurement's force balance with the same apparent
-modal mass m: zeta = F / (2 m w^2 a), so that the comparison is one of force at equal
-amplitude and m's error cancels between the two sides.
+damping ratio then follows from the measurement's force balance, zeta = F / (2 m w^2 a),
+with the model's apparent modal mass m = phi^T M phi / (phi_d phi_s) of its nonlinear mode
+at that amplitude (phi the EPMC's fundamental; the measurement's m_eff is its estimate of
+the same, and a structure model's mass distribution is not the joint's to fit).
 """
 
 from __future__ import annotations
@@ -73,12 +74,21 @@ def forced_quadrature(ep: EPMC, a: float, y_epmc: np.ndarray) -> tuple[float, fl
                            f"{ep.output} (relative residual {res:.3g} after {NEWTON_MAX} Newton iterations)")
 
 
-def phase_resonance_points(ep: EPMC, amplitudes, sols: np.ndarray, masses) -> np.ndarray:
-    """(P, 2): frequency (Hz) and damping ratio of the forced phase resonance at each
-    amplitude, from the EPMC's solutions ``sols`` there; ``masses`` the apparent modal mass
-    (kg) each measured point's damping was computed with (module docstring)."""
-    out = np.empty((len(amplitudes), 2))
-    for i, (a, y, m) in enumerate(zip(amplitudes, sols, masses)):
+def apparent_mass(ep: EPMC, y: np.ndarray) -> float:
+    """The apparent modal mass (kg) between the excitation and the sensor of the EPMC's
+    nonlinear mode at solution ``y``: phi^T M phi / (phi_d phi_s), phi its fundamental."""
+    phi = y[ep._ic1]
+    return float(phi @ ep.sys.M @ phi) / float((ep.sys.force @ phi) * (ep.r @ phi))
+
+
+def phase_resonance_points(ep: EPMC, amplitudes, sols: np.ndarray) -> np.ndarray:
+    """(P, 3): frequency (Hz), damping ratio and apparent modal mass (kg) of the forced
+    phase resonance at each amplitude, from the EPMC's solutions ``sols`` there; the
+    damping by the measurement's force balance zeta = F / (2 m w^2 a) with the model's own
+    apparent mass m of its nonlinear mode there (module docstring)."""
+    out = np.empty((len(amplitudes), 3))
+    for i, (a, y) in enumerate(zip(amplitudes, sols)):
         w, F = forced_quadrature(ep, float(a), y)
-        out[i] = w / (2 * np.pi), abs(F) / (2 * float(m) * w * w * float(a))
+        m = apparent_mass(ep, y)
+        out[i] = w / (2 * np.pi), abs(F) / (2 * m * w * w * float(a)), m
     return out

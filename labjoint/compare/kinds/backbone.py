@@ -98,9 +98,8 @@ class BackboneMeasurement:
         ep = EPMC(sysm, self.mode, self.harmonics, max(self.samples, 8 * self.harmonics), self.backbone.sensor)
         bb, sols = ep.backbone(self.amplitudes)
         fz = np.column_stack([bb.array("frequency_hz"), bb.array("damping_ratio")])
-        masses = forced_masses(self.backbone)
-        if masses is not None:              # the measurement's own definition on the model's side
-            fz = phase_resonance_points(ep, self.amplitudes, sols, masses)
+        if is_phase_resonance(self.backbone):   # the measurement's own definition on the model's side
+            fz = phase_resonance_points(ep, self.amplitudes, sols)[:, :2]
         rot = ep.hb.phasors(sols[int(np.argmax(self.amplitudes)), :-2], sysm.selectors)[1]
         # a joint's coordinate is a rotation (slip = radius x rotation); a law element's is the slip
         r = max(e.joint.radius_m if hasattr(e, "joint") else 1.0 for e in sysm.elements)
@@ -134,15 +133,10 @@ class BackboneMeasurement:
         return replace(self, name=name, data=self.data.renamed(name))
 
 
-def forced_masses(backbone: Backbone) -> list[float] | None:
-    """The apparent modal masses of a phase-resonance backbone's points (each point's
-    damping came from its force with it), or None when the points are not all phase
-    resonance with their force and mass recorded: those are compared with the EPMC."""
-    pts = backbone.points
-    if not pts or any(p.method != "phase_resonance" or "modal_mass_kg" not in p.extra
-                      or "force_n" not in p.extra for p in pts):
-        return None
-    return [float(p.extra["modal_mass_kg"]) for p in pts]
+def is_phase_resonance(backbone: Backbone) -> bool:
+    """Whether every point is a phase-resonance point (compared with the model's forced
+    quadrature; other methods with the EPMC)."""
+    return bool(backbone.points) and all(p.method == "phase_resonance" for p in backbone.points)
 
 
 def prepare_backbones(items: Sequence[Backbone | tuple[str, Backbone]], predictor: FrfPredictor,
