@@ -8,12 +8,16 @@ for a ringdown the window's damped frequency).
 **Phase resonance** (runs of the ``phase_resonance`` plan, one per level): the force F
 and the response R phasors at the drive frequency f (least squares on whole cycles,
 8 segments: mean and std of the mean, :func:`labjoint.signal.frf_steps.phasors`). The
-residual phase error e = arg(R / F) - target is turned into the frequency of exact
-quadrature with the loop's phase slope S (rad/Hz): f_r = f + e / S; its uncertainty
-holds the record's noise on e (the phasors' scatter over S) and the slope's standard
-error on the correction (e sd_S / S^2, sd_S from the loop's own (f, tan e) history, the
-run's ``phase_history``); the phasors are taken at the generator's frequency, which is
-known far better than either. At phase resonance
+residual phase error e = arg(R / F) - target is turned into the frequency of quadrature
+at the recorded amplitude X by the force balance on the displacement's in-phase part,
+(k(X) - m_eff w^2) X = |F| sin e, so w_r^2 = w^2 + |F| sin e / (m_eff X) (exact for one
+mode at a fixed amplitude; :func:`quadrature_at_amplitude`). The loop's own phase slope
+S (f_r = f + e / S before) is taken at constant drive, where the amplitude moves along
+with f: on the simulated rig's continuous Iwan it put the 1.5 and 5 Vpp levels 0.0003
+and 0.0009 Hz (10-12 sd) below the forced harmonic balance of the hidden law at the same
+force. f_r's uncertainty holds the record's noise on e and m_eff's on the correction; the
+phasors are taken at the generator's frequency, which is known far better than either.
+At phase resonance
 the force balances the mode's damping alone (single nonlinear mode, Peter and Leine
 2017): 2 zeta w^2 m_eff X = |F|, so
 
@@ -124,21 +128,16 @@ def phase_resonance_backbone(runs: Iterable[str | Path], *, modal_mass_kg: float
         e = math.remainder(float(np.angle(p["R"] / p["F"])) - math.radians(TARGET_DEG[p["quantity"]]), 2 * math.pi)
         rel = math.hypot(p["sR"] / abs(p["R"]), p["sF"] / abs(p["F"]))      # relative sd of |R|, |F|; sd of arg
         S = p["slope"] if np.isfinite(p["slope"]) and p["slope"] > 0 else np.nan
-        fr = p["f"] + (e / S if np.isfinite(S) else 0.0)
-        # the record's noise on e and the slope's error on the correction e / S (the phasors
-        # are taken at the generator's frequency, known far better than either)
-        s_S = p["slope_sd"] if np.isfinite(p["slope_sd"]) else 0.0
-        fr_sd = math.hypot(rel / S, e * s_S / S ** 2) if np.isfinite(S) else abs(e) * p["f"]
         X = abs(p["R"]) / w ** power
-        rows.append((p, w, X, fr, fr_sd, rel, S))
+        rows.append((p, w, X, e, rel, S))
     notes = ["amplitude: fundamental of displacement at " + pts[0]["sensor"]]
     mass_rel = 0.0                                      # relative sd of m_eff, common to every point
     if modal_mass_kg is None:
-        p, w, X, fr, _, _, S = rows[0]
+        p, w, X, e, _, S = rows[0]
         if not np.isfinite(S):
             raise InputError("the lowest level's run has no phase slope (phase_slope_rad_per_hz): give "
                              "modal_mass_kg", field="modal_mass_kg")
-        zeta0 = 1.0 / (S * fr)
+        zeta0 = 1.0 / (S * (p["f"] + e / S))
         modal_mass_kg = abs(p["F"]) / (2 * zeta0 * w * w * X)
         mass_rel = p["slope_sd"] / S if np.isfinite(p["slope_sd"]) else 0.0
         notes.append(f"apparent modal mass {modal_mass_kg:.4g} kg from the lowest level's phase slope "
@@ -149,15 +148,35 @@ def phase_resonance_backbone(runs: Iterable[str | Path], *, modal_mass_kg: float
     else:
         mass_rel = modal_mass_sd_kg / modal_mass_kg
         notes.append(mass_note or f"apparent modal mass {modal_mass_kg:g} kg (given)")
+    notes.append("frequency: quadrature at the recorded amplitude by the force balance, "
+                 "w_r^2 = w^2 + |F| sin(e) / (m_eff X)")
     out = []
-    for p, w, X, fr, fr_sd, rel, S in rows:
-        zeta = abs(p["F"]) / (2 * modal_mass_kg * w * w * X)
+    for p, w, X, e, rel, S in rows:
+        fr, fr_sd, zeta = quadrature_at_amplitude(w, abs(p["F"]), X, e, modal_mass_kg, rel, mass_rel)
         out.append(BackbonePoint(X, fr, zeta, "phase_resonance", X * p["sR"] / abs(p["R"]), fr_sd,
                                  zeta * math.hypot(rel, mass_rel),
                                  extra={"run": p["run"], "level_vpp": p["level_vpp"],
                                         "modal_mass_kg": float(modal_mass_kg),
-                                        "force_n": abs(p["F"]), "drive_frequency_hz": p["f"]}))
+                                        "force_n": abs(p["F"]), "drive_frequency_hz": p["f"],
+                                        "phase_error_rad": e}))
     return Backbone(out, "m", "displacement", pts[0]["sensor"], tuple(notes))
+
+
+def quadrature_at_amplitude(w: float, F: float, X: float, e: float, m: float, rel: float,
+                            mass_rel: float) -> tuple[float, float, float]:
+    """(f_r Hz, its sd, zeta) of a level recorded at w (rad/s) with force amplitude F,
+    displacement amplitude X and quadrature error e (rad): the force balance at that
+    amplitude (module docstring), w_r^2 = w^2 + F sin(e) / (m X) and
+    zeta = F cos(e) / (2 m w w_r X); f_r's sd from e's (``rel`` rad) and m's relative sd
+    ``mass_rel`` on the correction."""
+    corr = F * math.sin(e) / (m * X)
+    wr2 = w * w + corr
+    if wr2 <= 0:
+        raise InputError(f"a phase-resonance level {math.degrees(e):.3g} deg off quadrature: the loop did "
+                         "not lock near the resonance", field="phase_error")
+    wr = math.sqrt(wr2)
+    d_wr2 = math.hypot(F * math.cos(e) * rel / (m * X), corr * mass_rel)
+    return wr / (2 * np.pi), d_wr2 / (2 * wr) / (2 * np.pi), F * math.cos(e) / (2 * m * w * wr * X)
 
 
 def ringdown_run_backbone(path: str | Path, channel: str | None = None, *, mode_hz: float | None = None,

@@ -6,7 +6,9 @@ the structure they were measured on; the predictor is a joint model inside the
 structure: every joint's law the model with its parameters
 (:meth:`~labjoint.structure.predict.FrfPredictor.system_with`), the mode's backbone by
 the extended periodic motion concept at the measured amplitudes and sensor
-(:mod:`labjoint.structure.epmc`).
+(:mod:`labjoint.structure.epmc`); for phase-resonance points (their force and apparent
+modal mass recorded) the forced quadrature at the excitation point at those amplitudes
+instead, the measurement's own definition (:mod:`labjoint.structure.phase_resonance`).
 
 Residual: per point, frequency and damping ratio, model minus measured, over the
 point's standard uncertainty (whitened). The core's "measured force" is the whitened
@@ -40,6 +42,7 @@ from labjoint.signal.backbone import Backbone
 from labjoint.structure.epmc import EPMC
 from labjoint.structure.hbm import ConvergenceError
 from labjoint.structure.law import JointLaw
+from labjoint.structure.phase_resonance import phase_resonance_points
 from labjoint.structure.predict import FrfPredictor
 from labjoint.structure.stage2 import fit_law
 
@@ -94,11 +97,14 @@ class BackboneMeasurement:
         sysm = self.predictor.system_with(law)
         ep = EPMC(sysm, self.mode, self.harmonics, max(self.samples, 8 * self.harmonics), self.backbone.sensor)
         bb, sols = ep.backbone(self.amplitudes)
+        fz = np.column_stack([bb.array("frequency_hz"), bb.array("damping_ratio")])
+        if is_phase_resonance(self.backbone):   # the measurement's own definition on the model's side
+            fz = phase_resonance_points(ep, self.amplitudes, sols)[:, :2]
         rot = ep.hb.phasors(sols[int(np.argmax(self.amplitudes)), :-2], sysm.selectors)[1]
         # a joint's coordinate is a rotation (slip = radius x rotation); a law element's is the slip
         r = max(e.joint.radius_m if hasattr(e, "joint") else 1.0 for e in sysm.elements)
         self.metadata["slip_amplitude_m"] = float(r * np.max(np.abs(rot)))
-        return np.column_stack([bb.array("frequency_hz"), bb.array("damping_ratio")]).ravel(), rot
+        return fz.ravel(), rot
 
     def predict_law(self, law: JointLaw) -> np.ndarray:
         return self.solve(law)[0] / self.sd
@@ -125,6 +131,12 @@ class BackboneMeasurement:
 
     def renamed(self, name: str) -> BackboneMeasurement:
         return replace(self, name=name, data=self.data.renamed(name))
+
+
+def is_phase_resonance(backbone: Backbone) -> bool:
+    """Whether every point is a phase-resonance point (compared with the model's forced
+    quadrature; other methods with the EPMC)."""
+    return bool(backbone.points) and all(p.method == "phase_resonance" for p in backbone.points)
 
 
 def prepare_backbones(items: Sequence[Backbone | tuple[str, Backbone]], predictor: FrfPredictor,
