@@ -7,17 +7,8 @@ w_n = sqrt(w_d^2 + sigma^2) and the damping ratio zeta = sigma / w_n (exact for 
 mode, x = A exp(-zeta w_n t) cos(w_d t), w_d = w_n sqrt(1 - zeta^2); for a weakly
 nonlinear one they are its amplitude-dependent values, averaging / first-harmonic).
 
-Mode isolation (:func:`isolate`): the spectrum's peaks are found; the mode asked for is
-kept by a zero-phase Butterworth band-pass (forward-backward, ``sosfiltfilt``; order 4
-between neighbours, 2 for a lone mode, whose transients are shorter) whose
-edges lie halfway (geometrically) between it and its neighbours. An exponentially
-decaying sine is an eigenfunction of any linear filter, so the band-pass changes
-neither sigma nor w_d, only a constant gain (close to 1 inside the band); its start and
-end transients are cut off (where they fall below ``SETTLE_RTOL`` of the signal,
-:func:`labjoint.signal.filter.settling_samples`).
-Two modes are refused as too close when the band would be narrower than 10 x the mode's
-decay rate (the filter would then shape the decay) or when its transients would leave
-fewer cycles than the analysis needs.
+Mode isolation: :mod:`labjoint.signal.ringdown_isolate` (the mode's band-pass; with a
+force, also against the force's peaks).
 
 Two estimators, side by side, on the same isolated signal, per window of
 ``window_cycles`` cycles (non-overlapping, so the windows' uncertainties are
@@ -60,7 +51,13 @@ stinger force F(t) recorded and the apparent modal mass m between force and sens
 R = F / X of their analytic signals (X the displacement, the response over s^p) is the
 exciter's dynamic stiffness, and the mode m (s^2 + 2 zeta w s + w^2) = R at the observed
 s = -sigma + i w_d gives the structure's own w and zeta. Their uncertainties are the
-uncorrected ones (R's scatter is not propagated).
+uncorrected ones (R's scatter is not propagated). The sensor also moves with the
+structure's other modes under F: X = X_mode + C_r F, C_r the residual compliance between
+drive and sensor at the mode's frequency (sum over the other mass-normalised modes of
+phi_s phi_d / (w_k^2 - w^2), from a model or a modal test); the mode alone sees
+R / (1 - C_r R). Leaving it out (C_r = 0) is not small: on a 2-DOF structure whose second
+mode is at 2.1x the first, a 0.3 kg armature made the drive-point ringdown 0.003 Hz stiff
+and 9 % over-damped (tests/test_ringdown_shaker.py).
 
 Amplitudes are in the signal's own quantity and unit; ``to_displacement`` converts a
 velocity (/w) or an acceleration (/w^2, w the window's w_d as recorded, before any force
@@ -78,104 +75,13 @@ from scipy import signal as sps
 from labjoint.errors import InputError
 from labjoint.signal import validate
 from labjoint.signal.backbone import Backbone, BackbonePoint
-from labjoint.signal.filter import settling_samples
+from labjoint.signal.ringdown_isolate import (BAND_ORDER, BAND_OVER_DECAY, FORCE_BAND, PEAK_FRACTION,  # noqa: F401
+                                              SETTLE_RTOL, isolate, spectrum_peaks)
 
 METHODS = ("hilbert", "peaks")
-#: the band-pass must be this many times wider than the mode's decay rate (Hz)
-BAND_OVER_DECAY = 10.0
-BAND_ORDER = 4
-#: the band-pass's transients are cut where they fall below this fraction of the signal
-SETTLE_RTOL = 1e-4
-#: spectral peaks less prominent than this fraction of the largest (amplitude) are not
-#: taken for modes (noise ripples; a weaker mode only widens the band-pass)
-PEAK_FRACTION = 0.1
 #: the record's last fraction whose rms stands for the noise when none is given
 TAIL = 0.1
 UNIT_BY_QUANTITY = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
-
-
-def spectrum_peaks(x: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
-    """Frequencies (Hz) and amplitudes of the spectral peaks of a record (Hann window,
-    zero-padded x4, parabolic interpolation in log amplitude), strongest first."""
-    n = x.size
-    nfft = 1 << int(math.ceil(math.log2(4 * n)))
-    X = np.abs(np.fft.rfft((x - x.mean()) * np.hanning(n), nfft))
-    f = np.fft.rfftfreq(nfft, 1.0 / fs)
-    idx, _ = sps.find_peaks(X, height=PEAK_FRACTION * X.max(), prominence=PEAK_FRACTION * X.max())
-    idx = idx[(idx > 0) & (idx < X.size - 1)]
-    if idx.size == 0:
-        return np.array([]), np.array([])
-    # a lesser peak within a stronger one's width at a quarter of its height is that
-    # mode's noise ripple (two Lorentzian modes are still separated at 4x their bandwidth)
-    lo_i, hi_i = sps.peak_widths(X, idx, rel_height=0.75)[2:]
-    keep = []
-    for j in np.argsort(X[idx])[::-1]:
-        if not any(lo_i[k] <= idx[j] <= hi_i[k] for k in keep):
-            keep.append(j)
-    idx = idx[np.sort(keep)]
-    la, lb, lc = (np.log(np.maximum(X[idx + k], 1e-300)) for k in (-1, 0, 1))
-    den = la - 2 * lb + lc
-    d = np.where(den != 0, 0.5 * (la - lc) / np.where(den != 0, den, 1.0), 0.0)
-    fp = f[idx] + d * (f[1] - f[0])
-    order = np.argsort(X[idx])[::-1]
-    return fp[order], X[idx][order]
-
-
-def isolate(x: np.ndarray, fs: float, mode_hz: float | None = None, *,
-            min_cycles: float = 12.0) -> tuple[np.ndarray, slice, dict]:
-    """The mode nearest ``mode_hz`` (default: the strongest) band-passed, zero-phase;
-    the slice of samples free of the filter's transients, and what was done (notes).
-
-    Refuses (InputError) two modes too close to separate (module docstring)."""
-    peaks, _ = spectrum_peaks(x, fs)
-    if peaks.size == 0:
-        raise InputError("no resonance peak in the record: is it a free decay?", field="x")
-    f0 = float(peaks[0] if mode_hz is None else peaks[np.argmin(np.abs(peaks - mode_hz))])
-    if mode_hz is not None and abs(f0 - mode_hz) > 0.25 * mode_hz:
-        raise InputError(f"no mode near {mode_hz:g} Hz in the record (its peaks: "
-                         f"{', '.join(f'{p:.4g}' for p in sorted(peaks))} Hz)", field="mode_hz")
-    below, above = peaks[peaks < f0 * (1 - 1e-6)], peaks[peaks > f0 * (1 + 1e-6)]
-    lo = math.sqrt(f0 * below.max()) if below.size else f0 / 2
-    hi = math.sqrt(f0 * above.min()) if above.size else min(2 * f0, 0.45 * fs)
-    half = min(f0 - lo, hi - f0)
-    # the mode's decay rate (Hz) from its envelope, roughly: the band must be much wider
-    sigma = _rough_decay(x, fs, f0)
-    duration = x.size / fs
-    neighbours = [float(p) for p in (below.max() if below.size else None,
-                                     above.min() if above.size else None) if p is not None]
-    order = BAND_ORDER if neighbours else 2
-    sos = sps.butter(order, [lo, hi], btype="bandpass", fs=fs, output="sos")
-    settle = settling_samples(sos, SETTLE_RTOL) / fs
-    usable_cycles = (duration - 2 * settle) * f0
-    if neighbours and (half < BAND_OVER_DECAY * sigma / (2 * np.pi) or usable_cycles < min_cycles):
-        near = min(neighbours, key=lambda p: abs(p - f0))
-        need = (min_cycles / f0 + 2 * settle)
-        raise InputError(
-            f"two modes too close to separate: {f0:.4g} Hz and {near:.4g} Hz; a band-pass between "
-            f"them (half-width {half:.3g} Hz) is not 10x wider than the decay rate "
-            f"({sigma / (2 * np.pi):.3g} Hz) or its transients leave {max(usable_cycles, 0):.0f} of "
-            f"{min_cycles:.0f} cycles needed. What would help: excite one mode alone (a sine dwell at "
-            f"{f0:.4g} Hz before switching off, or phase-resonance testing), or a record of at least "
-            f"{need:.3g} s", field="x")
-    y = sps.sosfiltfilt(sos, x - x.mean())
-    cut = int(math.ceil(settle * fs))
-    if x.size - 2 * cut < 16:
-        raise InputError(f"the record ({duration:.3g} s) is shorter than the band-pass's transients "
-                         f"({2 * settle:.3g} s): record a longer decay", field="x")
-    keep = slice(cut, x.size - cut)
-    notes = {"mode_hz": f0, "band_hz": [lo, hi], "settle_s": settle, "other_modes_hz": neighbours,
-             "order": order, "sos": sos}
-    return y, keep, notes
-
-
-def _rough_decay(x: np.ndarray, fs: float, f0: float) -> float:
-    """Mean decay rate (1/s) of the record's envelope (first vs last quarter), >= 0."""
-    env = np.abs(sps.hilbert(x - x.mean()))
-    q = max(1, x.size // 4)
-    a, b = np.median(env[:q]), np.median(env[-q:])
-    if a <= 0 or b <= 0:
-        return 0.0
-    return max(0.0, math.log(a / b) / ((x.size - q) / fs))
 
 
 def ringdown_backbone(x, fs: float, *, mode_hz: float | None = None, methods=METHODS,
@@ -183,11 +89,16 @@ def ringdown_backbone(x, fs: float, *, mode_hz: float | None = None, methods=MET
                       sensor: str = "x", to_displacement: bool = False,
                       window_cycles: int = 4, trim_cycles: float = 2.0,
                       noise_rms: float | None = None, snr_min: float = 10.0,
-                      min_windows: int = 3, force=None, modal_mass_kg: float | None = None) -> Backbone:
+                      min_windows: int = 3, force=None, modal_mass_kg: float | None = None,
+                      residual_compliance_m_per_n: float = 0.0) -> Backbone:
     """Backbone of one mode from a free decay ``x`` sampled at ``fs`` (module docstring);
     with ``force`` (N, same samples) and ``modal_mass_kg``, of the structure without
-    what applies that force (:func:`remove_force`)."""
+    what applies that force (:func:`remove_force`; the other modes' residual compliance
+    ``residual_compliance_m_per_n`` between drive and sensor, module docstring)."""
     x = validate.signal(x, "x", min_samples=16)
+    if not math.isfinite(residual_compliance_m_per_n):
+        raise InputError(f"must be finite, got {residual_compliance_m_per_n!r}",
+                         field="residual_compliance_m_per_n")
     if force is not None:
         force = validate.signal(force, "force", min_samples=16)
         validate.same_length(x, force, "x", "force")
@@ -202,7 +113,8 @@ def ringdown_backbone(x, fs: float, *, mode_hz: float | None = None, methods=MET
     if not (isinstance(window_cycles, int) and window_cycles >= 2):
         raise InputError(f"window_cycles must be an integer >= 2, got {window_cycles!r}",
                          field="window_cycles")
-    y, keep, iso = isolate(x, fs, mode_hz, min_cycles=window_cycles * min_windows + 2 * trim_cycles)
+    y, keep, iso = isolate(x, fs, mode_hz, min_cycles=window_cycles * min_windows + 2 * trim_cycles,
+                           also=force)
     iso = dict(iso)
     f0 = iso["mode_hz"]
     if fs < 8 * f0:
@@ -226,7 +138,8 @@ def ringdown_backbone(x, fs: float, *, mode_hz: float | None = None, methods=MET
              f"windows of {window_cycles} cycles; hilbert: {trim_cycles:g} cycles trimmed at each end",
              f"points kept above {snr_min:g} x the noise {noise_rms:.3g} ({noise_from})"]
     if force is not None:
-        notes.append(f"the measured force's work removed per window (modal mass {modal_mass_kg:.4g} kg)")
+        notes.append(f"the measured force's work removed per window (modal mass {modal_mass_kg:.4g} kg, "
+                     f"other modes' residual compliance {residual_compliance_m_per_n:.4g} m/N)")
     if power:
         notes.append(f"{quantity} amplitude converted to displacement by /omega^{power} "
                      "(omega the window's damped frequency)")
@@ -241,7 +154,7 @@ def ringdown_backbone(x, fs: float, *, mode_hz: float | None = None, methods=MET
             if yF is not None:
                 ratio = force_ratio(y, yF, t, fs, f0, trim, t0, t1, complex(-sig, wd),
                                     {"displacement": 0, "velocity": 1, "acceleration": 2}[quantity])
-                wd, sig = remove_force(wd, sig, ratio, modal_mass_kg)
+                wd, sig = remove_force(wd, sig, ratio, modal_mass_kg, residual_compliance_m_per_n)
             pts.append(_point(amp, amp_sd, wd, wd_sd, sig, sig_sd, power, f"ringdown_{method}", w_seen))
     few = {m: c for m, c in counts.items() if c[0] < min_windows}
     if few:
@@ -267,11 +180,14 @@ def force_ratio(y, yF, t, fs, f0, trim, t0, t1, s, power) -> complex:
     return complex(np.sum(zf * np.conj(zx)) / np.sum(np.abs(zx) ** 2))
 
 
-def remove_force(wd: float, sigma: float, ratio: complex, mass: float) -> tuple[float, float]:
-    """(w_d, sigma) of the mode without the measured force F = R X acting on it:
+def remove_force(wd: float, sigma: float, ratio: complex, mass: float,
+                 residual: float = 0.0) -> tuple[float, float]:
+    """(w_d, sigma) of the mode without the measured force F = R X acting on it (the
+    other modes' share of X, ``residual`` F, taken out first: R -> R / (1 - residual R)):
     m (s^2 + 2 zeta w s + w^2) = R at the observed s = -sigma + i w_d gives
     2 zeta w = 2 sigma + Im R / (m w_d) and w^2 = Re R / m + w_d^2 - sigma^2 + 2 zeta w sigma;
     returned as the (w_d, sigma) of that mode, sigma = zeta w, w_d = sqrt(w^2 - sigma^2)."""
+    ratio = ratio / (1.0 - residual * ratio)
     two_zw = 2 * sigma + ratio.imag / (mass * wd)
     w2 = ratio.real / mass + wd * wd - sigma * sigma + two_zw * sigma
     sig = two_zw / 2
