@@ -90,7 +90,7 @@ def ringdown_backbone(x, fs: float, *, mode_hz: float | None = None, methods=MET
                       window_cycles: int = 4, trim_cycles: float = 2.0,
                       noise_rms: float | None = None, snr_min: float = 10.0,
                       min_windows: int = 3, force=None, modal_mass_kg: float | None = None,
-                      residual_compliance_m_per_n: float = 0.0) -> Backbone:
+                      residual_compliance_m_per_n: float = 0.0, force_band: str = "octave") -> Backbone:
     """Backbone of one mode from a free decay ``x`` sampled at ``fs`` (module docstring);
     with ``force`` (N, same samples) and ``modal_mass_kg``, of the structure without
     what applies that force (:func:`remove_force`; the other modes' residual compliance
@@ -114,7 +114,7 @@ def ringdown_backbone(x, fs: float, *, mode_hz: float | None = None, methods=MET
         raise InputError(f"window_cycles must be an integer >= 2, got {window_cycles!r}",
                          field="window_cycles")
     y, keep, iso = isolate(x, fs, mode_hz, min_cycles=window_cycles * min_windows + 2 * trim_cycles,
-                           also=force)
+                           also=force, force_band=force_band if force is not None else "octave")
     iso = dict(iso)
     f0 = iso["mode_hz"]
     if fs < 8 * f0:

@@ -15,8 +15,8 @@ fewer cycles than the analysis needs.
 
 With a force recorded beside the response (the exciter's, for
 :func:`labjoint.signal.ringdown.remove_force`), the force's peaks count as neighbours too,
-and a lone mode gets an order-4 band f0 / sqrt 2 .. f0 sqrt 2: after a sine dwell the next
-mode's free transient is in the force (drive point, the armature's inertia weights it by
+and ``force_band="half_octave"`` gives a lone mode an order-4 band f0 / sqrt 2 .. f0 sqrt 2:
+after a sine dwell the next mode's free transient is in the force (drive point, the armature's inertia weights it by
 w^2) while barely at the sensor, and its leak through an octave-wide order-2 band beats
 in F / X (a 2-DOF generator read 0.002 Hz ripples: tests/test_ringdown_shaker.py).
 """
@@ -39,7 +39,7 @@ SETTLE_RTOL = 1e-4
 #: spectral peaks less prominent than this fraction of the largest (amplitude) are not
 #: taken for modes (noise ripples; a weaker mode only widens the band-pass)
 PEAK_FRACTION = 0.1
-#: with a force, a lone mode's band-pass edges lie at f0 / this and f0 x this (order 4)
+#: ``force_band="half_octave"``: a lone mode's band-pass edges at f0 / this and f0 x this (order 4)
 FORCE_BAND = math.sqrt(2.0)
 
 
@@ -71,11 +71,14 @@ def spectrum_peaks(x: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def isolate(x: np.ndarray, fs: float, mode_hz: float | None = None, *,
-            min_cycles: float = 12.0, also: np.ndarray | None = None) -> tuple[np.ndarray, slice, dict]:
+            min_cycles: float = 12.0, also: np.ndarray | None = None,
+            force_band: str = "octave") -> tuple[np.ndarray, slice, dict]:
     """The mode nearest ``mode_hz`` (default: the strongest) band-passed, zero-phase;
     the slice of samples free of the filter's transients, and what was done (notes).
     The peaks of ``also`` (a force recorded with ``x``) count as neighbours too: a mode
     hardly seen at the sensor can dominate the force, whose ratio to x the band must keep clean.
+    ``force_band``: a lone mode's band, "octave" (order 2, f0 / 2 .. 2 f0) or "half_octave"
+    (order 4, f0 / sqrt 2 .. f0 sqrt 2; shuts out the next mode's leak, costs longer transients).
 
     Refuses (InputError) two modes too close to separate (module docstring)."""
     peaks, _ = spectrum_peaks(x, fs)
@@ -98,7 +101,9 @@ def isolate(x: np.ndarray, fs: float, mode_hz: float | None = None, *,
     neighbours = [float(p) for p in (below.max() if below.size else None,
                                      above.min() if above.size else None) if p is not None]
     order = BAND_ORDER if neighbours else 2
-    if also is not None and not neighbours:
+    if force_band not in ("octave", "half_octave"):
+        raise InputError(f"force_band is octave or half_octave, got {force_band!r}", field="force_band")
+    if force_band == "half_octave" and not neighbours:
         # with a force, a lone mode's octave-wide order-2 band is not enough: a sine dwell
         # leaves the next mode's free transient in the force (drive point, weighted by the
         # armature's w^2) though barely at the sensor, and its leak beats in F / X
