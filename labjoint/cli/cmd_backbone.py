@@ -40,6 +40,12 @@ def add_backbone_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--modal-mass", type=float, default=None, metavar="KG",
                    help="apparent modal mass between force and sensor (default: from the lowest "
                         "phase-resonance level's phase slope)")
+    p.add_argument("--residual-compliance", type=float, default=0.0, metavar="M/N",
+                   help="ringdowns: the other modes' compliance between drive and sensor at the mode's "
+                        "frequency, taken out of the force removal (default 0)")
+    p.add_argument("--force-band", choices=("octave", "half_octave"), default="octave",
+                   help="ringdowns with a force: a lone mode's band-pass (half_octave: order 4, "
+                        "shuts out the next mode's leak into F/X; default octave)")
     p.add_argument("--model", default=None, metavar="EXPR|MODEL.json",
                    help="joint law, e.g. linear_stiffness+iwan, or a model file / fit or ladder JSON")
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
@@ -143,7 +149,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("give runs, an FRF set, or a model (--structure / --model)", field="inputs")
     from labjoint.identify.backbone import measured_backbones
 
-    meas = measured_backbones(args.inputs, args.sensor, args.modal_mass)
+    meas = measured_backbones(args.inputs, args.sensor, args.modal_mass,
+                              {"residual_compliance_m_per_n": args.residual_compliance,
+                               "force_band": args.force_band})
     model = modelled(args, meas)
     if args.out:
         if not meas:

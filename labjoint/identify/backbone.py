@@ -314,13 +314,16 @@ def _sdof_fit(f, H, sd, band, force, level, direction) -> BackbonePoint:
 
 
 def measured_backbones(inputs: Iterable[str | Path], sensor: str | None = None,
-                       modal_mass: float | None = None) -> list[Backbone]:
+                       modal_mass: float | None = None, ringdown_options: dict | None = None) -> list[Backbone]:
     """Backbones of run files and FRF set files by their kind: phase_resonance levels
     (one backbone), ringdown runs (two backbones each, ``ringdown_hilbert`` and
     ``ringdown_peaks``; the force removed with the levels' apparent modal mass when there
     are levels or ``modal_mass``), step_sine runs (one FRF set) and FRF set
     files (.json: a step-sine set by phase quadrature, a per-level broadband set by
-    ``frf_levels``); a backbone file (``labjoint.backbone/1``, .json) gives its backbones."""
+    ``frf_levels``); a backbone file (``labjoint.backbone/1``, .json) gives its backbones.
+    ``ringdown_options`` go to every ringdown's analysis (e.g. ``residual_compliance_m_per_n``,
+    ``force_band``: :func:`labjoint.signal.ringdown.ringdown_backbone`)."""
+    ropt = dict(ringdown_options or {})
     levels, rings, steps, sets = [], [], [], []
     stored: list[Backbone] = []
     for name in inputs:
@@ -358,7 +361,7 @@ def measured_backbones(inputs: Iterable[str | Path], sensor: str | None = None,
         # the slope's m_eff holds for a linear mode only: take the mass at which the
         # force-corrected ringdown meets the levels' frequencies (labjoint.identify.backbone_mass)
         got = mass_from_ringdown(pr, lambda m: ringdown_run_backbone(
-            rings[0], sensor, force_channel=forces[rings[0]], modal_mass_kg=m).by_method(), mass)
+            rings[0], sensor, force_channel=forces[rings[0]], modal_mass_kg=m, **ropt).by_method(), mass)
         if got is not None:
             mass = got[0]
             pr = phase_resonance_backbone(levels, modal_mass_kg=got[0], modal_mass_sd_kg=got[1],
@@ -369,7 +372,7 @@ def measured_backbones(inputs: Iterable[str | Path], sensor: str | None = None,
         fch = forces[path]
         use_force = mass is not None and fch is not None
         out += ringdown_run_backbone(path, sensor, force_channel=fch if use_force else None,
-                                     modal_mass_kg=mass if use_force else None).by_method()
+                                     modal_mass_kg=mass if use_force else None, **ropt).by_method()
     if steps:
         sets.append(frfset_from_runs(steps, sensors=[sensor] if sensor else None))
     out += [frf_levels_backbone(s, sensor) if is_broadband(s) else frfset_backbone(s, sensor) for s in sets]
