@@ -105,8 +105,10 @@ def test_force_removal_meets_the_bare_structure_with_the_other_modes_residual(de
     assert df2 > 1e-3 and dz2 > 0.01, (df2, dz2)
 
 
-def test_residual_compliance_must_be_finite(decays):
+def test_residual_compliance_must_be_finite_and_the_band_known(decays):
     _, (acc, force, _, _) = decays[1]
+    with pytest.raises(InputError, match="force_band"):
+        ringdown_backbone(acc, FS, quantity="acceleration", force_band="third_octave")
     with pytest.raises(InputError, match="residual_compliance"):
         ringdown_backbone(acc, FS, quantity="acceleration", force=force, modal_mass_kg=2.3,
                           residual_compliance_m_per_n=float("nan"))

@@ -115,6 +115,8 @@ def ringdown_backbone(x, fs: float, *, mode_hz: float | None = None, methods=MET
                          field="window_cycles")
     y, keep, iso = isolate(x, fs, mode_hz, min_cycles=window_cycles * min_windows + 2 * trim_cycles,
                            also=force, force_band=force_band if force is not None else "octave")
+    if force_band not in ("octave", "half_octave"):
+        raise InputError(f"force_band is octave or half_octave, got {force_band!r}", field="force_band")
     iso = dict(iso)
     f0 = iso["mode_hz"]
     if fs < 8 * f0:
