@@ -19,7 +19,8 @@ elastic law 1 to 30 % of the linear force at the records' largest modal amplitud
 sign; a slip law (coulomb, iwan, bouc_wen, richard_abbott) stuck at 5 or 20 % of k and
 slipping at each level of the records' amplitude range (each record's sqrt(2) x rms of
 mode 1 over its judged samples: the smallest, the largest and their geometric mean), so
-a random test's micro-slip scale, far below the resonant sines', is started too. A trial whose
+a random test's micro-slip scale, far below the resonant sines', is started too; iwan also
+in micro-slip at every record (macro-slip 10x above the largest amplitude). A trial whose
 simulation diverges is rejected (its residual made large); a fit that ends diverged or
 non-finite is refused naming the parameters.
 """
@@ -43,6 +44,7 @@ LINEAR_ZETA_RANGE = (0.2, 5.0)      # these factors of the measured ones
 HIGHPASS_RANGE = (0.0, 10.0)        # Hz: the shaker path's high-pass corner (nlmode eq. 4)
 HIGHPASS_STARTS = (0.0, 1.0, 3.0)
 MAX_STARTS = 24
+MICRO_SLIP = 10.0                   # iwan's micro-slip-only start: phi_max this many x the largest amplitude
 
 
 def _gain_names(m: ModalMeasurement) -> list[str]:
@@ -119,9 +121,12 @@ def _slip_starts(name: str, k: float, levels: Sequence[float]) -> list[dict[str,
     """Starts of a slip law, one set per amplitude level a (module docstring): its stuck
     stiffness 5 or 20 % of k, slipping fully at about a (coulomb: its slider at a / 2;
     iwan: macro-slip at phi_max = a, chi -0.8 (micro-slip force share nearly constant with
-    amplitude) or -0.3; bouc_wen: z saturating near a; richard_abbott: yield at a / 2)."""
+    amplitude) or -0.3, and at phi_max = ``MICRO_SLIP`` x the largest a, micro-slip only;
+    bouc_wen: z saturating near a; richard_abbott: yield at a / 2)."""
     out = []
-    for a in levels:
+    # iwan also in micro-slip at every record (phi_max 10x the largest amplitude): a joint
+    # that softens at micro-metres and never reaches macro-slip (BERT's free decays)
+    for a in (*levels, MICRO_SLIP * max(levels)) if name == "iwan" else levels:
         for frac in (0.05, 0.2):
             kt = frac * k
             if name == "coulomb":
