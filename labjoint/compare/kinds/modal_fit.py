@@ -4,7 +4,8 @@ several levels together (issue 29 item 5).
 Varied by least squares (scipy's trust-region reflective, bounded): the joint model's
 parameters on mode 1, the modal force per volt ``modal.drive`` and the linear modes'
 frequency and damping (``modal.f<j>``, ``modal.zeta<j>``, from the measured ones within
-``LINEAR_F_RANGE`` and ``LINEAR_ZETA_RANGE``). The sensors'
+``LINEAR_F_RANGE`` and ``LINEAR_ZETA_RANGE``) and the shaker path's high-pass and lag
+(``shaker.highpass_hz``, ``shaker.lag_s``: nlmode eqs. 4, 4b). The sensors'
 participations (``modal.phi1.<s>`` and the linear modes' ``modal.g<j>.<s>``) enter the
 responses linearly (nlmode eq. 3) and are solved by linear least squares at every trial
 (variable projection), pooled over the fit records, with each sensor's residual term
@@ -43,7 +44,11 @@ LINEAR_F_RANGE = (0.95, 1.05)       # the linear modes' frequency and damping, f
 LINEAR_ZETA_RANGE = (0.2, 5.0)      # these factors of the measured ones
 HIGHPASS_RANGE = (0.0, 10.0)        # Hz: the shaker path's high-pass corner (nlmode eq. 4)
 HIGHPASS_STARTS = (0.0, 1.0, 3.0)
+LAG_RANGE = (0.0, 2e-3)             # s: the shaker path's first-order lag (nlmode eq. 4b)
+LAG_STARTS = (0.0, 3e-4)
 MAX_STARTS = 24
+#: the shaker path's parameters every modal fit varies (nlmode eqs. 4, 4b)
+PATH = ("shaker.highpass_hz", "shaker.lag_s")
 MICRO_SLIP = 10.0                   # iwan's micro-slip-only start: phi_max this many x the largest amplitude
 
 
@@ -169,9 +174,9 @@ def _starts(model: Model, known: Mapping[str, float], amp: float | Sequence[floa
         "bilinear_stiffness.dk": sym(k, 0.01, 0.03, 0.1, 0.3),
         "contact.k_c": sym(k, 0.03, 0.1, 0.3), "contact.gap": [0.1 * a, 0.5 * a],
         "asymmetric_slip.asym": [0.3, -0.3, 0.1, -0.1],
-        "offset.F0": [0.0], "shaker.highpass_hz": list(HIGHPASS_STARTS),
+        "offset.F0": [0.0], "shaker.highpass_hz": list(HIGHPASS_STARTS), "shaker.lag_s": list(LAG_STARTS),
     }
-    new = [n for n in (*model.param_names, "shaker.highpass_hz") if n not in known]
+    new = [n for n in (*model.param_names, *PATH) if n not in known]
     # a slip law's parameters go together (one set per amplitude level), the rest by product
     slip: list[list[dict[str, float]]] = []
     for e in model.names:
@@ -272,6 +277,7 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
         bnd[f"modal.f{j + 2}"] = (LINEAR_F_RANGE[0] * f0, LINEAR_F_RANGE[1] * f0)
         bnd[f"modal.zeta{j + 2}"] = (LINEAR_ZETA_RANGE[0] * z0, LINEAR_ZETA_RANGE[1] * z0)
     bnd["shaker.highpass_hz"] = HIGHPASS_RANGE
+    bnd["shaker.lag_s"] = LAG_RANGE
     user_bounds(bnd, start, bounds, known, init is not None)
     if drive_name is not None and drive_name not in known:
         q1 = [m.plain_states(model, {**{n: loaded.get(n, known.get(n, 0.0)) if path else known.get(n, 0.0)
@@ -296,7 +302,7 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     for j, mode in enumerate(basis.linear):
         known.setdefault(f"modal.f{j + 2}", mode.frequency_hz)
         known.setdefault(f"modal.zeta{j + 2}", mode.damping_ratio)
-    every = [*model.param_names, *([drive_name] if drive_name else []), *lin_names, "shaker.highpass_hz"]
+    every = [*model.param_names, *([drive_name] if drive_name else []), *lin_names, *PATH]
     fixed = {n: bnd[n][0] for n in every if bnd[n][0] == bnd[n][1]}     # --bound n=v:v holds n
     names = [n for n in every if n not in fixed]
 
@@ -345,6 +351,8 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     params.add("shaker.highpass_hz", vals["shaker.highpass_hz"], lower=bnd["shaker.highpass_hz"][0],
                upper=bnd["shaker.highpass_hz"][1],
                unit="Hz")
+    params.add("shaker.lag_s", vals["shaker.lag_s"], lower=bnd["shaker.lag_s"][0], upper=bnd["shaker.lag_s"][1],
+               unit="s")
     for k in lin_names:
         params.add(k, vals[k], lower=bnd[k][0], upper=bnd[k][1], unit="Hz" if ".f" in k else "1")
     for k, v in gains.items():
