@@ -148,8 +148,10 @@ def residual_parts(measured: np.ndarray, model: np.ndarray, drive: np.ndarray, f
     end = int(np.flatnonzero(np.abs(drive) > 0.2 * np.abs(drive).max())[-1]) + 1
     for key, sl in (("driven", slice(0, end)), ("free_decay", slice(end, n))):
         out[key] = float(np.sqrt(np.sum(r[sl] ** 2) / n) / scale)
-        ys = y[sl] - y[sl].mean()
-        out[f"{key}_own_nrmse"] = float(np.sqrt(np.mean(r[sl] ** 2) / np.mean(ys ** 2)))
+        ys = y[sl] - y[sl].mean() if sl.stop - sl.start > 1 else np.zeros(0)
+        # a record cut at the burst's end (--smoke) has no free decay: null
+        out[f"{key}_own_nrmse"] = float(np.sqrt(np.mean(r[sl] ** 2) / np.mean(ys ** 2))) \
+            if ys.size and np.any(ys) else None
     out["drive_end_s"] = end / fs
     return out
 
