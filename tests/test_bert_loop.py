@@ -50,6 +50,15 @@ def test_bert_loop_names_even_then_odd_and_predicts_mode_1_and_h2(tmp_path):
     for tag in ("model", "linear"):
         fitted = json.loads((tmp_path / f"{tag}.json").read_text())["fit_runs"]
         assert fitted and not any("0p30" in r for r in fitted), fitted
+    # the 0.30 V residual's parts: bands and burst/decay each add in quadrature to the NRMSE,
+    # and mode 1's and mode 2's bands hold most of it (the diagnosis)
+    for tag, parts in res["nrmse_0p30_parts"].items():
+        total = res["nrmse_0p30"][tag]
+        bands = (parts["mode1_12_30hz"], parts["mode2_80_115hz"], parts["elsewhere"])
+        assert sum(b * b for b in bands) ** 0.5 == pytest.approx(total, rel=1e-6), (tag, parts)
+        assert (parts["driven"] ** 2 + parts["free_decay"] ** 2) ** 0.5 == pytest.approx(total, rel=1e-6)
+        assert parts["elsewhere"] < 0.3 * total, parts
+        assert parts["drive_end_s"] == pytest.approx(8.0, abs=0.3)      # README: about 8.3 s of drive
     # the cubic is softening (k3 < 0), as the level-dependent sines say
     k3 = json.loads((tmp_path / "model.json").read_text())["parameters"]["cubic_stiffness.k3"]
     assert k3["value"] < 0

@@ -138,6 +138,11 @@ def test_slip_starts_span_the_records_amplitudes():
         # the stuck stiffness stays the measured one: k + the law's stuck stiffness = k
         kn = "coulomb.k" if law == "coulomb" else "iwan.K_T"
         assert all(d["linear_stiffness.k"] + d[kn] == pytest.approx(k) for d in st)
+    # iwan is also started in micro-slip at every record: macro-slip (phi_max) 10x above the largest
+    st = _starts(Model.parse("linear_stiffness+iwan"), {"linear_stiffness.k": k}, [1e-5, 1e-2])
+    d_of = lambda d: d["iwan.beta"] + (d["iwan.chi"] + 1) / (d["iwan.chi"] + 2)  # noqa: E731
+    phi = [d["iwan.F_S"] * (1 + d["iwan.beta"]) / (d["iwan.K_T"] * d_of(d)) for d in st]
+    assert max(phi) == pytest.approx(10 * 1e-2) and min(phi) == pytest.approx(1e-5)
 
 
 def _record(level: float, name: str):

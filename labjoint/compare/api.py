@@ -143,6 +143,9 @@ def drive_path(d: dict[str, Any], m: Any) -> str:
     if path is None:
         hp_text = ("a fitted high-pass" if hp is None else
                    f"a high-pass at {hp:.3g} Hz (fitted)" if hp > 0 else "no high-pass (fitted to 0)")
+        lag = val("shaker.lag_s")
+        if lag is not None:
+            hp_text += f" -> a lag of {lag * 1e3:.3g} ms (fitted)" if lag > 0 else " -> no lag (fitted to 0)"
         return (f"{m.metadata.get('drive_quantity', 'drive')} -> {hp_text} -> a fitted gain "
                 "(modal.drive) on every mode: per "
                 f"{'volt' if m.metadata.get('drive_quantity') == 'voltage' else 'newton'} only")

@@ -107,15 +107,15 @@ class ModalMeasurement:
                 "judged_s": (self.judged.stop - self.judged.start) / self.drive.fs}
 
     def drive_at(self, vals: Mapping[str, Any]) -> Drive:
-        """The drive through the shaker path's high-pass (``shaker.highpass_hz``; none if absent)."""
-        fc = float(vals.get("shaker.highpass_hz", 0.0) or 0.0)
-        fc = float(getattr(fc, "value", fc))
-        if fc <= 0:
+        """The drive through the shaker path's high-pass (``shaker.highpass_hz``) and lag
+        (``shaker.lag_s``; nlmode eqs. 4, 4b; each none if absent)."""
+        fc, tau = path_filters(vals)
+        if fc <= 0 and tau <= 0:
             return self.drive
-        key = ("drive", fc)
+        key = ("drive", fc, tau)
         if key not in self._cache:
             self._trim()
-            self._cache[key] = self.drive.highpassed(fc)
+            self._cache[key] = self.drive.highpassed(fc).lagged(tau)
         return self._cache[key]
 
     def _trim(self) -> None:
@@ -158,7 +158,7 @@ class ModalMeasurement:
         4th column: the model's H2 on a voltage record, the measured force on a force
         record), so their participations are per newton."""
         if self.setup.shaker is None:
-            return self.drive_at(vals), float(vals.get("shaker.highpass_hz", 0.0) or 0.0)
+            return self.drive_at(vals), path_filters(vals)
         if self.metadata.get("drive_quantity") == "force":
             return self.drive, "force"
         if q is None or q.ndim != 2 or q.shape[1] < 4:
@@ -256,6 +256,15 @@ class ModalMeasurement:
 
     def renamed(self, name: str) -> ModalMeasurement:
         return replace(self, name=name, data=self.data.renamed(name))
+
+
+def path_filters(vals: Mapping[str, Any]) -> tuple[float, float]:
+    """The shaker path's high-pass corner (Hz) and lag (s) in ``vals`` (0 when absent)."""
+    out = []
+    for n in ("shaker.highpass_hz", "shaker.lag_s"):
+        v = vals.get(n, 0.0) or 0.0
+        out.append(float(getattr(v, "value", v)))
+    return out[0], out[1]
 
 
 def _spans(n: int, n_ch: int) -> np.ndarray:

@@ -4,7 +4,8 @@ several levels together (issue 29 item 5).
 Varied by least squares (scipy's trust-region reflective, bounded): the joint model's
 parameters on mode 1, the modal force per volt ``modal.drive`` and the linear modes'
 frequency and damping (``modal.f<j>``, ``modal.zeta<j>``, from the measured ones within
-``LINEAR_F_RANGE`` and ``LINEAR_ZETA_RANGE``). The sensors'
+``LINEAR_F_RANGE`` and ``LINEAR_ZETA_RANGE``) and the shaker path's high-pass and lag
+(``shaker.highpass_hz``, ``shaker.lag_s``: nlmode eqs. 4, 4b). The sensors'
 participations (``modal.phi1.<s>`` and the linear modes' ``modal.g<j>.<s>``) enter the
 responses linearly (nlmode eq. 3) and are solved by linear least squares at every trial
 (variable projection), pooled over the fit records, with each sensor's residual term
@@ -19,7 +20,8 @@ elastic law 1 to 30 % of the linear force at the records' largest modal amplitud
 sign; a slip law (coulomb, iwan, bouc_wen, richard_abbott) stuck at 5 or 20 % of k and
 slipping at each level of the records' amplitude range (each record's sqrt(2) x rms of
 mode 1 over its judged samples: the smallest, the largest and their geometric mean), so
-a random test's micro-slip scale, far below the resonant sines', is started too. A trial whose
+a random test's micro-slip scale, far below the resonant sines', is started too; iwan also
+in micro-slip at every record (macro-slip 10x above the largest amplitude). A trial whose
 simulation diverges is rejected (its residual made large); a fit that ends diverged or
 non-finite is refused naming the parameters.
 """
@@ -42,7 +44,12 @@ LINEAR_F_RANGE = (0.95, 1.05)       # the linear modes' frequency and damping, f
 LINEAR_ZETA_RANGE = (0.2, 5.0)      # these factors of the measured ones
 HIGHPASS_RANGE = (0.0, 10.0)        # Hz: the shaker path's high-pass corner (nlmode eq. 4)
 HIGHPASS_STARTS = (0.0, 1.0, 3.0)
+LAG_RANGE = (0.0, 2e-3)             # s: the shaker path's first-order lag (nlmode eq. 4b)
+LAG_STARTS = (0.0, 3e-4)
 MAX_STARTS = 24
+#: the shaker path's parameters every modal fit varies (nlmode eqs. 4, 4b)
+PATH = ("shaker.highpass_hz", "shaker.lag_s")
+MICRO_SLIP = 10.0                   # iwan's micro-slip-only start: phi_max this many x the largest amplitude
 
 
 def _gain_names(m: ModalMeasurement) -> list[str]:
@@ -119,9 +126,12 @@ def _slip_starts(name: str, k: float, levels: Sequence[float]) -> list[dict[str,
     """Starts of a slip law, one set per amplitude level a (module docstring): its stuck
     stiffness 5 or 20 % of k, slipping fully at about a (coulomb: its slider at a / 2;
     iwan: macro-slip at phi_max = a, chi -0.8 (micro-slip force share nearly constant with
-    amplitude) or -0.3; bouc_wen: z saturating near a; richard_abbott: yield at a / 2)."""
+    amplitude) or -0.3, and at phi_max = ``MICRO_SLIP`` x the largest a, micro-slip only;
+    bouc_wen: z saturating near a; richard_abbott: yield at a / 2)."""
     out = []
-    for a in levels:
+    # iwan also in micro-slip at every record (phi_max 10x the largest amplitude): a joint
+    # that softens at micro-metres and never reaches macro-slip (BERT's free decays)
+    for a in (*levels, MICRO_SLIP * max(levels)) if name == "iwan" else levels:
         for frac in (0.05, 0.2):
             kt = frac * k
             if name == "coulomb":
@@ -164,9 +174,9 @@ def _starts(model: Model, known: Mapping[str, float], amp: float | Sequence[floa
         "bilinear_stiffness.dk": sym(k, 0.01, 0.03, 0.1, 0.3),
         "contact.k_c": sym(k, 0.03, 0.1, 0.3), "contact.gap": [0.1 * a, 0.5 * a],
         "asymmetric_slip.asym": [0.3, -0.3, 0.1, -0.1],
-        "offset.F0": [0.0], "shaker.highpass_hz": list(HIGHPASS_STARTS),
+        "offset.F0": [0.0], "shaker.highpass_hz": list(HIGHPASS_STARTS), "shaker.lag_s": list(LAG_STARTS),
     }
-    new = [n for n in (*model.param_names, "shaker.highpass_hz") if n not in known]
+    new = [n for n in (*model.param_names, *PATH) if n not in known]
     # a slip law's parameters go together (one set per amplitude level), the rest by product
     slip: list[list[dict[str, float]]] = []
     for e in model.names:
@@ -267,6 +277,7 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
         bnd[f"modal.f{j + 2}"] = (LINEAR_F_RANGE[0] * f0, LINEAR_F_RANGE[1] * f0)
         bnd[f"modal.zeta{j + 2}"] = (LINEAR_ZETA_RANGE[0] * z0, LINEAR_ZETA_RANGE[1] * z0)
     bnd["shaker.highpass_hz"] = HIGHPASS_RANGE
+    bnd["shaker.lag_s"] = LAG_RANGE
     user_bounds(bnd, start, bounds, known, init is not None)
     if drive_name is not None and drive_name not in known:
         q1 = [m.plain_states(model, {**{n: loaded.get(n, known.get(n, 0.0)) if path else known.get(n, 0.0)
@@ -291,7 +302,7 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     for j, mode in enumerate(basis.linear):
         known.setdefault(f"modal.f{j + 2}", mode.frequency_hz)
         known.setdefault(f"modal.zeta{j + 2}", mode.damping_ratio)
-    every = [*model.param_names, *([drive_name] if drive_name else []), *lin_names, "shaker.highpass_hz"]
+    every = [*model.param_names, *([drive_name] if drive_name else []), *lin_names, *PATH]
     fixed = {n: bnd[n][0] for n in every if bnd[n][0] == bnd[n][1]}     # --bound n=v:v holds n
     names = [n for n in every if n not in fixed]
 
@@ -339,6 +350,8 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     params.add("shaker.highpass_hz", vals["shaker.highpass_hz"], lower=bnd["shaker.highpass_hz"][0],
                upper=bnd["shaker.highpass_hz"][1],
                unit="Hz")
+    params.add("shaker.lag_s", vals["shaker.lag_s"], lower=bnd["shaker.lag_s"][0], upper=bnd["shaker.lag_s"][1],
+               unit="s")
     for k in lin_names:
         params.add(k, vals[k], lower=bnd[k][0], upper=bnd[k][1], unit="Hz" if ".f" in k else "1")
     for k, v in gains.items():

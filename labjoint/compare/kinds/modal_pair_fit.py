@@ -4,7 +4,7 @@
 Varied by least squares (scipy's trust-region reflective, bounded): the joint law's
 parameters (the force the joint adds to the measured modes, per unit modal mass of mode 1),
 every mode's drive per volt ``modal.drive<j>``, the relative modal masses ``modal.mass<j>``
-(j >= 2) and the shaker path's high-pass ``shaker.highpass_hz``. The sensors read the
+(j >= 2) and the shaker path's high-pass ``shaker.highpass_hz`` and lag ``shaker.lag_s``. The sensors read the
 modes through their measured shapes (nothing per channel is fitted).
 
 Start: the drives from the linear model (no joint force: each mode's unit-gain response
@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from labjoint.compare.kinds.modal import ModalMeasurement
-from labjoint.compare.kinds.modal_fit import HIGHPASS_RANGE, STUCK, _bounds, _starts
+from labjoint.compare.kinds.modal_fit import HIGHPASS_RANGE, LAG_RANGE, PATH, STUCK, _bounds, _starts
 from labjoint.compare.kinds.multistart import best_start_then_solve, modal_result
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model
@@ -99,6 +99,7 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     for n in masses:
         bnd[n] = MASS_RANGE
     bnd["shaker.highpass_hz"] = HIGHPASS_RANGE
+    bnd["shaker.lag_s"] = LAG_RANGE
     for n, (lo, hi) in (bounds or {}).items():
         if n not in bnd:
             raise InputError(f"unknown parameter; the model has {sorted(bnd)}", field=f"bound.{n}")
@@ -125,7 +126,7 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
         known.setdefault(n, 1.0)
     w1 = 2 * np.pi * basis.modes[0].frequency_hz
     k_ref = w1 * w1 / max(d[0] ** 2, float(np.max(d ** 2)) * 1e-3)
-    every = [*model.param_names, *drives, *masses, "shaker.highpass_hz"]
+    every = [*model.param_names, *drives, *masses, *PATH]
     fixed = {n: bnd[n][0] for n in every if bnd[n][0] == bnd[n][1]}     # a bound n=v:v holds n
     names = [n for n in every if n not in fixed]
 
@@ -184,6 +185,7 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     for n in masses:
         params.add(n, vals[n], lower=MASS_RANGE[0], upper=MASS_RANGE[1], unit="1")
     params.add("shaker.highpass_hz", vals["shaker.highpass_hz"], lower=0.0, upper=HIGHPASS_RANGE[1], unit="Hz")
+    params.add("shaker.lag_s", vals["shaker.lag_s"], lower=0.0, upper=LAG_RANGE[1], unit="s")
     for k, e in stderr.items():
         params[k].stderr = e
     return modal_result(model, params, names, stderr, corr, sol, r, fit_ms, val_ms)

@@ -1,7 +1,10 @@
 """The modal kind's bounded simulation-error fit, shared by the joint on a mode
 (:mod:`.modal_fit`) and the joint between two points (:mod:`.modal_pair_fit`): the best
 of a list of starts by its residual, then ``scipy.optimize.least_squares`` inside the
-bounds in units of that start. A trial whose simulation diverges costs ``PENALTY`` times
+bounds in units of that start (a parameter started at 0, e.g. the shaker path's high-pass
+corner or an offset, in units of a tenth of its bounded range, else 1: in units of its own
+zero it could never move, the solver's finite-difference step being 1e-4 of the unit).
+A trial whose simulation diverges costs ``PENALTY`` times
 the start's residual norm (spread over the residual's length), so the solver backs off
 instead of stopping."""
 
@@ -48,7 +51,9 @@ def best_start_then_solve(residual: Callable[[np.ndarray], np.ndarray | None], n
     fun(best)
     lo = np.array([bounds[n][0] for n in names])
     hi = np.array([bounds[n][1] for n in names])
-    scale = np.maximum(np.abs(best), 1e-12)
+    span = hi - lo
+    unit = np.where(np.isfinite(span) & (span > 0), 0.1 * np.where(np.isfinite(span), span, 0.0), 1.0)
+    scale = np.where(np.abs(best) > 1e-12 * unit, np.abs(best), unit)
     sol = least_squares(lambda z: fun(z * scale), best / scale, bounds=(lo / scale, hi / scale),
                         max_nfev=max_nfev or 40 * len(names), x_scale=1.0, diff_step=1e-4)
     return sol.x * scale, sol, scale
