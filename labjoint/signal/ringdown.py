@@ -33,9 +33,12 @@ amplitude is biased by about its second derivative times (zeta pi N)^2 / 6 (4 cy
 zeta = 0.01: a Duffing hardening of 3 % is read 1 % high). Shorter windows lower the bias
 and raise the scatter.
 
-Uncertainties are the least-squares standard errors of each window's slopes, with the
+Uncertainties: the least-squares standard errors of each window's slopes, with the
 residuals' degrees of freedom counted per half cycle (neighbouring samples of the
-Hilbert envelope are not independent); propagated to w_n, zeta and the amplitude.
+Hilbert envelope are not independent), propagated to w_n, zeta and the amplitude; the
+frequency's and damping's are then raised to at least the window's scatter about its
+neighbours' local trend (:mod:`labjoint.signal.ringdown_scatter`: errors smooth within a
+window, a beating tone, the force ratio's ripple, leave the least-squares sd too small).
 A window counts as above the noise when its envelope exceeds ``snr_min`` x the noise:
 the given ``noise_rms``, or else the per-sample noise of the raw record from its second
 differences over its last ``TAIL`` fraction (white noise of sd s gives second
@@ -68,6 +71,7 @@ the notes).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 from scipy import signal as sps
@@ -77,6 +81,7 @@ from labjoint.signal import validate
 from labjoint.signal.backbone import Backbone, BackbonePoint
 from labjoint.signal.ringdown_isolate import (BAND_ORDER, BAND_OVER_DECAY, FORCE_BAND, PEAK_FRACTION,  # noqa: F401
                                               SETTLE_RTOL, isolate, spectrum_peaks)
+from labjoint.signal.ringdown_scatter import honest_sds
 
 METHODS = ("hilbert", "peaks")
 #: the record's last fraction whose rms stands for the noise when none is given
@@ -151,13 +156,15 @@ def ringdown_backbone(x, fs: float, *, mode_hz: float | None = None, methods=MET
         rows = (_hilbert_windows if method == "hilbert" else _peak_windows)(y, t, fs, f0, window_cycles, trim)
         above = [r for r in rows if _above_noise(r, noise_rms, snr_min)]
         counts[method] = (len(above), len(rows))
+        own: list[BackbonePoint] = []
         for amp, amp_sd, wd, wd_sd, sig, sig_sd, _, t0, t1 in above:
             w_seen = wd                     # the recorded motion's frequency: its amplitude's
             if yF is not None:
                 ratio = force_ratio(y, yF, t, fs, f0, trim, t0, t1, complex(-sig, wd),
                                     {"displacement": 0, "velocity": 1, "acceleration": 2}[quantity])
                 wd, sig = remove_force(wd, sig, ratio, modal_mass_kg, residual_compliance_m_per_n)
-            pts.append(_point(amp, amp_sd, wd, wd_sd, sig, sig_sd, power, f"ringdown_{method}", w_seen))
+            own.append(_point(amp, amp_sd, wd, wd_sd, sig, sig_sd, power, f"ringdown_{method}", w_seen))
+        pts.extend(_with_scatter(own))
     few = {m: c for m, c in counts.items() if c[0] < min_windows}
     if few:
         m, (n_ok, n_all) = next(iter(few.items()))
@@ -194,6 +201,16 @@ def remove_force(wd: float, sigma: float, ratio: complex, mass: float,
     w2 = ratio.real / mass + wd * wd - sigma * sigma + two_zw * sigma
     sig = two_zw / 2
     return math.sqrt(max(w2 - sig * sig, 0.0)), sig
+
+
+def _with_scatter(points: list[BackbonePoint]) -> list[BackbonePoint]:
+    """One method's windows (in time order) with frequency and damping sds of at least
+    their scatter about their neighbours' local trend (:mod:`labjoint.signal.ringdown_scatter`)."""
+    if len(points) < 3:
+        return points
+    f_sd = honest_sds([p.frequency_hz for p in points], [p.frequency_sd_hz for p in points])
+    z_sd = honest_sds([p.damping_ratio for p in points], [p.damping_sd for p in points])
+    return [replace(p, frequency_sd_hz=float(a), damping_sd=float(b)) for p, a, b in zip(points, f_sd, z_sd)]
 
 
 def _point(amp, amp_sd, wd, wd_sd, sig, sig_sd, power, method, w_seen) -> BackbonePoint:
