@@ -158,13 +158,14 @@ def test_readme_commands_on_the_simulated_structural_rig_name_the_slip_law(tmp_p
     assert code == 0, err
     runs = sorted((tmp_path / "data").glob("*.h5"))
     assert len(runs) == 4 and any("ringdown" in p.name for p in runs)
-    # the other modes' residual compliance between drive and free end at mode 1 (the
-    # simulator's FE without the armature): with it the ringdown's force removal takes the
+    # the other modes' residual compliance between drive and free end at mode 1, from the
+    # structure file (1.25e-7 m/N): with it the ringdown's force removal takes the
     # half-octave band by default
     code, out, err = run(capsys, "backbone", *runs, "--out", tmp_path / "pr.json", "--residual-compliance",
-                         "1.06e-7", "--json")
+                         "configs/structure-seed000.toml", "--json")
     assert code == 0, err
     assert any("order 4" in n for n in json.loads(out)["notes"])
+    assert any("residual compliance 1.247e-07 m/N" in n for n in json.loads(out)["notes"])
     methods = {p["method"] for p in json.loads(out)["points"]}
     assert methods == {"phase_resonance", "ringdown_hilbert", "ringdown_peaks"}
     code, out, err = run(capsys, "diagnose", tmp_path / "pr.json", "--structure", "configs/structure-seed000.toml",

@@ -40,9 +40,10 @@ def add_backbone_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--modal-mass", type=float, default=None, metavar="KG",
                    help="apparent modal mass between force and sensor (default: from the lowest "
                         "phase-resonance level's phase slope)")
-    p.add_argument("--residual-compliance", type=float, default=0.0, metavar="M/N",
-                   help="ringdowns: the other modes' compliance between drive and sensor at the mode's "
-                        "frequency, taken out of the force removal (default 0)")
+    p.add_argument("--residual-compliance", default=None, metavar="M/N|S.toml",
+                   help="ringdowns: the other modes' compliance between drive and sensor, taken out of "
+                        "the force removal: a number (m/N) or a structure file (every other mode's "
+                        "static share between --sensor and its excitation, mode --mode; default 0)")
     p.add_argument("--force-band", choices=("octave", "half_octave"), default=None,
                    help="ringdowns with a force: a lone mode's band-pass (half_octave: order 4, "
                         "shuts out the next mode's leak into F/X; default half_octave with "
@@ -155,11 +156,49 @@ def force_band(args: argparse.Namespace) -> str:
     return "half_octave" if args.residual_compliance else "octave"
 
 
+def _runs_sensor(args: argparse.Namespace) -> str | None:
+    """--sensor, else the first run's response channel (the sensor the ringdown reads)."""
+    if args.sensor:
+        return args.sensor
+    from labjoint.storage import open_run
+
+    for name in args.inputs:
+        if Path(name).suffix.lower() != ".json" and Path(name).exists():
+            with open_run(name) as rf:
+                return rf.metadata.get("response_channel")
+    return None
+
+
+def residual_compliance(args: argparse.Namespace) -> float:
+    """``--residual-compliance`` in m/N: the number given, or from a structure file
+    (:func:`labjoint.structure.residual.residual_compliance`, mode ``--mode``, the sensor
+    as the runs name it)."""
+    text = args.residual_compliance
+    if text is None:
+        return 0.0
+    try:
+        return float(text)
+    except ValueError:
+        pass
+    if not text.lower().endswith(".toml"):
+        raise InputError(f"expected a compliance in m/N or a structure file (.toml), got '{text}'",
+                         field="--residual-compliance")
+    from labjoint.structure import load_structure
+    from labjoint.structure.residual import residual_compliance as structure_compliance
+
+    sensor = _runs_sensor(args)
+    if sensor is None:
+        raise InputError("name the response sensor (--sensor) for the structure's compliance",
+                         file=text, field="--residual-compliance")
+    return structure_compliance(load_structure(text), sensor, args.mode, file=text)
+
+
 def run(args: argparse.Namespace) -> int:
     if not args.inputs and args.structure is None and args.model is None:
         raise InputError("give runs, an FRF set, or a model (--structure / --model)", field="inputs")
     from labjoint.identify.backbone import measured_backbones
 
+    args.residual_compliance = residual_compliance(args)
     meas = measured_backbones(args.inputs, args.sensor, args.modal_mass,
                               {"residual_compliance_m_per_n": args.residual_compliance,
                                "force_band": force_band(args)})
