@@ -5,8 +5,8 @@ R -> R / (1 - C_r R)).
 With the joints at their stuck (linear) stiffness K and mass-normalised modes phi_k
 (K phi_k = w_k^2 M phi_k, the assembled model's generalised eigenproblem; the modal
 expansion of the flexibility is the textbook one, not a seed's equation), the static
-flexibility between sensor s and drive d is G_sd = s^T K^-1 d = sum_k phi_k,s phi_k,d / w_k^2; the chosen
-mode r's own share phi_r,s phi_r,d / w_r^2 taken out leaves
+flexibility between sensor s and drive d is G_sd = s^T K^-1 d = sum_k phi_k,s phi_k,d /
+w_k^2; the chosen mode r's own share phi_r,s phi_r,d / w_r^2 taken out leaves
 
     C_r = s^T K^-1 d - phi_r,s phi_r,d / w_r^2,
 
