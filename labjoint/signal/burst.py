@@ -19,6 +19,7 @@ import numpy as np
 from labjoint.errors import InputError
 from labjoint.signal.broadband_base import (ACTIVE_FRACTION, ESTIMATORS, BroadbandFrf, blocks,
                                             envelope, result, window_sums)
+from labjoint.signal.lrm import local_rational
 
 #: the burst estimators (module docstring); "block" is the default
 BURST_MODES = ("block", "driven")
@@ -31,7 +32,6 @@ def check_burst(mode: object) -> str:
                          f"burst, its free decay included; driven: the driven part through the local "
                          f"rational method), got {mode!r}", field="burst")
     return str(mode)
-from labjoint.signal.lrm import local_rational
 
 
 def bursts(drive: np.ndarray, fs: float) -> list[tuple[int, int]]:
