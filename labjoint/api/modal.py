@@ -31,7 +31,7 @@ ParamName = Annotated[str, Field(max_length=100, pattern=r"^[a-z][a-z0-9_]*\.[A-
 Finite = Annotated[float, Field(allow_inf_nan=False)]
 Hz = Annotated[float, Field(ge=0, le=1e6, allow_inf_nan=False)]
 #: options that only the modal kind takes
-MODAL_ONLY = ("modal_band", "responses", "between", "start", "bounds", "shaker", "drive_point",
+MODAL_ONLY = ("modal_band", "responses", "between", "joint_shape", "start", "bounds", "shaker", "drive_point",
               "modal_mass", "save_as")
 
 
@@ -48,6 +48,8 @@ class ModalOptions(BaseModel):
                                                      "motion channel)")
     between: Annotated[list[Name], Field(min_length=2, max_length=2)] | None = Field(
         None, description="the joint between these two sensors of the modes (else on mode 1)")
+    joint_shape: bool | None = Field(None, description="with between: fit the joint's participation "
+                                     "in modes 2..N (modal.joint<j>) instead of the sensors' shapes")
     start: dict[ParamName, Finite] | None = Field(None, max_length=100,
                                                   description="starting values {name: value} (SI)")
     bounds: dict[ParamName, Annotated[list[Finite], Field(min_length=2, max_length=2)]] | None = Field(
@@ -124,6 +126,8 @@ def check_modal(options: dict[str, Any], operation: str, data_dir: str | Path) -
         _bounds(out.get("bounds"))
     except InputError as exc:
         raise InputError(exc.message, field="options." + exc.field.replace("bound.", "bounds.")) from None
+    if out.get("joint_shape") and out.get("between") is None:
+        raise InputError("goes with options.between", field="options.joint_shape")
     if out.get("shaker") is None:
         for k in ("drive_point", "modal_mass"):
             if out.get(k) is not None:

@@ -20,6 +20,10 @@ def add_modal_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--between", default=None, metavar="A,B",
                    help="with --modal: the joint acts on the relative displacement of these two "
                         "sensors of the modes (every mode carries it) instead of on mode 1")
+    p.add_argument("--fit-joint-shape", action="store_true",
+                   help="with --between: fit the joint's participation in modes 2..N (modal.joint<j>) "
+                        "instead of taking it from the two sensors' shapes: a joint no sensor pair "
+                        "sees as it moves (a lap that slips with the slope or curvature)")
     p.add_argument("--responses", default=None, metavar="A,B,...",
                    help="with --modal: the response channels compared (default every motion channel)")
     p.add_argument("--shaker-fit", default=None, metavar="A,B,...",
@@ -47,10 +51,13 @@ def modal_options(args: argparse.Namespace, start: dict[str, float],
         if not args.modal:
             raise InputError("--shaker-fit goes with --modal", field="shaker_fit")
         shaker_identifiable([n.strip() for n in args.shaker_fit.split(",") if n.strip()])
+    if getattr(args, "fit_joint_shape", False) and not args.between:
+        raise InputError("--fit-joint-shape goes with --modal and --between", field="fit_joint_shape")
     if not args.modal:
         given = [f for f in SHAKER_FLAGS if getattr(args, f, None) is not None]
         if given:
             raise InputError(f"--{given[0].replace('_', '-')} goes with --modal", field=given[0])
         return {}
     return {"start": start or None, "bounds": bounds or None, "shaker": args.shaker,
-            "drive_point": args.drive_point, "modal_mass": args.modal_mass}
+            "drive_point": args.drive_point, "modal_mass": args.modal_mass,
+            "joint_shape": bool(getattr(args, "fit_joint_shape", False))}

@@ -30,7 +30,8 @@ class ModalMixin:
         """``operation`` ("fit", "diagnose", "ladder") of ``model`` on the modal kind, waited
         for. ``modes``: a stored FRF set or modes file's name (``frf/<name>.json``), a local
         modes JSON file (``labjoint modes --json``'s, uploaded) or its parsed JSON;
-        ``between``: the joint between two sensors (else on mode 1); ``shaker``: the
+        ``between``: the joint between two sensors (else on mode 1; ``joint_shape=True``
+        fits its participation in modes 2..N); ``shaker``: the
         ``[shaker]`` table's fields, with ``drive_point`` and ``modal_mass``; ``save_as``
         (fit): store the model as ``models/<save_as>.json`` for :meth:`predict`."""
         if isinstance(modes, Path) or (isinstance(modes, str) and modes.endswith(".json")):

@@ -69,6 +69,9 @@ def load(runs: Any, validate: Sequence[Any] | None = None, prime_cycles: int | s
                              ("start", "bounds") else ""), field=k)
     if frf.pop("between", None) is not None:
         raise InputError("names two sensors of the measured modes: it goes with --modal", field="between")
+    if frf.pop("joint_shape", None):
+        raise InputError("fits the participation of a joint between two sensors: it goes with "
+                         "--modal and --between", field="joint_shape")
     frf.pop("responses", None)
     if any(is_backbone(x) for x in items):
         if kind not in ("auto", "frf", "backbone"):
@@ -124,7 +127,8 @@ def _measured(d: dict[str, Any], ms: Sequence[Measurement]) -> dict[str, Any]:
                          "standard uncertainties"}[k] for k in ("frf", "backbone") if k in kinds)
     if ms and ms[0].kind == "modal":
         d["measurement"] = "modal"
-        where = (f"between {ms[0].between[0]} and {ms[0].between[1]} (on every measured mode)"
+        where = (f"between {ms[0].between[0]} and {ms[0].between[1]} (on every measured mode"
+                 + ("; its participation in modes 2..N fitted" if ms[0].setup.joint_shape else "") + ")"
                  if getattr(ms[0], "between", None) else "on mode 1 of the measured modes")
         d["error"] = ("simulation error of the measured responses (each channel in its quantity, "
                       f"over its rms), the joint {where}")

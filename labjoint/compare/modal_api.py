@@ -27,7 +27,8 @@ from labjoint.models.shaker import shaker_table
 from labjoint.structure.nlmode import ModalBasis, load_basis
 from labjoint.structure.nlmode_shaker import ShakerPath
 
-MODAL_OPTIONS = ("modal", "responses", "between", "start", "bounds", "shaker", "drive_point", "modal_mass")
+MODAL_OPTIONS = ("modal", "responses", "between", "joint_shape", "start", "bounds", "shaker", "drive_point",
+                 "modal_mass")
 FORMAT = "labjoint.modalmodel/1"
 
 
@@ -50,6 +51,9 @@ def load_modal(items: Sequence[Any], validate: Sequence[Any] | None, options: di
     other = [k for k in ("structure", "modes", "harmonics") if options.get(k) is not None]
     if other:
         raise InputError(f"{other[0]} goes with FRF sets, not with --modal", field=other[0])
+    if options.get("joint_shape") and options.get("between") is None:
+        raise InputError("fits the participation of a joint between two sensors: it goes with "
+                         "--between A,B", field="joint_shape")
     basis = _basis(options["modal"])
     resp = _responses(options.get("responses"))
     paths = [str(x) for x in items]
@@ -61,7 +65,7 @@ def load_modal(items: Sequence[Any], validate: Sequence[Any] | None, options: di
     check_drives(ms)
     setup = ModalSetup(tuple(_starts(options.get("start")).items()),
                        tuple(_bounds(options.get("bounds")).items()),
-                       shaker_path(options, basis, ms))
+                       shaker_path(options, basis, ms), bool(options.get("joint_shape")))
     ms = [replace(m, setup=setup) for m in ms]
     seen: dict[str, int] = {}
     for i, m in enumerate(ms):
@@ -152,6 +156,7 @@ def save_modal(fit: FitResult, ms: Sequence[ModalMeasurement], path: str | Path)
          "drive_quantity": ms[0].metadata.get("drive_quantity")}
     if ms[0].between:
         d["between"] = list(ms[0].between)
+        d["joint_shape"] = "fitted" if ms[0].setup.joint_shape else "sensors"
     if ms[0].setup.shaker is not None:
         d["shaker"] = ms[0].setup.shaker.to_dict(vals)
     p = Path(path)

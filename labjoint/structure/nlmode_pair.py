@@ -15,6 +15,11 @@ and pushes a and b apart by it, which in mode j's equation is its projection D_j
 
     eta_j'' + 2 zeta_j w_j eta_j' + w_j^2 eta_j + (D_j / mu_j) F(u, u', z) = g_j V(t)  (6)
 
+The joint's participation D_j may also be fitted instead (``modal.joint<j>``, j >= 2, the
+joint's relative displacement per unit eta_j; D_1 stays the sensors' difference, which
+fixes the law's units): a joint that lies between two points no sensor sees, e.g. a lap
+whose slip follows the beam's slope or curvature there rather than the sensors'
+displacements, so that a higher mode moves it far more than its shape at the sensors says.
 F is per unit modal mass of mode 1 (as the single-mode kind's law is), mu_j the modal mass
 of mode j relative to mode 1 (``modal.mass<j>``, j >= 2, default 1; a relative shape does
 not fix it, so it is a parameter), g_j the modal drive per volt (``modal.drive<j>``). The
@@ -62,6 +67,23 @@ def differences(basis: ModalBasis, a: str, b: str) -> np.ndarray:
     if not np.any(np.abs(d) > 1e-12):
         raise InputError(f"no measured mode moves {a} relative to {b}: the joint would do nothing",
                          field="joint.between")
+    return d
+
+
+def joint_participation(basis: ModalBasis, between: tuple[str, str],
+                        vals: Mapping[str, Any] | None = None) -> np.ndarray:
+    """D_j of eq. 5: the sensors' difference, mode j >= 2's replaced by a fitted
+    ``modal.joint<j>`` where ``vals`` holds one (the joint's own participation)."""
+    d = differences(basis, *between)
+    vals = vals.valuesdict() if hasattr(vals, "valuesdict") else (vals or {})
+    for j in range(2, d.size + 1):
+        v = vals.get(f"modal.joint{j}")
+        if v is not None:
+            v = float(getattr(v, "value", v))
+            if not np.isfinite(v):
+                raise InputError(f"the joint's participation in mode {j} must be finite, got {v}",
+                                 field=f"modal.joint{j}")
+            d[j - 1] = v
     return d
 
 
@@ -135,8 +157,8 @@ def pair_states(model: Model | str, params: Mapping[str, Any], basis: ModalBasis
     check_modal_model(model)
     if "inertia" in model.names:
         raise InputError("inertia cannot act between two points of the modal model", field="model")
-    d = differences(basis, *between)
     vals = {k: float(v.value if hasattr(v, "value") else v) for k, v in params.items()}
+    d = joint_participation(basis, between, vals)
     nm = len(basis.modes)
     names = parameter_names(model, nm)
     missing = [p for p in names if p not in vals and not p.startswith("modal.mass")]
@@ -171,9 +193,10 @@ def pair_response(states: np.ndarray, basis: ModalBasis, sensor: str, quantity: 
     return states[:, :, QUANTITY_ORDER[quantity]] @ phi
 
 
-def relative_displacement(states: np.ndarray, basis: ModalBasis, between: tuple[str, str]) -> np.ndarray:
-    """u = y_a - y_b at every sample (eq. 5)."""
-    return states[:, :, 0] @ differences(basis, *between)
+def relative_displacement(states: np.ndarray, basis: ModalBasis, between: tuple[str, str],
+                          vals: Mapping[str, Any] | None = None) -> np.ndarray:
+    """u = sum_j D_j eta_j at every sample (eq. 5; D_j fitted where ``vals`` holds them)."""
+    return states[:, :, 0] @ joint_participation(basis, between, vals)
 
 
-__all__ = ["differences", "pair_response", "pair_states", "parameter_names", "relative_displacement"]
+__all__ = ["differences", "joint_participation", "pair_response", "pair_states", "parameter_names", "relative_displacement"]

@@ -60,6 +60,9 @@ class ModalSetup:
     start: tuple[tuple[str, float], ...] = ()
     bounds: tuple[tuple[str, tuple[float, float]], ...] = ()
     shaker: Any = None
+    #: fit the joint's participation in modes 2..N (``modal.joint<j>``) instead of taking it
+    #: from the two sensors' shapes (:mod:`labjoint.structure.nlmode_pair`)
+    joint_shape: bool = False
 
     @property
     def start_dict(self) -> dict[str, float]:
@@ -210,7 +213,8 @@ class ModalMeasurement:
         """The largest |q| on the judged samples (m at the reference sensor, mode 1)."""
         q = self.states(model, {k: float(v.value if hasattr(v, "value") else v) for k, v in params.items()})
         if self.between:
-            return float(np.nanmax(np.abs(relative_displacement(q[self.judged], self.basis, self.between))))
+            return float(np.nanmax(np.abs(relative_displacement(q[self.judged], self.basis, self.between,
+                                                                     params))))
         return float(np.nanmax(np.abs(q[self.judged, 0])))
 
     def responses(self, model: Model, params: Parameters | dict,

@@ -4,8 +4,10 @@
 Varied by least squares (scipy's trust-region reflective, bounded): the joint law's
 parameters (the force the joint adds to the measured modes, per unit modal mass of mode 1),
 every mode's drive per volt ``modal.drive<j>``, the relative modal masses ``modal.mass<j>``
-(j >= 2) and the shaker path's high-pass ``shaker.highpass_hz`` and lag ``shaker.lag_s``. The sensors read the
-modes through their measured shapes (nothing per channel is fitted).
+(j >= 2) and the shaker path's high-pass ``shaker.highpass_hz`` and lag ``shaker.lag_s``; with
+``setup.joint_shape`` the joint's participation in modes 2..N too (``modal.joint<j>``: a joint
+no sensor pair sees as it moves). The sensors read the modes through their measured shapes
+(nothing per channel is fitted).
 
 Start: the drives from the linear model (no joint force: each mode's unit-gain response
 read through the measured shapes, one linear least squares over the records), masses 1,
@@ -13,7 +15,10 @@ the law's linear terms 0 (the measured modes already hold the joint at rest); an
 effect's parameters from the single-mode fit's physical starts
 (:func:`labjoint.compare.kinds.modal_fit._starts`) on the scale k = w_1^2 / D_1^2 (the
 stiffness that would double mode 1's) at the largest relative displacement the linear
-model gives; from ``init`` (a smaller fitted model) its values. A trial whose simulation
+model gives; from ``init`` (a smaller fitted model) its values. A fitted participation D_j
+starts at the sensors' difference and at 3, 10 and 30 times max(|D_j|, |D_1|) (its sign),
+the mass mu_j with it so that D_j / mu_j stays the sensors' (the feedback on mode j), the
+start of least residual kept. A trial whose simulation
 diverges is rejected; a fit that ends diverged is refused naming the parameters.
 
 Through the shaker (a voltage drive with ``setup.shaker``): the drives are no longer free;
@@ -25,7 +30,7 @@ started from mode 1's linear drive; the relative masses from the linear drives' 
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -42,8 +47,10 @@ MASS_RANGE = (1e-3, 1e3)
 LINEAR_TERMS = ("linear_stiffness.k", "viscous.c")
 
 
-def _linear_drives(fit_ms: Sequence[ModalMeasurement], d: np.ndarray) -> tuple[dict[str, float], float]:
-    """Every mode's drive per volt from the linear model and the largest |u| it gives."""
+def _linear_drives(fit_ms: Sequence[ModalMeasurement], d: np.ndarray
+                   ) -> tuple[dict[str, float], Callable[[np.ndarray], float]]:
+    """Every mode's drive per volt from the linear model, and the largest |u| it gives as a
+    function of the joint's participations D."""
     basis = fit_ms[0].basis
     cols, ys, us = [], [], []
     for m in fit_ms:
@@ -56,13 +63,41 @@ def _linear_drives(fit_ms: Sequence[ModalMeasurement], d: np.ndarray) -> tuple[d
                                            for mode, x in zip(basis.modes, p)]))
         cols.append(np.vstack(blocks))
         ys.append(m.data.force)
-        us.append(np.column_stack([x[j, 0] for x in p]) * d[None, :])
+        us.append(np.column_stack([x[j, 0] for x in p]))
     A, y = np.vstack(cols), np.concatenate(ys)
     if not np.all(np.isfinite(A)):
         raise InputError("the linear modes diverge (check the modes file)", field="modal")
     g = np.linalg.lstsq(A, y, rcond=None)[0]
-    amp = max(float(np.max(np.abs(u @ g))) for u in us)
+    def amp(dj: np.ndarray) -> float:
+        return max(float(np.max(np.abs(u @ (g * dj)))) for u in us)
+
     return {f"modal.drive{i + 1}": float(v) for i, v in enumerate(g)}, amp
+
+
+def _joint_starts(joints: Sequence[str], d: np.ndarray, known: Mapping[str, float],
+                  preset: set[str]) -> list[dict[str, float]]:
+    """Starts of the fitted participations D_j (module docstring); one empty start without
+    them. A value already known (``init``, ``--start``) is the only start of its D_j; a mass
+    in ``preset`` (``init``, ``--start``) is kept."""
+    if not joints:
+        return [{}]
+    out = []
+    for factor in (None, 3.0, 10.0, 30.0):
+        s: dict[str, float] = {}
+        for n in joints:
+            j = int(n.removeprefix("modal.joint"))
+            meas = float(d[j - 1])
+            if n in known:
+                s[n] = known[n]
+                continue
+            v = meas if factor is None else float(np.copysign(factor * max(abs(meas), abs(d[0])), meas or 1.0))
+            s[n] = v
+            mass = f"modal.mass{j}"
+            if factor is not None and mass not in preset and meas:
+                s[mass] = float(np.clip(known.get(mass, 1.0) * abs(v / meas), *MASS_RANGE))
+        if s not in out:
+            out.append(s)
+    return out
 
 
 def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
@@ -80,11 +115,12 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     d = differences(basis, *between)
     drives = [f"modal.drive{j}" for j in range(1, nm + 1)]
     masses = [f"modal.mass{j}" for j in range(2, nm + 1)]
+    joints = [f"modal.joint{j}" for j in range(2, nm + 1)] if fit_ms[0].setup.joint_shape else []
     known: dict[str, float] = {}
     if init is not None:
         prev = init.params_.valuesdict() if hasattr(init, "params_") else dict(init)
         known = {k: float(v) for k, v in prev.items() if k in model.param_names
-                 or k.startswith(("modal.drive", "modal.mass", "shaker.", "mode1."))}
+                 or k.startswith(("modal.drive", "modal.mass", "modal.joint", "shaker.", "mode1."))}
     for n in LINEAR_TERMS:
         if n in model.param_names:
             known.setdefault(n, 0.0)
@@ -98,6 +134,8 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
         bnd[n] = (-np.inf, np.inf) if path is None else (0.0, np.inf)
     for n in masses:
         bnd[n] = MASS_RANGE
+    for n in joints:
+        bnd[n] = (-np.inf, np.inf)
     bnd["shaker.highpass_hz"] = HIGHPASS_RANGE
     bnd["shaker.lag_s"] = LAG_RANGE
     for n, (lo, hi) in (bounds or {}).items():
@@ -122,11 +160,12 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
         for j, n in enumerate(masses, start=1):
             mu = phi[j] / phi[0] * g["modal.drive1"] / g[f"modal.drive{j + 1}"] if g[f"modal.drive{j + 1}"] else 0.0
             known.setdefault(n, float(np.clip(mu, *MASS_RANGE)) if np.isfinite(mu) and mu > 0 else 1.0)
+    preset = set(known)
     for n in masses:
         known.setdefault(n, 1.0)
     w1 = 2 * np.pi * basis.modes[0].frequency_hz
     k_ref = w1 * w1 / max(d[0] ** 2, float(np.max(d ** 2)) * 1e-3)
-    every = [*model.param_names, *drives, *masses, *PATH]
+    every = [*model.param_names, *drives, *masses, *joints, *PATH]
     fixed = {n: bnd[n][0] for n in every if bnd[n][0] == bnd[n][1]}     # a bound n=v:v holds n
     names = [n for n in every if n not in fixed]
 
@@ -142,15 +181,35 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
             out.append(m.normalized(m.responses(model, vals, q)) - m.data.force)
         return np.concatenate(out)
 
-    starts = []
-    for cand in _starts(model, {**known, "linear_stiffness.k": k_ref}, amp):
-        if "linear_stiffness.k" in known:   # less a new slip law's stuck stiffness
-            cand["linear_stiffness.k"] = known["linear_stiffness.k"] - sum(
-                cand[kn] for e, kn in STUCK.items() if e in model.names and kn not in known)
-        starts.append(np.array([np.clip(cand.get(n, 0.0), *bnd[n]) for n in names]))
-    x, sol, scale = best_start_then_solve(
-        lambda z: residual_of({**fixed, **dict(zip(names, z))}), names, bnd, starts, max_nfev,
-        f"every start of {model.expr} between {between[0]} and {between[1]} diverges on the records")
+    best = None
+    for shape in _joint_starts(joints, d, known, preset):
+        # each participation's own solve (the law's starts on the relative displacement it
+        # gives), the least final cost kept: one solve without fitted participations
+        dj = d.copy()
+        for n, v in shape.items():
+            if n.startswith("modal.joint"):
+                dj[int(n.removeprefix("modal.joint")) - 1] = v
+        starts = []
+        for cand in _starts(model, {**known, "linear_stiffness.k": k_ref}, amp(dj)):
+            if "linear_stiffness.k" in known:   # less a new slip law's stuck stiffness
+                cand["linear_stiffness.k"] = known["linear_stiffness.k"] - sum(
+                    cand[kn] for e, kn in STUCK.items() if e in model.names and kn not in known)
+            c = {**cand, **shape}
+            starts.append(np.array([np.clip(c.get(n, 0.0), *bnd[n]) for n in names]))
+        try:
+            got = best_start_then_solve(
+                lambda z: residual_of({**fixed, **dict(zip(names, z))}), names, bnd, starts, max_nfev,
+                f"every start of {model.expr} between {between[0]} and {between[1]} diverges on the records")
+        except InputError:
+            if len(joints) == 0:
+                raise
+            continue
+        if best is None or got[1].cost < best[1].cost:
+            best = got
+    if best is None:
+        raise InputError(f"every start of {model.expr} between {between[0]} and {between[1]} "
+                         "diverges on the records", field="model")
+    x, sol, scale = best
     lo = np.array([bnd[n][0] for n in names])
     hi = np.array([bnd[n][1] for n in names])
     vals = {**fixed, **dict(zip(names, x))}
@@ -184,6 +243,8 @@ def fit_modal_pair(model: Model | str, fit_ms: Sequence[ModalMeasurement],
             params.add(n, vals[n], lower=0.0, unit=path.free_unit)
     for n in masses:
         params.add(n, vals[n], lower=MASS_RANGE[0], upper=MASS_RANGE[1], unit="1")
+    for n in joints:
+        params.add(n, vals[n], unit="1")
     params.add("shaker.highpass_hz", vals["shaker.highpass_hz"], lower=0.0, upper=HIGHPASS_RANGE[1], unit="Hz")
     params.add("shaker.lag_s", vals["shaker.lag_s"], lower=0.0, upper=LAG_RANGE[1], unit="s")
     for k, e in stderr.items():
