@@ -35,6 +35,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 from labjoint.models.effects import _steady
 from labjoint.models.effects.base import ElasticEffect
@@ -64,23 +65,28 @@ def describing(a: np.ndarray | float) -> np.ndarray:
 
 
 def keq_fit(U: Sequence[float], k_eq: Sequence[float]) -> tuple[float, float, float] | None:
-    """(k, k_s, x_s) of least squares k_eq(U_i) = k + k_s D(U_i / x_s) over a grid of x_s
-    from U_min / 10 to 10 U_max (log spaced); None with fewer than three distinct
-    amplitudes."""
+    """(k, k_s, x_s) of least squares k_eq(U_i) = k + k_s D(U_i / x_s): the best of a grid
+    of x_s from U_min / 10 to 10 U_max (log spaced), refined between its neighbours
+    (bounded scalar search in log x_s); None with fewer than three distinct amplitudes."""
     U, K = np.asarray(U, float), np.asarray(k_eq, float)
     ok = np.isfinite(U) & np.isfinite(K) & (U > 0)
     U, K = U[ok], K[ok]
     if np.unique(np.round(np.log(U), 3)).size < 3:
         return None
-    best = (np.inf, 0.0, 0.0, 0.0)
-    for xs in np.geomspace(U.min() / 10, 10 * U.max(), KEQ_GRID):
-        A = np.column_stack([np.ones_like(U), describing(U / xs)])
+
+    def solve(log_xs: float) -> tuple[float, float, float]:
+        A = np.column_stack([np.ones_like(U), describing(U / np.exp(log_xs))])
         th, *_ = np.linalg.lstsq(A, K, rcond=None)
         r = K - A @ th
-        ssr = float(r @ r)
-        if ssr < best[0]:
-            best = (ssr, float(th[0]), float(th[1]), float(xs))
-    return best[1], best[2], best[3]
+        return float(r @ r), float(th[0]), float(th[1])
+
+    grid = np.linspace(np.log(U.min() / 10), np.log(10 * U.max()), KEQ_GRID)
+    i = int(np.argmin([solve(g)[0] for g in grid]))
+    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+    x = float(minimize_scalar(lambda g: solve(g)[0], bounds=(lo, hi), method="bounded",
+                              options={"xatol": 1e-4}).x)
+    _, k, ks = solve(x)
+    return k, ks, float(np.exp(x))
 
 
 class SaturatingStiffness(ElasticEffect):
