@@ -189,3 +189,76 @@ def test_records_fit_by_simulation_error_recovers_k_s_and_x_s():
     assert p["saturating_stiffness.k_s"] == pytest.approx(TRUE_SDOF["ks"], rel=0.05)
     assert p["saturating_stiffness.x_s"] == pytest.approx(xs, rel=0.05)
     assert p["linear_stiffness.k"] == pytest.approx(TRUE_SDOF["k"], rel=0.02)
+
+
+# -- the modal kind: a two-mode structure with the tanh joint ------------------------------------
+def _modal_record(freq, volts, ks, xs, seconds=4.0, seed=0):
+    """tests/test_modal_model.py's lap-jointed two-mass cantilever on its shaker (voltage
+    drive, accelerations measured), its joint k_j d + k_s x_s tanh(d / x_s) with
+    d = x_tip - x_root, integrated here by DOP853."""
+    from test_modal_model import BL, FS, G, R, _matrices
+
+    from labjoint.storage.channels import Channel, ChannelRecord
+
+    M, Cm, Km = _matrices()
+    Mi = np.linalg.inv(M)
+    w = 2 * np.pi * freq
+
+    def rhs(t, s):
+        x, v = s[:2], s[2:]
+        fj = ks * xs * np.tanh((x[1] - x[0]) / xs)
+        f = np.array([fj, BL * G * volts * np.sin(w * t) / R - fj])
+        return np.r_[v, Mi @ (f - Cm @ v - Km @ x)]
+
+    t = np.arange(int(seconds * FS)) / FS
+    sol = solve_ivp(rhs, (0, t[-1]), np.zeros(4), t_eval=t, method="DOP853", rtol=1e-8, atol=1e-12)
+    acc = np.array([rhs(ti, si)[2:] for ti, si in zip(t, sol.y.T)])
+    rng = np.random.default_rng(seed)
+    chans = {"input_V": Channel("input_V", volts * np.sin(w * t), "voltage", "V", "drive")}
+    for i, nm in ((1, "tip"), (0, "root")):
+        a = acc[:, i]
+        chans[nm] = Channel(nm, a + 2e-4 * a.std() * rng.standard_normal(a.size), "acceleration",
+                            "m/s^2", "response")
+    d = sol.y[1] - sol.y[0]
+    rec = ChannelRecord(f"s{freq:g}_{volts:g}", t, FS, chans, {"frequency_hz": freq})
+    return rec, float(np.max(np.abs(d[t > 1.5])))
+
+
+def _mode1_reading(ks, xs):
+    """The joint's tanh term seen on mode 1's coordinate q (the tip's mode-1 displacement,
+    unit modal mass): d = r q, generalised force r F(r q) / m, i.e. k_s' = r^2 k_s / m and
+    x_s' = x_s / r with r = 1 - phi_root / phi_tip; and w_1^2."""
+    from test_modal_model import _matrices
+
+    M, _, K = _matrices()
+    L = np.linalg.cholesky(M)
+    w2, V = np.linalg.eigh(np.linalg.inv(L) @ K @ np.linalg.inv(L).T)
+    phi = np.linalg.solve(L.T, V[:, 0])
+    phi = phi / phi[1]
+    m, r = phi @ M @ phi, 1 - phi[0]
+    return r * r * ks / m, xs / r, w2[0]
+
+
+@pytest.mark.slow
+def test_modal_fit_recovers_the_saturating_joint_within_10_percent():
+    from test_modal_model import KJ, _basis
+
+    from labjoint.compare.kinds.modal import prepare_modal
+    from labjoint.compare.kinds.modal_fit import fit_modal
+
+    ks, xs = 0.3 * KJ, 2e-5
+    basis, modes = _basis()
+    f1 = modes[0]["frequency_hz"]
+    recs, peaks = [], []
+    for i, (f, v) in enumerate(((f1 / 2, 0.1), (0.8 * f1, 0.2), (0.95 * f1, 0.3),
+                                (1.1 * f1, 1.0), (f1 / 2, 1.0), (0.9 * f1, 1.5))):
+        rec, d = _modal_record(f, v, ks, xs, seed=i)
+        recs.append(prepare_modal(rec, basis, ["tip"], warmup_s=1.5, judge_s=0.5))
+        peaks.append(d)
+    assert min(peaks) < 0.5 * xs and max(peaks) > 10 * xs, peaks
+    fit = fit_modal("linear_stiffness+viscous+saturating_stiffness", recs)
+    want_ks, want_xs, w1sq = _mode1_reading(ks, xs)
+    p = {k: v.value for k, v in fit.params_.items()}
+    got = p["saturating_stiffness.k_s"] / p["linear_stiffness.k"]
+    assert got == pytest.approx(want_ks / w1sq, rel=0.10)
+    assert p["saturating_stiffness.x_s"] == pytest.approx(want_xs, rel=0.10)
