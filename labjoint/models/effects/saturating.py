@@ -25,7 +25,8 @@ plus a cubic stiffness, so amplitudes well beyond x_s are what tell the two apar
 
 Starting values (:meth:`SaturatingStiffness.guess`): with three or more runs of distinct
 amplitude, least squares of their equivalent stiffnesses k_eq(U_i) on (1, D(U_i / x_s))
-over a grid of x_s (:func:`keq_fit`); else the samples' own least squares of the force
+over a grid of x_s (:func:`keq_fit`), if its x_s lies inside the grid and |k_s| within
+the measured stiffnesses; else the largest run's own least squares of the force
 on (u, v, 1, x_s tanh(u / x_s)) over a grid of x_s
 (:func:`labjoint.models.summary.saturation_terms`). Never from zero.
 """
@@ -119,8 +120,13 @@ class SaturatingStiffness(ElasticEffect):
         return _steady.SATURATING, np.array([float(params["k_s"]), float(params["x_s"])])
 
     def guess(self, summary: LoopSummary) -> dict[str, float]:
-        fit = keq_fit([r.U for r in summary.runs], [r.k_eq for r in summary.runs])
-        if fit is not None and fit[1] != 0.0:
+        U = [r.U for r in summary.runs]
+        keq = [r.k_eq for r in summary.runs]
+        fit = keq_fit(U, keq)
+        # taken when it is a law the loops can hold: x_s inside the grid (not at an end)
+        # and |k_s| within the stiffnesses measured (records with a mass give k - m w^2)
+        if fit is not None and fit[1] != 0.0 and 0.11 * min(U) < fit[2] < 9.0 * max(U) \
+                and abs(fit[1]) <= max(abs(k) for k in keq):
             return {"k_s": fit[1], "x_s": fit[2]}
         r = summary.largest
         xs = r.sat_x if r.sat_x > 0 else 0.3 * r.U
