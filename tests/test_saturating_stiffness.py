@@ -132,12 +132,25 @@ def test_diagnose_names_the_saturating_stiffness_not_the_cubic(tmp_path):
     assert p["saturating_stiffness.x_s"].value == pytest.approx(XS, rel=0.05)
 
 
+def test_diagnose_with_every_default_candidate_names_the_saturating_stiffness(tmp_path):
+    d = diagnose_report(sine_set(tmp_path), "linear_stiffness+viscous")
+    assert d.best is not None and d.best.effect == "saturating_stiffness", \
+        (d.verdict, [(c.effect, c.nrmse_after_validation) for c in d.candidates[:4]])
+    assert "cubic_stiffness" not in d.best.tie_with
+
+
 def test_null_linear_joint_saturating_stiffness_is_not_significant(tmp_path):
     runs = sine_set(tmp_path, ks=0.0)
     d = diagnose_report(runs, "linear_stiffness+viscous",
                         candidates="saturating_stiffness,cubic_stiffness", n_jobs=1)
     assert d.adequate and d.best is None, d.verdict
-    assert not any(c.significant for c in d.candidates)
+    # a baseline without its damping: the candidates are fitted, and the saturating law,
+    # which has no loss and nothing to follow in amplitude here, is not significant
+    d = diagnose_report(runs, "linear_stiffness",
+                        candidates="saturating_stiffness,viscous", n_jobs=1)
+    sat = next(c for c in d.candidates if c.effect == "saturating_stiffness")
+    assert d.best is not None and d.best.effect == "viscous", d.verdict
+    assert not sat.significant, sat.reason
     # fitted anyway, the equivalent stiffness k + k_s D(U / x_s) varies by < 0.5 % over the
     # amplitudes (x_s far above them makes k_s a share of the linear stiffness: no change)
     res = fit_runs(runs, "linear_stiffness+viscous+saturating_stiffness")
