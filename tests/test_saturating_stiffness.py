@@ -324,3 +324,20 @@ def test_simulation_error_diagnosis_names_the_saturating_stiffness_along_records
     p = d.best.fit.params
     assert p["saturating_stiffness.k_s"].value == pytest.approx(TRUE_SDOF["ks"], rel=0.05)
     assert p["saturating_stiffness.x_s"].value == pytest.approx(TRUE_SDOF["xs"], rel=0.05)
+
+
+def test_structure_joint_law_takes_it_through_the_batched_steady_kernel():
+    """At structure level (harmonic balance's batched periodic force): the law is a term of
+    the kernel, odd (no normal part), and gives k u + k_s x_s tanh(u / x_s) on every row."""
+    from labjoint.structure.joint import ODD_EFFECTS
+    from labjoint.structure.law import JointLaw
+
+    law = JointLaw("linear_stiffness+saturating_stiffness",
+                   {"linear_stiffness.k": K, "saturating_stiffness.k_s": KS,
+                    "saturating_stiffness.x_s": XS})
+    assert law.kernel_terms is not None and "saturating_stiffness" in ODD_EFFECTS
+    n = 64
+    t = np.arange(n) / n
+    u = np.stack([a * np.sin(2 * np.pi * t) for a in (0.5 * XS, 5 * XS, 50 * XS)])
+    F = law.periodic(u, np.zeros_like(u), np.zeros_like(u), float(n))
+    assert np.allclose(F, K * u + tanh_force(u), rtol=1e-12, atol=1e-12 * K * XS)
