@@ -35,6 +35,10 @@ Canonical laws (SI):
   side given by the sign of k_c: F = k_c max(sgn(k_c) u - g, 0) (k_c > 0: it closes at
   u = +g and pushes back for u > g; k_c < 0: it closes at u = -g). Not ``backlash``: that
   is a symmetric gap in series with the whole joint, this is a force in parallel on one side.
+- ``saturating_stiffness``: F = k_s x_s tanh(u / x_s) (odd, memoryless, no loss): beside
+  linear_stiffness k the joint is k + k_s at |u| << x_s and levels off to k beyond x_s
+  (k_s > 0 softens, k_s < 0 stiffens); describing function k + k_s D(U / x_s),
+  D(a) = (2 / (pi a)) int_0^pi tanh(a sin t) sin t dt.
 - ``offset``: F = F0.
 - ``asymmetric_slip``: every slip strength of the hysteretic part is scaled by (1 + asym)
   while sliding in +u and by (1 - asym) while sliding in -u.
@@ -109,6 +113,10 @@ EFFECTS: dict[str, EffectSpec] = {
         EffectSpec("contact", "elastic", (
             ParamSpec("k_c", "N/m", -INF, INF, "contact stiffness; its sign is the side (> 0: +u)"),
             ParamSpec("gap", "m", 0.0, INF, "travel from rest until the contact closes"))),
+        EffectSpec("saturating_stiffness", "elastic", (
+            ParamSpec("k_s", "N/m", -INF, INF,
+                      "stiffness added at |u| << x_s, saturating beyond (> 0: softening)"),
+            ParamSpec("x_s", "m", 0.0, INF, "displacement where it levels off (> 0)"))),
         EffectSpec("offset", "force", (ParamSpec("F0", "N", -INF, INF, "constant force"),)),
         EffectSpec("asymmetric_slip", "modifier", (
             ParamSpec("asym", "1", -0.95, 0.95, "relative slip-strength difference + vs -"),)),

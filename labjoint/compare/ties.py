@@ -45,6 +45,14 @@ KNOWN = {
         "a hardening Bouc-Wen law (alpha + beta < 0) with little loss bends the loop like "
         "a cubic spring; its loss and the shape of its branches (data into the hysteretic "
         "range, or of another frequency) separate them"),
+    frozenset({"cubic_stiffness", "saturating_stiffness"}): (
+        "below its saturation a tanh spring is a linear plus a cubic one (k_s x_s tanh(u/x_s) "
+        "= k_s u - k_s u^3 / (3 x_s^2) + ...); amplitudes well beyond x_s, where the "
+        "saturating law levels off and a cubic keeps bending, separate them"),
+    frozenset({"iwan", "saturating_stiffness"}): (
+        "both soften the joint with amplitude and level off (micro-slip's elastic part); "
+        "the slip law's loss per cycle, which the saturating law does not have, separates "
+        "them"),
     frozenset({"cubic_stiffness", "backlash"}): (
         "both make the apparent stiffness rise with amplitude; backlash leaves a flat waist "
         "at small displacement, visible with larger amplitude range or smaller amplitudes"),

@@ -3,10 +3,11 @@
 A model whose effects include ``inertia`` is read as a single-degree-of-freedom equation
 of motion, the applied force F(t) balancing every effect's force on the displacement y:
 
-    m y'' + c y' + k y + k3 y^3 + k2 y^2 + dk max(y, 0) + F_c(y) + F0 + z_bw + z_j = F(t)
+    m y'' + c y' + k y + k3 y^3 + k2 y^2 + dk max(y, 0) + F_c(y) + F_s(y) + F0 + z_bw + z_j = F(t)
 
 (inertia m, viscous c, linear_stiffness k, cubic_stiffness k3, offset F0; the even laws
 quadratic_stiffness k2, bilinear_stiffness dk and contact F_c = k_c max(sgn(k_c) y - g, 0);
+saturating_stiffness F_s = k_s x_s tanh(y / x_s);
 the hysteretic
 forces of ``bouc_wen``, dz/dt = k0 y' - alpha |y'| |z|^(n-1) z - beta y' |z|^n (seed 001's
 classical form; the Bouc-Wen benchmark's law with alpha = beta_B gamma_B, beta = beta_B
@@ -46,7 +47,7 @@ MAX_PERIODS = 50
 MAX_COIL_SUBSTEPS = 2000
 SUPPORTED = ("inertia", "viscous", "linear_stiffness", "cubic_stiffness", "offset",
              "bouc_wen", "coulomb", "quadratic_stiffness", "bilinear_stiffness", "contact",
-             "asymmetric_slip")
+             "saturating_stiffness", "asymmetric_slip")
 
 
 @njit(cache=True)
@@ -65,6 +66,8 @@ def _rates(t_force, y, v, zb, zj, m, c, k, k3, f0, bw, jk, ev):  # pragma: no co
         f_even += ev[2] * max(y - ev[3], 0.0)
     elif ev[2] < 0.0:
         f_even += ev[2] * max(-y - ev[3], 0.0)
+    if ev[5] > 0.0:
+        f_even += ev[4] * ev[5] * np.tanh(y / ev[5])
     a = (t_force - c * v - k * y - k3 * y * y * y - f_even - f0 - zb - zj) / m
     return v, a, dzb, dzj
 
@@ -207,7 +210,8 @@ def _coefficients(model: Model, params: Parameters | Mapping[str, Any]) -> tuple
     if "coulomb" in vals:
         jk[:] = [g("coulomb", "k"), g("coulomb", "f_s"), g("asymmetric_slip", "asym")]
     ev = np.array([g("quadratic_stiffness", "k2"), g("bilinear_stiffness", "dk"),
-                   g("contact", "k_c"), g("contact", "gap")])
+                   g("contact", "k_c"), g("contact", "gap"),
+                   g("saturating_stiffness", "k_s"), g("saturating_stiffness", "x_s")])
     return (m, g("viscous", "c"), g("linear_stiffness", "k"), g("cubic_stiffness", "k3"),
             g("offset", "F0"), bw, jk, ev)
 

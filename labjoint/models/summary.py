@@ -10,7 +10,9 @@ branch's travel), the per-cycle energies (wear) and the mean-force asymmetry; fo
 (``k2``), the two sides' slopes max(u, 0), min(u, 0) (``k_plus``, ``k_minus``), and a
 one-sided contact max(s u - g, 0) on the stiffer side s over a grid of gaps g from 0 to
 0.8 of that side's reach (``contact_k`` signed by the side, ``contact_gap``: the gap of
-least residual).
+least residual); for the saturating stiffness, least squares of F on (u, v, 1,
+x_s tanh(u / x_s)) over a grid of x_s from 0.02 to 3 times the amplitude (``sat_k``,
+``sat_x``: the x_s of least residual, :func:`saturation_terms`).
 """
 
 from __future__ import annotations
@@ -60,6 +62,8 @@ class RunLoop:
     k_minus: float = float("nan")
     contact_k: float = 0.0
     contact_gap: float = 0.0
+    sat_k: float = 0.0
+    sat_x: float = 0.0
 
     @property
     def asymmetry(self) -> float:
@@ -69,6 +73,8 @@ class RunLoop:
 
 
 CONTACT_GAPS = np.linspace(0.0, 0.8, 9)
+#: x_s / U tried by :func:`saturation_terms`
+SAT_WIDTHS = np.geomspace(0.02, 3.0, 12)
 
 
 def _lsq(cols: list[np.ndarray], f: np.ndarray) -> tuple[np.ndarray, float]:
@@ -103,6 +109,19 @@ def even_terms(u: np.ndarray, v: np.ndarray, f: np.ndarray) -> dict[str, float]:
             "contact_gap": best[2]}
 
 
+def saturation_terms(u: np.ndarray, v: np.ndarray, f: np.ndarray, U: float) -> dict[str, float]:
+    """The saturating stiffness's least-squares terms of one run of amplitude ``U``
+    (module docstring): {"sat_k": k_s, "sat_x": x_s}."""
+    one = np.ones_like(u)
+    best = (np.inf, 0.0, 0.0)
+    for w in SAT_WIDTHS:
+        xs = w * U
+        th, ssr = _lsq([u, v, one, xs * np.tanh(u / xs)], f)
+        if ssr < best[0]:
+            best = (ssr, float(th[3]), xs)
+    return {"sat_k": best[1], "sat_x": best[2]}
+
+
 def run_loop(run: RunData) -> RunLoop:
     """Loop quantities of ``run`` over its steady samples."""
     m = run.steady
@@ -134,7 +153,8 @@ def run_loop(run: RunData) -> RunLoop:
     cycle_energy = np.bincount(cyc, weights=pw)[:n_full] if n_full > 0 else np.array([energy])
     return RunLoop(run.name, float(freq), float(U), float(0.5 * (fhi - flo)), float(np.mean(u)),
                    float(np.mean(f)), float(fhi), float(flo), energy, float(k_eq), float(c_eq),
-                   float(stick), float(tip), cycle_energy, **even_terms(u, v, f))
+                   float(stick), float(tip), cycle_energy, **even_terms(u, v, f),
+                   **saturation_terms(u, v, f, float(U)))
 
 
 @dataclass(frozen=True)

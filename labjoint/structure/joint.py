@@ -55,7 +55,8 @@ GEOMETRIES = ("thread", "lap")
 TRANSVERSE = "transverse_stiffness_n_per_m"
 #: effects whose law is odd (F[-u] = -F[u] along mirrored histories): no normal part
 ODD_EFFECTS = frozenset({"linear_stiffness", "viscous", "coulomb", "iwan", "bouc_wen", "valanis",
-                         "richard_abbott", "cubic_stiffness", "inertia", "backlash"})
+                         "richard_abbott", "cubic_stiffness", "saturating_stiffness", "inertia",
+                         "backlash"})
 #: effects that cannot act in a structure's joint, with the reason
 REFUSED = {
     "channel_delay": "a time shift between two measured channels, not a force of the joint",

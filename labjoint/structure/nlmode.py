@@ -10,7 +10,7 @@ the reference sensor, so the mode-1 participation of the reference sensor is 1) 
 
 where F_joint is the joint model (any effects the forward simulator integrates:
 linear_stiffness k = w_1^2, viscous c = 2 zeta_1 w_1, quadratic_stiffness, cubic_stiffness,
-bilinear_stiffness, contact, coulomb (+ asymmetric_slip), bouc_wen, offset, and the Masing
+bilinear_stiffness, contact, saturating_stiffness, coulomb (+ asymmetric_slip), bouc_wen, offset, and the Masing
 laws iwan (Segalman's micro- to macro-slip) and richard_abbott; per unit
 modal mass, so k2 is in N/m^2 per kg, and so on) and b (``modal.drive``, m/s^2 per volt)
 the modal force per volt. The other modes are linear and each driven by V:

@@ -20,7 +20,9 @@ elastic law 1 to 30 % of the linear force at the records' largest modal amplitud
 sign; a slip law (coulomb, iwan, bouc_wen, richard_abbott) stuck at 5 or 20 % of k and
 slipping at each level of the records' amplitude range (each record's sqrt(2) x rms of
 mode 1 over its judged samples: the smallest, the largest and their geometric mean), so
-a random test's micro-slip scale, far below the resonant sines', is started too; iwan also
+a random test's micro-slip scale, far below the resonant sines', is started too; a
+saturating stiffness +-5 % of k levelling off at 0.3 x the smallest and the largest
+level; iwan also
 in micro-slip at every record (macro-slip 10x above the largest amplitude). A trial whose
 simulation diverges is rejected (its residual made large); a fit that ends diverged or
 non-finite is refused naming the parameters.
@@ -173,6 +175,8 @@ def _starts(model: Model, known: Mapping[str, float], amp: float | Sequence[floa
         "cubic_stiffness.k3": sym(k / a**2, 0.01, 0.03, 0.1, 0.3),
         "bilinear_stiffness.dk": sym(k, 0.01, 0.03, 0.1, 0.3),
         "contact.k_c": sym(k, 0.03, 0.1, 0.3), "contact.gap": [0.1 * a, 0.5 * a],
+        "saturating_stiffness.k_s": sym(k, 0.05),
+        "saturating_stiffness.x_s": sorted({0.3 * min(levels), 0.3 * a}),
         "asymmetric_slip.asym": [0.3, -0.3, 0.1, -0.1],
         "offset.F0": [0.0], "shaker.highpass_hz": list(HIGHPASS_STARTS), "shaker.lag_s": list(LAG_STARTS),
     }

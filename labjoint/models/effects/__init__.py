@@ -28,6 +28,7 @@ from labjoint.models.effects.inertia import Inertia
 from labjoint.models.effects.iwan import Iwan
 from labjoint.models.effects.modifiers import AsymmetricSlip, Wear
 from labjoint.models.effects.richard_abbott import RichardAbbott
+from labjoint.models.effects.saturating import SaturatingStiffness
 from labjoint.models.effects.valanis import Valanis
 from labjoint.models.effects.viscous import Viscous
 from labjoint.vocabulary import EFFECTS
@@ -35,7 +36,8 @@ from labjoint.vocabulary import EFFECTS
 REGISTRY: dict[str, type[Effect]] = {
     cls.name: cls
     for cls in (LinearStiffness, Viscous, Coulomb, Iwan, BoucWen, Valanis, RichardAbbott,
-                CubicStiffness, QuadraticStiffness, BilinearStiffness, Contact, Offset, AsymmetricSlip, Inertia, Wear, Backlash, ChannelDelay)
+                CubicStiffness, QuadraticStiffness, BilinearStiffness, Contact, SaturatingStiffness,
+                Offset, AsymmetricSlip, Inertia, Wear, Backlash, ChannelDelay)
 }
 assert set(REGISTRY) == set(EFFECTS), "every vocabulary effect needs exactly one class"
 

@@ -13,7 +13,8 @@ A term is (code, parameter vector) as :meth:`HystereticEffect.steady_term` gives
 ``MASING_IWAN`` / ``MASING_RA`` (the backbone's vector, :mod:`._masing`), ``JENKINS``
 (k, f_s: one element of :func:`population_force`), ``LINEAR`` (k: k (u - u[0])),
 ``NONE`` (no force), and the memoryless force terms (``U_LINEAR`` ... ``CONTACT``: force
-and elastic effects, evaluated on the period's samples of u, v, a).
+and elastic effects, evaluated on the period's samples of u, v, a; ``SATURATING``:
+k_s x_s tanh(u / x_s)).
 
 :func:`steady_tangent` gives the same forces and their exact derivatives with respect to
 the coefficients c of each row's period (the row's samples being u = s_r T c): forward
@@ -36,8 +37,8 @@ JENKINS = 10
 LINEAR = 11
 NONE = 12
 #: memoryless terms p0 x f(sample): p0 u, p0 v, p0 a, p0 u^3, p0, p0 u^2, p0 max(u, 0),
-#: and a contact p0 max(p1 u - p2, 0) (p1 = sgn p0)
-U_LINEAR, V_LINEAR, A_LINEAR, U_CUBE, CONST, U_SQUARE, U_RAMP, CONTACT = range(20, 28)
+#: a contact p0 max(p1 u - p2, 0) (p1 = sgn p0) and a saturating p0 p1 tanh(u / p1)
+U_LINEAR, V_LINEAR, A_LINEAR, U_CUBE, CONST, U_SQUARE, U_RAMP, CONTACT, SATURATING = range(20, 29)
 #: width of a term's parameter vector (the longest backbone vector)
 WIDTH = 5
 
@@ -59,6 +60,11 @@ def memoryless(c, p, u, v, a):  # pragma: no cover - numba
         return p[0] * u ** 2, 2.0 * p[0] * u, 0.0, 0.0
     if c == U_RAMP:
         return p[0] * max(u, 0.0), (p[0] if u > 0.0 else 0.0), 0.0, 0.0
+    if c == SATURATING:
+        if not p[1] > 0.0:
+            return 0.0, 0.0, 0.0, 0.0
+        th = np.tanh(u / p[1])
+        return p[0] * p[1] * th, p[0] * (1.0 - th * th), 0.0, 0.0
     x = p[1] * u - p[2]
     return p[0] * max(x, 0.0), (p[0] * p[1] if x > 0.0 else 0.0), 0.0, 0.0
 
