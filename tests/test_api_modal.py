@@ -60,6 +60,8 @@ def _opts(upload, **kw):
     ("fit", {"modal": "chain_modes", "drive_point": "s1"}, "options.drive_point"),
     ("diagnose", "upload+save_as", "options.save_as"),
     ("fit", "upload+simulation", "options.error"),
+    ("fit", {"joint_shape": True}, "options.joint_shape"),
+    ("fit", "upload+joint_shape without between", "options.joint_shape"),
 ])
 def test_bad_modal_options_are_422_naming_the_field(served, op, options, field):
     c, upload, _ = served
@@ -82,6 +84,8 @@ def test_bad_modal_options_are_422_naming_the_field(served, op, options, field):
             base["save_as"] = "x"
         elif extra == "simulation":
             base["error"] = "simulation"
+        elif extra == "joint_shape without between":
+            base = {"modal": upload, "joint_shape": True}
         options = base
     before = len(c.request("GET", "/models/jobs")["items"])
     with pytest.raises(ApiError) as e:
