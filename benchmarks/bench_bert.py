@@ -57,7 +57,7 @@ DATA = next((d / "shared" / "data" / "bert" / "bert.h5" for d in ROOT.parents
 SMOKE_TESTS = {"Sine_Sine_09Hz": 6.0, "Sine_Sine_09p5Hz": 6.0, "Rand_Rand0p25": None,
                "Rand_Rand0p30": 8.0}
 FS_BERT = 1024.0
-CANDIDATES = "quadratic_stiffness,bilinear_stiffness,cubic_stiffness,coulomb,iwan"
+CANDIDATES = "quadratic_stiffness,bilinear_stiffness,cubic_stiffness,coulomb,iwan,saturating_stiffness"
 MAX_STEPS = 3
 
 
