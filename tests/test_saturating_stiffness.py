@@ -132,8 +132,19 @@ def test_diagnose_names_the_saturating_stiffness_not_the_cubic(tmp_path):
     assert p["saturating_stiffness.x_s"].value == pytest.approx(XS, rel=0.05)
 
 
-def test_diagnose_with_every_default_candidate_names_the_saturating_stiffness(tmp_path):
-    d = diagnose_report(sine_set(tmp_path), "linear_stiffness+viscous")
+def test_the_default_list_tries_it_only_when_named(tmp_path):
+    """A joint-level diagnosis tries saturating_stiffness when named (it would otherwise name
+    a gap, backlash's dead zone, as a smooth stiffening: tests/test_hidden_effects_effects),
+    and says so; named among the others it is the one found."""
+    from labjoint.compare.candidates import ON_REQUEST, candidate_effects
+    m = Model.parse("linear_stiffness+viscous")
+    names, skipped = candidate_effects(m)
+    assert "saturating_stiffness" not in names and "backlash" in names
+    assert skipped["saturating_stiffness"] == ON_REQUEST["saturating_stiffness"]
+    assert "saturating_stiffness" in candidate_effects(m, ["saturating_stiffness"])[0]
+    d = diagnose_report(sine_set(tmp_path), "linear_stiffness+viscous",
+                        candidates="cubic_stiffness,backlash,quadratic_stiffness,coulomb,"
+                                   "saturating_stiffness")
     assert d.best is not None and d.best.effect == "saturating_stiffness", \
         (d.verdict, [(c.effect, c.nrmse_after_validation) for c in d.candidates[:4]])
     assert "cubic_stiffness" not in d.best.tie_with

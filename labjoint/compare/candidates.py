@@ -94,9 +94,17 @@ def candidate_model(model: Model, name: str) -> Model:
     return Model.parse(f"{model.expr}+{added_terms(model, name)}")
 
 
+#: registered effects a joint-level diagnosis tries only when named (``only``), and why
+ON_REQUEST = {"saturating_stiffness": (
+    "tried when named (--candidates): a smooth stiffness that levels off, it also fits a gap "
+    "(backlash's dead zone, a stiffening that levels off at k) on the simulated rig better "
+    "than backlash itself, so by default a gap would be named as it")}
+
+
 def candidate_effects(model: Model, only: Sequence[str] | None = None
                       ) -> tuple[list[str], dict[str, str]]:
-    """(candidates, not applicable -> reason) for ``model``; ``only`` restricts the list."""
+    """(candidates, not applicable -> reason) for ``model``; ``only`` restricts the list;
+    :data:`ON_REQUEST` effects only when ``only`` names them."""
     have = set(model.names)
     hyst = any(e.kind == "hysteretic" for e in model.effects)
     names = [n for n in EFFECTS if n not in have]
@@ -109,6 +117,9 @@ def candidate_effects(model: Model, only: Sequence[str] | None = None
     skipped = {}
     out = []
     for n in names:
+        if only is None and n in ON_REQUEST:
+            skipped[n] = ON_REQUEST[n]
+            continue
         if EFFECTS[n].kind == "modifier" and not hyst and n not in CARRIER:
             skipped[n] = "scales slip strengths, but the model has no hysteretic part"
             continue
