@@ -32,12 +32,13 @@ def joint_force(u, v, k2=0.0, kc=0.0, gap=0.0):
     return F
 
 
-def sine_set(tmp_path, law, freq=50.0, fs=5000.0, noise=0.002, seed=0, force=None):
+def sine_set(tmp_path, law, freq=50.0, fs=5000.0, noise=0.002, seed=0, force=None,
+             amps=AMPS, fmt="%.10g"):
     """CSV runs: a displacement sine ramped over 2 cycles (its velocity in closed form),
     the force from ``law`` plus Gaussian noise of ``noise`` x its rms."""
     rng = np.random.default_rng(seed)
     paths = []
-    for i, a in enumerate(AMPS):
+    for i, a in enumerate(amps):
         t = np.arange(int(14 * fs / freq)) / fs
         w = 2 * np.pi * freq
         env = np.clip(t * freq / 2.0, 0, 1)
@@ -49,7 +50,7 @@ def sine_set(tmp_path, law, freq=50.0, fs=5000.0, noise=0.002, seed=0, force=Non
         p = tmp_path / f"run{i}.csv"
         with open(p, "w") as fh:
             fh.write(f"# frequency_hz: {freq}\n# sample_rate_hz: {fs}\ntime_s,displacement_m,force_N\n")
-            np.savetxt(fh, np.column_stack([t, u, F]), delimiter=",", fmt="%.10g")
+            np.savetxt(fh, np.column_stack([t, u, F]), delimiter=",", fmt=fmt)
         paths.append(str(p))
     return paths
 

@@ -16,6 +16,7 @@ from labjoint.models.effects import _steady, get_effect
 from labjoint.models.effects.saturating import describing, keq_fit
 from labjoint.models.simulate import simulate
 from labjoint.storage import Run
+from tests.test_even_effects import sine_set as even_sine_set
 
 K, C = 1e6, 50.0
 KS, XS = 3e5, 1e-6                            # 30 % softer beyond 1 um
@@ -27,25 +28,11 @@ def tanh_force(u, ks=KS, xs=XS):
 
 
 def sine_set(tmp_path, ks=KS, xs=XS, freq=50.0, fs=5000.0, noise=0.002, seed=0):
-    """CSV runs: a displacement sine ramped over 2 cycles (velocity in closed form), the
-    force k u + c v + k_s x_s tanh(u / x_s) plus Gaussian noise of ``noise`` x its rms."""
-    rng = np.random.default_rng(seed)
-    paths = []
-    for i, a in enumerate(AMPS):
-        t = np.arange(int(14 * fs / freq)) / fs
-        w = 2 * np.pi * freq
-        env = np.clip(t * freq / 2.0, 0, 1)
-        denv = np.where(t * freq < 2, freq / 2, 0.0)
-        u = a * env * np.sin(w * t)
-        v = a * (env * w * np.cos(w * t) + denv * np.sin(w * t))
-        F = K * u + C * v + tanh_force(u, ks, xs)
-        F = F + noise * np.std(F) * rng.standard_normal(F.size)
-        p = tmp_path / f"run{i}.csv"
-        with open(p, "w") as fh:
-            fh.write(f"# frequency_hz: {freq}\n# sample_rate_hz: {fs}\ntime_s,displacement_m,force_N\n")
-            np.savetxt(fh, np.column_stack([t, u, F]), delimiter=",", fmt="%.12g")
-        paths.append(str(p))
-    return paths
+    """CSV runs (tests/test_even_effects.py's generator): a displacement sine ramped over 2
+    cycles, the force k u + c v + k_s x_s tanh(u / x_s) plus Gaussian noise of ``noise`` x
+    its rms."""
+    return even_sine_set(tmp_path, {}, freq=freq, fs=fs, noise=noise, seed=seed, amps=AMPS,
+                         fmt="%.12g", force=lambda u, v: K * u + C * v + tanh_force(u, ks, xs))
 
 
 # -- the law and its describing function ----------------------------------------------------
