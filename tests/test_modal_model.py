@@ -38,8 +38,11 @@ def _matrices():
     return M, C, K
 
 
-def _record(freq, volts, k2, seconds=4.0, noise=2e-4, seed=0, name=None):
-    """Tip and root acceleration under G V = volts sin(2 pi f t) through the shaker."""
+def _record(freq, volts, k2, seconds=4.0, noise=2e-4, seed=0, name=None, joint=None,
+            with_relative=False):
+    """Tip and root acceleration under G V = volts sin(2 pi f t) through the shaker; the
+    joint's added force k2 d^2 (d = x_tip - x_root), or ``joint(d)``; ``with_relative``:
+    (record, d at every sample)."""
     M, C, K = _matrices()
     Mi = np.linalg.inv(M)
     w = 2 * np.pi * freq
@@ -47,7 +50,7 @@ def _record(freq, volts, k2, seconds=4.0, noise=2e-4, seed=0, name=None):
     def rhs(t, s):
         x, v = s[:2], s[2:]
         d = x[1] - x[0]
-        fj = k2 * d * d
+        fj = k2 * d * d if joint is None else joint(d)
         f = np.array([fj, BL * G * volts * np.sin(w * t) / R - fj])   # back-EMF in C
         return np.r_[v, Mi @ (f - C @ v - K @ x)]
 
@@ -60,7 +63,8 @@ def _record(freq, volts, k2, seconds=4.0, noise=2e-4, seed=0, name=None):
         a = acc[:, i]
         chans[nm] = Channel(nm, a + noise * a.std() * rng.standard_normal(a.size), "acceleration",
                             "m/s^2", "response")
-    return ChannelRecord(name or f"s{freq:g}_{volts:g}", t, FS, chans, {"frequency_hz": freq})
+    rec = ChannelRecord(name or f"s{freq:g}_{volts:g}", t, FS, chans, {"frequency_hz": freq})
+    return (rec, sol.y[1] - sol.y[0]) if with_relative else rec
 
 
 def _basis():
