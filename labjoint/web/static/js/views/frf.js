@@ -141,9 +141,11 @@ function frfView(out) {
     state.sensor = sel.value;
     plots.replaceChildren(frfPlots(d, sel.value));
   });
+  const how = d.metadata && d.metadata.method;
   out.replaceChildren(
     h('p', { id: 'frf-about' }, `${state.name}: ${d.estimator}, ${d.quantity} over ${d.drive_quantity}, `
       + `${pretty(d.units)}; ${levels(d).length} level(s)`),
+    how ? h('p', { class: 'caption', id: 'frf-method-about' }, `estimated by ${how}`) : '',
     h('label', { class: 'field inline' }, 'sensor ', sel), plots,
     h('h3', {}, 'Modes per level'),
     state.modes ? modesTable(state.modes) : h('p', { class: 'note', id: 'frf-modes-none' },
@@ -161,6 +163,20 @@ export async function show(el) {
   const stored = h('select', { id: 'frf-stored' }, h('option', { value: '' }, '(stored sets)'),
     ...sets.frfsets.map((n) => h('option', { value: n, selected: n === state.name }, n)));
   const band = h('input', { id: 'frf-band', placeholder: 'lo:hi Hz', size: 10 });
+  // how the FRFs are estimated (the API's FrfOptions): the method (auto: from the excitation),
+  // a burst record's estimator (block: Testlab's burst H1 with the free decay; driven: the
+  // driven part by the local rational method, the FRF at the burst's own amplitude) and H1/H2/Hv
+  const choice = (id, label, values, title) => h('label', { class: 'field inline', title },
+    `${label} `, h('select', { id }, ...values.map((v) => h('option', { value: v }, v))));
+  const method = choice('frf-method', 'method', ['auto', 'welch', 'periodic', 'burst', 'block'],
+    'auto: whole periods of a multisine, a burst record by its bursts, Welch over a steady random '
+    + 'record, one block otherwise');
+  const burstMode = choice('frf-burst', 'burst', ['block', 'driven'],
+    'block: one unwindowed block per burst with its free decay (Testlab\'s burst H1); driven: '
+    + 'each burst\'s driven part by the local rational method (the FRF at the burst\'s own amplitude)');
+  const estimator = choice('frf-estimator', 'estimator', ['H1', 'H2', 'Hv'], 'H1: noise on the '
+    + 'responses; H2: noise on the drive; Hv: both');
+  const value = (label) => label.querySelector('select').value;
   const busy = (b) => { for (const x of buttons) x.disabled = b; };
   const progress = (job) => note(msg, `${job.status}${job.message ? `: ${job.message}` : ''}`, 'busy');
 
@@ -193,7 +209,8 @@ export async function show(el) {
     const chosen = picked(runs);
     const n = name.value.trim() || (chosen[0] ? `${chosen[0]}_frf` : '');
     if (!chosen.length) throw new Error('Tick at least one broadband run.');
-    await runJob('/spectra/frf', '/spectra/jobs', { runs: chosen, name: n, overwrite: true }, progress);
+    await runJob('/spectra/frf', '/spectra/jobs', { runs: chosen, name: n, overwrite: true,
+      method: value(method), burst: value(burstMode), estimator: value(estimator) }, progress);
     if (![...stored.options].some((o) => o.value === n)) stored.append(h('option', { value: n }, n));
     stored.value = n;
     await open(n);
@@ -235,6 +252,7 @@ export async function show(el) {
         + 'sweep), one level per run, stored in the frf/ folder; modes per level by LSCF/LSFD with '
         + 'half-power beside.'),
       h('h3', {}, 'broadband runs'), runs,
+      h('div', { class: 'toolbar', id: 'frf-options' }, method, burstMode, estimator),
       h('div', { class: 'toolbar' }, name, compute, stored, openBtn, band, modesBtn), msg, out),
     section('Distortion report',
       h('p', { class: 'note' }, 'Harmonics h_k/h_1 of every channel of a steady sine (± one '
