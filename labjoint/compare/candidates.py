@@ -94,11 +94,18 @@ def candidate_model(model: Model, name: str) -> Model:
     return Model.parse(f"{model.expr}+{added_terms(model, name)}")
 
 
-#: registered effects a joint-level diagnosis tries only when named (``only``), and why
+#: registered effects a joint-level diagnosis tries only when named (``only``), and why.
+#: saturating_stiffness: on the simulated rig's hidden 1 um gap behind an Iwan joint
+#: (tests/test_hidden_effects_effects.py) backlash recovers the gap to 0.1 % and fits better
+#: (fit runs 1.10 % against 1.45 %; all nine runs 0.75 % against 1.43 %), but the ranking
+#: is on the held-out highest frequency, whose larger drive makes the Iwan's macro-slip
+#: parameters (F_S, beta, refitted with the candidate) extrapolate: there the tanh, a step
+#: of -k_s x_s sgn(u) for x_s = 0.3 um, extrapolates better (1.25 % against 1.46 %).
 ON_REQUEST = {"saturating_stiffness": (
-    "tried when named (--candidates): a smooth stiffness that levels off, it also fits a gap "
-    "(backlash's dead zone, a stiffening that levels off at k) on the simulated rig better "
-    "than backlash itself, so by default a gap would be named as it")}
+    "tried when named (--candidates): a smooth stiffness that levels off, with x_s below the "
+    "amplitudes it is a force step k_s x_s sgn(u), which also stands for a gap (backlash's "
+    "dead zone behind a stiffness): on held-out runs it can rank above backlash itself, so "
+    "by default a gap could be named as it")}
 
 
 def candidate_effects(model: Model, only: Sequence[str] | None = None
