@@ -175,17 +175,22 @@ def test_bad_input_named():
         assert e.value.field == f"shaker.{n}"
 
 
-def test_cli_refuses_with_exit_2_and_saves_nothing(tmp_path, capsys):
+def _stored(tmp_path, rec):
+    """``rec`` as a run file of the data directory tmp_path/data (as `labjoint import` stores it)."""
     from labjoint.hardware.interfaces import ChannelSpec
     from labjoint.storage.csv_import import store_channels
 
-    basis, modes = _basis()
-    rec = _record(modes[0]["frequency_hz"] / 2, 1.0, 0.0)
     spec = lambda n, q, u: ChannelSpec(n, "imported", q, u, 1.0, range_v=np.inf, coupling="DC")  # noqa: E731
-    path = store_channels(tmp_path / "x.h5", rec.time, FS,
+    return store_channels(tmp_path / "x.h5", rec.time, FS,
                           [(spec(c.name, c.quantity, c.units), c.samples) for c in rec.channels.values()],
                           {"frequency_hz": rec.metadata["frequency_hz"], "drive_channels": ["input_V"],
                            "response_channels": ["tip", "root"]}, tmp_path / "data", name="s1")
+
+
+def test_cli_refuses_with_exit_2_and_saves_nothing(tmp_path, capsys):
+    basis, modes = _basis()
+    rec = _record(modes[0]["frequency_hz"] / 2, 1.0, 0.0)
+    path = _stored(tmp_path, rec)
     mfile = tmp_path / "modes.json"
     mfile.write_text(json.dumps({"levels": [{"level": 1.0, "modes": modes}]}))
     out = tmp_path / "m.json"
@@ -204,3 +209,23 @@ def test_cli_refuses_a_shaker_parameter_by_name(tmp_path, capsys):
     err = capsys.readouterr()
     assert rc == 2 and "shaker.armature_mass_kg" in err.err and "not identifiable" in err.err
     assert err.out == ""
+
+
+def test_modes_given_to_python_as_json_path_or_basis_alike(tmp_path):
+    """compare's ``modal`` option takes the modes as REST does (the JSON already read), as a
+    file path, or as a basis: the same measured modes; a dict that is not modes is refused
+    naming modal, before any fit."""
+    from labjoint.compare import fit_runs
+    from labjoint.compare.modal_api import load_modal
+
+    basis, modes = _basis()
+    d = {"reference": "tip", "modes": modes}
+    (tmp_path / "modes.json").write_text(json.dumps(d))
+    run = _stored(tmp_path, _record(0.9 * modes[0]["frequency_hz"], 0.4, 0.0))
+    got = [load_modal([run], None, {"modal": m, "responses": ["tip"]})[0][0].basis
+           for m in (d, str(tmp_path / "modes.json"), basis)]
+    same = [{k: v for k, v in b.to_dict().items() if k != "source"} for b in (*got, basis)]
+    assert same[0] == same[1] == same[2] == same[3]
+    with pytest.raises(InputError) as e:
+        fit_runs([run], "linear_stiffness+viscous", modal={"levels": "none"}, responses=["tip"])
+    assert "modal" in str(e.value.field)

@@ -24,7 +24,7 @@ from labjoint.compare.runs import split_by_names
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model, Parameters
 from labjoint.models.shaker import shaker_table
-from labjoint.structure.nlmode import ModalBasis, load_basis
+from labjoint.structure.nlmode import ModalBasis, basis_from_json, load_basis
 from labjoint.structure.nlmode_shaker import ShakerPath
 
 MODAL_OPTIONS = ("modal", "responses", "between", "joint_shape", "start", "bounds", "shaker", "drive_point",
@@ -33,7 +33,13 @@ FORMAT = "labjoint.modalmodel/1"
 
 
 def _basis(modal: Any) -> ModalBasis:
-    return modal if isinstance(modal, ModalBasis) else load_basis(str(modal))
+    """The measured modes: a :class:`ModalBasis`, the JSON of ``labjoint modes --json``
+    already read (a dict, as REST takes it) or the path of such a file."""
+    if isinstance(modal, ModalBasis):
+        return modal
+    if isinstance(modal, dict):
+        return basis_from_json(modal, "modal")
+    return load_basis(str(modal))
 
 
 def _responses(responses: Any) -> list[str] | None:
