@@ -52,8 +52,7 @@ def test_burst_estimator_is_chosen_on_the_page_and_stored(tmp_path):
         assert _modes(page) == pytest.approx(want, rel=2e-3)
 
         _compute(page, "blk", "auto", "block")
-        page.wait_for_function("() => (document.querySelector('#frf-method-about') || {})"
-                               ".textContent?.includes('burst=block')", timeout=180_000)
+        page.wait_for_selector("#frf-method-about:has-text('burst=block')", timeout=180_000)
         page.wait_for_selector("#frf-modes tbody tr", timeout=180_000)
         assert _modes(page) == pytest.approx(want, rel=2e-3)
 

@@ -119,6 +119,42 @@ function picked() {
   return selectedRuns();
 }
 
+// A structure nobody can describe (a frame, a beam of another lab: accelerometers, a
+// vibrometer, a voltage drive): the model acts on the measured modes of a stored FRF set or
+// modes file (frf/), on mode 1's coordinate or between two of its sensors; the REST
+// options modal, modal_band, responses and between (the CLI's --modal, --between, ...).
+async function modalBox() {
+  const sets = await api('/spectra/frf');
+  const pick = h('select', { id: 'modal-set', 'aria-label': 'measured modes' },
+    h('option', { value: '' }, '(none: the joint-level kinds)'),
+    ...sets.frfsets.map((n) => h('option', { value: n }, n)));
+  const field = (id, placeholder, label, title) => h('label', { class: 'field inline', title },
+    `${label} `, h('input', { id, placeholder, size: 12, spellcheck: 'false' }));
+  const band = field('modal-band', 'lo:hi Hz', 'band', 'the band the set\'s modes are found in');
+  const resp = field('modal-responses', 'a,b', 'responses', 'the channels compared (default: '
+    + 'every motion channel of the runs that the modes have)');
+  const between = field('modal-between', 'A,B', 'joint between', 'two sensors of the modes the '
+    + 'joint acts between (default: on mode 1\'s coordinate)');
+  const box = h('details', { id: 'modal-opts' },
+    h('summary', {}, 'Measured modes (a structure without a model)'),
+    h('div', { class: 'toolbar' }, pick, band, resp, between),
+    h('p', { class: 'caption' }, 'The FRFs tab stores a set; its modes carry the structure, the '
+      + 'model is the joint acting on them.'));
+  const list = (x) => x.value.split(',').map((v) => v.trim()).filter(Boolean);
+  function options() {
+    if (!pick.value) return {};
+    const out = { modal: pick.value };
+    const b = band.querySelector('input').value.trim();
+    if (b) out.modal_band = b.split(':').map(Number);
+    const r = list(resp.querySelector('input'));
+    if (r.length) out.responses = r;
+    const w = list(between.querySelector('input'));
+    if (w.length) out.between = w;
+    return out;
+  }
+  return { box, options };
+}
+
 export async function show(el) {
   const vocab = await effects();
   const saved = h('div', { id: 'saved-ladders' });
@@ -145,6 +181,7 @@ export async function show(el) {
     h('div', { class: 'chips' }, vocab.map((e) => h('label', { class: 'chip' },
       h('input', { type: 'checkbox', value: e.name }), ` ${e.name}`))),
     h('p', { class: 'caption' }, 'None ticked: every effect of the vocabulary that fits the model is tried.'));
+  const modal = await modalBox();
   const msg = h('p', { hidden: true, id: 'models-msg' });
   const fitBtn = h('button', { id: 'fit' }, 'Fit and diagnose');
   const ladderBtn = h('button', { id: 'auto-ladder', class: 'secondary' }, 'Automatic ladder');
@@ -192,8 +229,11 @@ export async function show(el) {
   // ticked, the only candidate effects to try.
   function options() {
     const only = [...limit.querySelectorAll('input:checked')].map((x) => x.value);
-    return only.length ? { full: true, candidates: only } : { full: true };
+    return { ...kindOptions(), ...(only.length ? { candidates: only } : {}) };
   }
+  // what every job of this view sends besides the candidates: the arrays the page draws
+  // (full) and, with measured modes chosen, the modal kind's options
+  const kindOptions = () => ({ full: true, ...modal.options() });
 
   // Fit and diagnose `model` on the ticked runs; a new ladder, or one more step.
   function fitDiagnose(model, added) {
@@ -203,7 +243,7 @@ export async function show(el) {
       const diag = await runJob('/models/diagnose', '/models/jobs', { runs, model, options: options() }, progress);
       // a diagnosis fits the model itself; the plain fit only for what it does not carry
       const fit = diag.parameters && diag.runs && diag.loops ? diag
-        : await runJob('/models/fit', '/models/jobs', { runs, model, options: { full: true } }, progress);
+        : await runJob('/models/fit', '/models/jobs', { runs, model, options: kindOptions() }, progress);
       state.model = diag.model || model;
       expr.value = state.model;
       state.fit = { ...fit, ...(diag.parameters ? { parameters: diag.parameters, runs: diag.runs } : {}),
@@ -243,7 +283,7 @@ export async function show(el) {
     const diag = res.final_diagnosis;
     if (diag) {
       const fit = diag.loops ? diag
-        : await runJob('/models/fit', '/models/jobs', { runs, model: diag.model, options: { full: true } }, progress);
+        : await runJob('/models/fit', '/models/jobs', { runs, model: diag.model, options: kindOptions() }, progress);
       state.diag = diag;
       state.fit = { ...diag, loops: fit.loops };
     }
@@ -265,7 +305,7 @@ export async function show(el) {
     section('Runs and model', h('div', { class: 'models-form' },
       h('div', {}, h('h3', {}, 'Runs'), picker.box),
       h('div', {}, h('h3', {}, 'Model: effects joined by +'), expr, chips,
-        limit, h('div', { class: 'toolbar' }, fitBtn, ladderBtn), msg, out.summary))),
+        limit, modal.box, h('div', { class: 'toolbar' }, fitBtn, ladderBtn), msg, out.summary))),
     ...results,
     section('Ladders saved in the ticked runs', saved));
   render();

@@ -1,0 +1,60 @@
+"""The Models view on a structure nobody can describe, in a real headless Chromium: two
+force-driven random records of the 2-DOF chain (tests/spectra_runs.py: accelerations of
+both masses, lsim from rest), its FRF set stored over REST as a user would from the FRFs
+tab, then on the Models page the set chosen as the measured modes and
+the linear modal model fitted and diagnosed: the jobs ran the modal kind on the named
+response, the linear chain is reproduced (and called adequate), the ladder is drawn; a
+band that is not two numbers is refused on the page naming options.modal_band."""
+
+from __future__ import annotations
+
+import pytest
+
+from labjoint.api import ApiSettings, create_app
+from labjoint.client import Client
+from labjoint.storage import Catalog
+from spectra_runs import random_force
+from test_api_helpers import CONTROL, live_server
+from test_web_support import chromium, open_page, wait_attr
+
+pytestmark = pytest.mark.browser
+
+
+def test_models_view_fits_and_diagnoses_on_measured_modes(tmp_path):
+    data = tmp_path / "data"
+    data.mkdir()
+    for seed, name in ((3, "r1"), (4, "r2")):
+        random_force(data / f"{name}.h5", 2.0, seed=seed, n=1 << 13)
+    Catalog(data / "catalog.sqlite").rebuild(data)
+    app = create_app(ApiSettings(data_dir=data, control_tokens=[CONTROL]))
+    with live_server(app) as url, chromium() as browser, Client(url, CONTROL) as c:
+        c.frf(["r1"], name="chain")
+        w = open_page(browser, url, token=CONTROL)
+        page = w.page
+        page.goto(f"{url}/#/models")
+        page.wait_for_selector("#run-pick input[value='r1']")
+        for box in page.locator("#run-pick input").all():
+            box.set_checked(box.get_attribute("value") in ("r1", "r2"))
+        page.click("#modal-opts summary")
+        page.select_option("#modal-set", "chain")
+        page.fill("#modal-responses", "acc1, acc2")
+        page.click("#limit summary")
+        page.check("#limit input[value=cubic_stiffness]")
+        page.fill("#model-expr", "linear_stiffness+viscous")
+
+        page.click("#fit")
+        wait_attr(page, "svg[data-plot=ladder]", "data-values", lambda v: v != "", 600)
+        jobs = c.request("GET", "/models/jobs", params={"limit": 50})["items"]
+        diag = next(j for j in jobs if j["kind"] == "model_diagnose" and j["status"] == "complete")
+        res = c.request("GET", f"/models/jobs/{diag['id']}")["result"]
+        assert res["kind"] == "modal" and res["measurement"] == "modal"
+        assert res["nrmse"] < 0.02 and res["adequate"], (res["nrmse"], res["verdict"])
+        assert sorted(res["fit_runs"] + res["validation_runs"]) == ["r1", "r2"]
+        values = page.get_attribute("svg[data-plot=ladder]", "data-values").split(",")
+        assert float(values[0]) == pytest.approx(100 * res["nrmse"], rel=1e-3)      # drawn in %
+        assert w.problems() == []
+
+        page.fill("#modal-band", "five:forty")
+        page.click("#fit")
+        page.wait_for_selector("#models-msg.error", timeout=60_000)
+        assert "options.modal_band" in page.text_content("#models-msg")
