@@ -64,3 +64,54 @@ def test_negative_energy_loss_on_a_record(tmp_path):
     res = fit_runs([tmp_path / "backwards.csv"], "linear_stiffness+viscous", kind="record")
     assert res["measurement_flags"][0]["run"] == "backwards"
     assert "measurement_flags" not in fit_runs([tmp_path / "fine.csv"], "linear_stiffness+viscous", kind="record")
+
+
+def _modes_of(path):
+    from labjoint.cli.main import main
+    import contextlib
+    import io
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["modes", str(path), "--json"]) == 0
+    return json.loads(out.getvalue())
+
+
+def test_complex_modes_flagged_for_the_modal_kind(tmp_path):
+    """The 2-DOF chain driven through a strongly coupled coil (tests/spectra_runs.py: the
+    back-EMF damps mass 1 only, so its modes are complex) measured as a user would
+    (`labjoint modes`): mode 2 is flagged at vel1 with the closed form's phase; the same
+    chain driven by a force (proportional damping, real modes) is not."""
+    from labjoint.compare.flags import complex_mode_flags, measurement_flags
+    from labjoint.compare.modal_api import load_modal
+    from labjoint.structure.nlmode import ModalBasis
+    from spectra_runs import random_force, random_voltage, state
+
+    lam, vec = np.linalg.eig(state(True)[0])
+    order = [i for i in np.argsort(np.abs(lam)) if lam[i].imag > 0]
+    phases = []
+    for i in order:                                   # vel1 / vel2 of each structural mode
+        a = abs(np.degrees(np.angle(vec[2, i] / vec[3, i])))
+        phases.append(min(a, 180 - a))
+    volt, force = random_voltage(tmp_path / "v.h5", 0.3, seed=3, n=1 << 13), \
+        random_force(tmp_path / "f.h5", 2.0, seed=3, n=1 << 13)
+    flags = measurement_flags(load_modal([volt], None, {"modal": _modes_of(volt)})[0])
+    assert [f["mode"] for f in flags] == [2] and flags[0]["flag"] == "complex_mode"
+    assert flags[0]["sensor"] == "vel1"
+    assert flags[0]["phase_deg"] == pytest.approx(phases[1], abs=1.5)
+    assert "real modes" in flags[0]["message"]
+    assert measurement_flags(load_modal([force], None, {"modal": _modes_of(force)})[0]) == []
+    # the phase is taken where the shape is seen: a sensor below 10 % of the largest is not
+    b = ModalBasis.from_dict({"reference": "a", "modes": [{"frequency_hz": 10.0, "damping_ratio": 0.01,
+        "shape": {"a": [1.0, 0.0], "b": [0.5 * np.cos(0.3), 0.5 * np.sin(0.3)], "c": [0.0, 0.05]}}]})
+    assert b.modes[0].phase_deg == pytest.approx(np.degrees(0.3)) and b.modes[0].phase_sensor == "b"
+    assert b.modes[0].shape == {"a": 1.0, "b": pytest.approx(0.5 * np.cos(0.3)), "c": 0.0}
+    assert complex_mode_flags(b)[0]["mode"] == 1
+
+
+def test_a_flag_without_a_run_prints_its_message(capsys):
+    from labjoint.cli.limits import print_flags
+
+    print_flags({"measurement_flags": [{"flag": "complex_mode", "message": "mode 2 is complex"},
+                                       {"run": "r1", "flag": "x", "message": "m"}]})
+    assert capsys.readouterr().out == "warning: mode 2 is complex\nwarning: run r1: m\n"

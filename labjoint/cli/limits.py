@@ -31,4 +31,4 @@ def print_flags(res: dict[str, Any]) -> None:
     """One warning line per measurement flag (the text output's counterpart of the JSON's
     ``measurement_flags``, :mod:`labjoint.compare.flags`)."""
     for f in res.get("measurement_flags") or []:
-        print(f"warning: run {f['run']}: {f['message']}")
+        print(f"warning: {'run ' + f['run'] + ': ' if f.get('run') else ''}{f['message']}")

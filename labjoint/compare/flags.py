@@ -7,6 +7,12 @@ diagnose and ladder JSON (``measurement_flags``) and text.
   of |F v| / fs, its stored energy's scale) means the loop runs backwards: a
   force (or displacement) sensor of inverted sign, or a voltage taken as the force.
 
+- **complex measured modes** (the modal kind): a mode whose measured shape has a sensor
+  more than ``COMPLEX_DEG`` from 0 or 180 deg (non-proportional damping: a shaker's
+  back-EMF or a damper at one point, strong coupling through the drive) cannot be carried
+  by the modal kind's real modes (it takes the real parts), so part of even a linear
+  structure's response stays unexplained and a diagnosis can say "structure remains".
+
 (A drive channel whose quantity is not the model's input, a voltage given to a
 force-input model, is refused when the run is prepared,
 :func:`labjoint.compare.kinds.check_quantities`; parameters whose standard error exceeds
@@ -29,7 +35,11 @@ NEGATIVE_ENERGY = ("measured energy loss {w:.4g} J < 0: the loop runs backwards 
 def measurement_flags(measurements: Sequence[Any]) -> list[dict[str, Any]]:
     """[{run, flag, message, ...}] for the measurements that show a likely mistake."""
     out: list[dict[str, Any]] = []
+    bases: list[Any] = []
     for m in measurements:
+        if getattr(m, "kind", None) == "modal" and not any(m.basis is b for b in bases):
+            bases.append(m.basis)
+            out.extend(complex_mode_flags(m.basis))
         if getattr(m, "kind", None) not in ("sine", "record"):
             continue
         loop = getattr(m, "loop", None)
@@ -52,3 +62,19 @@ def energy_flag(run: str, w: float, uncertainty: float) -> dict[str, Any] | None
         return {"run": run, "flag": "negative_energy_loss", "energy_loss_j": float(w),
                 "message": NEGATIVE_ENERGY.format(w=w)}
     return None
+
+
+#: a measured mode further than this from real (deg, at a sensor of >= 10 % of its largest
+#: amplitude) is flagged for the modal kind (module docstring)
+COMPLEX_DEG = 10.0
+COMPLEX_MODE = ("mode {j} ({f:.4g} Hz) is complex: {s}'s phase is {a:.3g} deg from real (non-proportional "
+                "damping, e.g. a shaker's back-EMF at one point); the modal kind takes real modes (the "
+                "real parts), so part of even a linear response can stay unexplained")
+
+
+def complex_mode_flags(basis: Any) -> list[dict[str, Any]]:
+    """One flag per measured mode of ``basis`` further than COMPLEX_DEG from real."""
+    return [{"flag": "complex_mode", "mode": j, "frequency_hz": m.frequency_hz, "sensor": m.phase_sensor,
+             "phase_deg": m.phase_deg,
+             "message": COMPLEX_MODE.format(j=j, f=m.frequency_hz, s=m.phase_sensor, a=m.phase_deg)}
+            for j, m in enumerate(basis.modes, start=1) if m.phase_deg > COMPLEX_DEG]

@@ -97,6 +97,11 @@ class MeasuredMode:
     frequency_hz: float
     damping_ratio: float
     shape: dict[str, float]
+    #: how far the measured (complex) shape is from a real one: the largest phase from 0 or
+    #: 180 deg over the sensors at >= 10 % of the mode's largest amplitude, and that sensor
+    #: (0 and "" for a shape given real); the model takes the real parts
+    phase_deg: float = 0.0
+    phase_sensor: str = ""
 
 
 @dataclass(frozen=True)
@@ -120,9 +125,25 @@ class ModalBasis:
     def from_dict(cls, d: Mapping[str, Any], source: str = "") -> ModalBasis:
         modes = tuple(MeasuredMode(float(m["frequency_hz"]), float(m["damping_ratio"]),
                                    {k: float(v[0] if isinstance(v, (list, tuple)) else v)
-                                    for k, v in (m.get("shape") or {}).items()})
+                                    for k, v in (m.get("shape") or {}).items()},
+                                   *_complexity(m.get("shape") or {}))
                       for m in d["modes"])
         return cls(modes, str(d["reference"]), source or str(d.get("source", "")))
+
+
+def _complexity(shape: Mapping[str, Any]) -> tuple[float, str]:
+    """(phase from real, deg; its sensor) of a shape of [re, im] pairs (MeasuredMode)."""
+    z = {k: complex(float(v[0]), float(v[1])) for k, v in shape.items()
+         if isinstance(v, (list, tuple)) and len(v) == 2}
+    top = max((abs(c) for c in z.values()), default=0.0)
+    out = (0.0, "")
+    for k, c in z.items():
+        if top > 0 and abs(c) >= 0.1 * top:
+            a = abs(np.degrees(np.angle(c)))
+            a = min(a, 180.0 - a)
+            if a > out[0]:
+                out = (float(a), k)
+    return out
 
 
 def load_basis(path: str | Path, reference: str | None = None) -> ModalBasis:
