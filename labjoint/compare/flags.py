@@ -9,9 +9,10 @@ diagnose and ladder JSON (``measurement_flags``) and text.
 
 - **complex measured modes** (the modal kind): a mode whose measured shape has a sensor
   more than ``COMPLEX_DEG`` from 0 or 180 deg (non-proportional damping: a shaker's
-  back-EMF or a damper at one point, strong coupling through the drive) cannot be carried
-  by the modal kind's real modes (it takes the real parts), so part of even a linear
-  structure's response stays unexplained and a diagnosis can say "structure remains".
+  back-EMF or a damper at one point, strong coupling through the drive). Real modes
+  cannot carry it (a linear structure would be left above its floor, "structure
+  remains"), so the modal model then fits a quadrature participation per mode and sensor
+  (``modal.h<j>.<s>``, :func:`labjoint.structure.nlmode.response`); the flag says so.
 
 (A drive channel whose quantity is not the model's input, a voltage given to a
 force-input model, is refused when the run is prepared,
@@ -27,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from labjoint.identify.resolution import COVERAGE
+from labjoint.structure.modal_basis import COMPLEX_DEG
 
 NEGATIVE_ENERGY = ("measured energy loss {w:.4g} J < 0: the loop runs backwards (a passive joint "
                    "dissipates); usually a sensor of inverted sign, or a voltage taken as the force")
@@ -64,12 +66,9 @@ def energy_flag(run: str, w: float, uncertainty: float) -> dict[str, Any] | None
     return None
 
 
-#: a measured mode further than this from real (deg, at a sensor of >= 10 % of its largest
-#: amplitude) is flagged for the modal kind (module docstring)
-COMPLEX_DEG = 10.0
 COMPLEX_MODE = ("mode {j} ({f:.4g} Hz) is complex: {s}'s phase is {a:.3g} deg from real (non-proportional "
-                "damping, e.g. a shaker's back-EMF at one point); the modal kind takes real modes (the "
-                "real parts), so part of even a linear response can stay unexplained")
+                "damping, e.g. a shaker's back-EMF at one point); real modes cannot carry it, so every "
+                "mode has a quadrature participation per sensor (modal.h<j>.<s>) beside its in-phase one")
 
 
 def complex_mode_flags(basis: Any) -> list[dict[str, Any]]:

@@ -24,7 +24,14 @@ A sensor s measuring displacement, velocity or acceleration reads, from the stat
 (phi_s: ``modal.phi1.<s>``, mode-1 participation relative to the reference; g_sj:
 ``modal.g<j>.<s>``, mode j's drive x sensor participation per volt). The acceleration is
 the rate of the velocity at the sample, exact for the integrated states; nothing
-measured is ever integrated or differentiated.
+measured is ever integrated or differentiated. Modes measured complex (a sensor more
+than 10 deg from real: non-proportional damping, such as a shaker's back-EMF at one
+point) add a quadrature participation per mode and sensor (``modal.h<j>.<s>``;
+``modal.h1.<s>`` off the reference, where mode 1 is real by definition):
+
+    y_s += h_s1 q^(d+1) / w_1 + sum_j h_sj p_j^(d+1) / w_j                      (3b)
+
+(:func:`lead`; w_j the mode's measured or fitted natural frequency).
 
 The shaker path's low-frequency roll-off (an AC-coupled amplifier, the armature's
 suspension taking the force at low frequency): a first-order high-pass of corner f_hp
@@ -67,10 +74,8 @@ drive's fundamental (a steady sine) or from rest (a record that starts at rest).
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -82,6 +87,9 @@ from labjoint.models import Model
 from labjoint.models.effects._masing import IWAN, masing_state
 from labjoint.models.simulate import (MASING_LAWS, NO_COIL, SUPPORTED, _coefficients, _rates, fine_force,
                                      NO_MASING, masing_coefficients, rk4_sample)
+# the measured modes (their own module; imported from here as before)
+from labjoint.structure.modal_basis import (MeasuredMode, ModalBasis, basis_from_json,  # noqa: F401
+                                            load_basis)
 
 SUBSTEPS = 4
 MAX_WH = 0.1            # RK4 step: w h at most this at 1.5x the highest mode (phase error ~1e-7 a step)
@@ -90,124 +98,6 @@ MAX_WH = 0.1            # RK4 step: w h at most this at 1.5x the highest mode (p
 MODAL_EFFECTS = (*(n for n in SUPPORTED if n != "inertia"), *MASING_LAWS)
 QUANTITY_ORDER = {"displacement": 0, "velocity": 1, "acceleration": 2}
 DIVERGED = 1e6          # |q| above this many metres: the simulation has diverged
-
-
-@dataclass(frozen=True)
-class MeasuredMode:
-    frequency_hz: float
-    damping_ratio: float
-    shape: dict[str, float]
-    #: how far the measured (complex) shape is from a real one: the largest phase from 0 or
-    #: 180 deg over the sensors at >= 10 % of the mode's largest amplitude, and that sensor
-    #: (0 and "" for a shape given real); the model takes the real parts
-    phase_deg: float = 0.0
-    phase_sensor: str = ""
-
-
-@dataclass(frozen=True)
-class ModalBasis:
-    """The measured linear modes (the first carries the joint) and the reference sensor."""
-
-    modes: tuple[MeasuredMode, ...]
-    reference: str
-    source: str = ""
-
-    @property
-    def linear(self) -> tuple[MeasuredMode, ...]:
-        return self.modes[1:]
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"reference": self.reference, "source": self.source,
-                "modes": [{"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio,
-                           "shape": m.shape} for m in self.modes]}
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any], source: str = "") -> ModalBasis:
-        modes = tuple(MeasuredMode(float(m["frequency_hz"]), float(m["damping_ratio"]),
-                                   {k: float(v[0] if isinstance(v, (list, tuple)) else v)
-                                    for k, v in (m.get("shape") or {}).items()},
-                                   *_complexity(m.get("shape") or {}))
-                      for m in d["modes"])
-        return cls(modes, str(d["reference"]), source or str(d.get("source", "")))
-
-
-def _complexity(shape: Mapping[str, Any]) -> tuple[float, str]:
-    """(phase from real, deg; its sensor) of a shape of [re, im] pairs (MeasuredMode)."""
-    z = {k: complex(float(v[0]), float(v[1])) for k, v in shape.items()
-         if isinstance(v, (list, tuple)) and len(v) == 2}
-    top = max((abs(c) for c in z.values()), default=0.0)
-    out = (0.0, "")
-    for k, c in z.items():
-        if top > 0 and abs(c) >= 0.1 * top:
-            a = abs(np.degrees(np.angle(c)))
-            a = min(a, 180.0 - a)
-            if a > out[0]:
-                out = (float(a), k)
-    return out
-
-
-def load_basis(path: str | Path, reference: str | None = None) -> ModalBasis:
-    """The modes of ``labjoint modes --json`` saved to a file (its first level: the
-    lowest-level test), mode 1 the lowest in the file; ``reference``: the sensor whose
-    mode-1 participation is 1 (default: the mode's own reference sensor)."""
-    p = Path(path)
-    try:
-        d = json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise InputError(f"cannot read the modes file: {exc}", file=str(p), field="modal") from None
-    return basis_from_json(d, str(p), reference)
-
-
-def basis_from_json(d: Any, source: str = "", reference: str | None = None) -> ModalBasis:
-    """The modes of ``labjoint modes --json`` (or a saved basis: ``reference`` and ``modes``)
-    as a :class:`ModalBasis` (:func:`load_basis`; ``source`` names where they came from)."""
-    p = source
-    try:
-        basis = _basis_from_json(d, p, reference)
-    except InputError:
-        raise
-    except (KeyError, TypeError, ValueError, AttributeError, IndexError, ArithmeticError) as exc:
-        raise InputError(f"not a modes file ({type(exc).__name__}: {exc}): expected the JSON of "
-                         "`labjoint modes --json`", file=p or None, field="modal") from None
-    for m in basis.modes:
-        if not (np.isfinite(m.frequency_hz) and m.frequency_hz > 0 and np.isfinite(m.damping_ratio)
-                and m.damping_ratio > 0 and all(np.isfinite(v) for v in m.shape.values())):
-            raise InputError(f"mode at {m.frequency_hz} Hz (damping {m.damping_ratio}): a modal model "
-                             "needs positive finite frequencies and damping and finite shapes",
-                             file=p or None, field="modal")
-        if m.shape.get(basis.reference, 1.0) == 0:
-            raise InputError(f"mode at {m.frequency_hz} Hz does not move the reference sensor "
-                             f"{basis.reference!r}: shapes are relative to it", file=p or None, field="modal")
-    if not basis.modes:
-        raise InputError("no modes", file=p or None, field="modal")
-    return basis
-
-
-def _basis_from_json(d: Any, p: str, reference: str | None) -> ModalBasis:
-    if not isinstance(d, dict):
-        raise InputError("not a modes file: expected a JSON object", file=p or None, field="modal")
-    if "modes" in d and "reference" in d:
-        basis = ModalBasis.from_dict(d, str(p))
-    else:
-        levels = d.get("levels") if isinstance(d, dict) else None
-        if not levels or not levels[0].get("modes"):
-            raise InputError("not a modes file: expected the JSON of `labjoint modes --json` "
-                             "(levels[0].modes)", file=str(p), field="modal")
-        lv = min(levels, key=lambda x: float(x.get("level") or 0.0))
-        ms = sorted(lv["modes"], key=lambda m: m["frequency_hz"])
-        for m in ms:
-            if not (m["frequency_hz"] > 0 and m["damping_ratio"] > 0):
-                raise InputError(f"mode at {m['frequency_hz']} Hz has damping {m['damping_ratio']}: "
-                                 "a modal model needs positive frequencies and damping",
-                                 file=str(p), field="modal")
-        ref = ms[0].get("reference_sensor") or next(iter(ms[0]["shape"]))
-        basis = ModalBasis.from_dict({"reference": ref, "modes": ms}, str(p))
-    if reference is not None:
-        if reference not in basis.modes[0].shape:
-            raise InputError(f"no sensor {reference!r} in the modes; sensors: "
-                             f"{sorted(basis.modes[0].shape)}", file=str(p), field="reference")
-        basis = ModalBasis(basis.modes, reference, basis.source)
-    return basis
 
 
 def check_modal_model(model: Model) -> None:
@@ -369,6 +259,17 @@ def response(q: np.ndarray, lin: Sequence[np.ndarray], quantity: str, phi: float
     for g, p in zip(gains, lin):
         y = y + g * p[:, d]
     return y
+
+
+def lead(states: np.ndarray, d: int, w: float, fs: float) -> np.ndarray:
+    """A mode's quadrature part at a sensor of order ``d`` (eq. 3b): its (d+1)-th derivative
+    over w (a complex residue pair is a numerator a s + b over the mode's poles, so a
+    complex mode reads g p^(d) + h p^(d+1) / w). The states hold p, p', p''; the third
+    derivative by central differences: a phase of exactly 90 deg and a magnitude
+    sin(w h) / (w h), which the fitted h takes up around the mode."""
+    if d < 2:
+        return states[:, d + 1] / w
+    return np.gradient(states[:, 2], 1.0 / fs) / w
 
 
 def shaker_identifiable(names: Sequence[str]) -> None:

@@ -37,7 +37,7 @@ from labjoint.models import Model, Parameters, RunData
 from labjoint.models.inputs import ModelInputs, estimate_frequency
 from labjoint.storage.channels import ChannelRecord
 from labjoint.storage.reader import read_channels
-from labjoint.structure.nlmode import (QUANTITY_ORDER, Drive, MeasuredMode, ModalBasis,
+from labjoint.structure.nlmode import (QUANTITY_ORDER, Drive, MeasuredMode, ModalBasis, lead,
                                        linear_states, mode_states, response)
 from labjoint.structure.nlmode_pair import (differences, pair_response, pair_states,
                                             relative_displacement)
@@ -230,7 +230,23 @@ class ModalMeasurement:
             gains = [vals[f"modal.g{j + 2}.{ch}"] for j in range(len(self.lin))]
             out[ch] = response(q, self.linear(vals, q), qty, phi, gains) \
                 + vals.get(f"modal.r.{ch}", 0.0) * self.residual_input(qty, vals, q)
+            hs = self.quadrature_gains(ch, vals)
+            if any(hs):
+                out[ch] = out[ch] + sum(h * c for h, c in zip(hs, self.quadrature(qty, vals, q)))
         return out
+
+    def quadrature(self, quantity: str, vals: Mapping[str, Any], q: np.ndarray) -> list[np.ndarray]:
+        """Mode 1's and every linear mode's quadrature part at a sensor of ``quantity``
+        (nlmode eq. 3b), in the order of :meth:`quadrature_gains`."""
+        d, fs = QUANTITY_ORDER[quantity], self.drive.fs
+        w = [2 * np.pi * float(vals.get(f"modal.f{j + 2}", m.frequency_hz))
+             for j, m in enumerate(self.basis.linear)]
+        return [lead(q, d, 2 * np.pi * self.basis.modes[0].frequency_hz, fs),
+                *(lead(p, d, wj, fs) for p, wj in zip(self.linear(vals, q), w))]
+
+    def quadrature_gains(self, ch: str, vals: Mapping[str, Any]) -> list[float]:
+        """``modal.h<j>.<ch>`` of every mode (0 where absent: real modes)."""
+        return [float(vals.get(f"modal.h{j + 1}.{ch}", 0.0)) for j in range(len(self.lin) + 1)]
 
     def normalized(self, series: dict[str, np.ndarray]) -> np.ndarray:
         j = self.judged

@@ -9,7 +9,9 @@ frequency and damping (``modal.f<j>``, ``modal.zeta<j>``, from the measured ones
 participations (``modal.phi1.<s>`` and the linear modes' ``modal.g<j>.<s>``) enter the
 responses linearly (nlmode eq. 3) and are solved by linear least squares at every trial
 (variable projection), pooled over the fit records, with each sensor's residual term
-``modal.r.<s>`` (the modes above the band, quasi-static: nlmode's eq. 3 plus r_s V^(d)); their standard errors are those of
+``modal.r.<s>`` (the modes above the band, quasi-static: nlmode's eq. 3 plus r_s V^(d)) and,
+when the measured modes are complex, the quadrature ones ``modal.h<j>.<s>`` (eq. 3b);
+their standard errors are those of
 that linear solve at the optimum (conditional on the varied parameters).
 
 Start: from ``init`` (a fitted smaller model: the diagnosis and the ladder pass the
@@ -59,8 +61,18 @@ def _gain_names(m: ModalMeasurement) -> list[str]:
     for ch in m.channels:
         if ch != m.basis.reference:
             out.append(f"modal.phi1.{ch}")
-        out += [f"modal.g{j + 2}.{ch}" for j in range(len(m.lin))] + [f"modal.r.{ch}"]
+        out += [f"modal.g{j + 2}.{ch}" for j in range(len(m.lin))] + [f"modal.r.{ch}"] \
+            + _quadrature_names(m, ch)
     return out
+
+
+def _quadrature_names(m: ModalMeasurement, ch: str) -> list[str]:
+    """Complex measured modes: every mode's quadrature participation at ``ch`` (nlmode eq.
+    3b; none for mode 1 at the reference, which defines it), else none."""
+    if not m.basis.complex:
+        return []
+    return ([] if ch == m.basis.reference else [f"modal.h1.{ch}"]) + \
+        [f"modal.h{j + 2}.{ch}" for j in range(len(m.lin))]
 
 
 def project(ms: Sequence[ModalMeasurement], qs: Sequence[np.ndarray],
@@ -80,6 +92,9 @@ def project(ms: Sequence[ModalMeasurement], qs: Sequence[np.ndarray],
             d = QUANTITY_ORDER[m.quantities[i]]
             cols = [q[j, d]] + [p[j, d] for p in m.linear(vals or {}, q)] \
                 + [m.residual_input(m.quantities[i], vals, q)[j]]
+            if m.basis.complex:
+                quad = m.quadrature(m.quantities[i], vals or {}, q)
+                cols += [c[j] for c in (quad if ch != ref else quad[1:])]
             cols = [(c - c.mean()) / s for c in cols]
             n = j.stop - j.start
             y = m.data.force[i * n:(i + 1) * n]
@@ -90,7 +105,8 @@ def project(ms: Sequence[ModalMeasurement], qs: Sequence[np.ndarray],
             target.append(y)
         A, y = np.vstack(rows), np.concatenate(target)
         names = ([] if ch == ref else [f"modal.phi1.{ch}"]) + \
-            [f"modal.g{j + 2}.{ch}" for j in range(len(ms[0].lin))] + [f"modal.r.{ch}"]
+            [f"modal.g{j + 2}.{ch}" for j in range(len(ms[0].lin))] + [f"modal.r.{ch}"] \
+            + _quadrature_names(ms[0], ch)
         if A.shape[1]:
             coef, *_ = np.linalg.lstsq(A, y, rcond=None)
             r = y - A @ coef
@@ -224,7 +240,7 @@ def user_bounds(bnd: dict[str, tuple[float, float]], start: Mapping[str, float] 
     bounds is refused by name. The fitter's own start is clipped into the bounds."""
     for kind, given in (("bound", bounds or {}), ("start", start or {})):
         for n in given:
-            if n.startswith(("modal.phi1.", "modal.g", "modal.r.")) and n not in bnd:
+            if n.startswith(("modal.phi1.", "modal.g", "modal.h", "modal.r.")) and n not in bnd:
                 raise InputError("a sensor participation is solved by linear least squares at "
                                  "every trial, never varied: no start or bound", field=f"{kind}.{n}")
             if n not in bnd:
@@ -359,7 +375,7 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
     for k in lin_names:
         params.add(k, vals[k], lower=bnd[k][0], upper=bnd[k][1], unit="Hz" if ".f" in k else "1")
     for k, v in gains.items():
-        params.add(k, v, unit="1" if k.startswith("modal.phi1.") else
+        params.add(k, v, unit="1" if k.startswith(("modal.phi1.", "modal.h1.")) else
                    "m/V (residual flexibility)" if k.startswith("modal.r.") else "per V")
     for k, e in stderr.items():
         params[k].stderr = e
