@@ -132,3 +132,17 @@ def odd_multisine_cubic(path: Path, periods: int = 8, n: int = 2048) -> Path:
     x = sps.lfilter(b, a, u)
     y = x + 0.05 * x ** 3 + 1e-3 * rng.normal(size=x.size)
     return _run_file(path, {"amp": ("voltage", "V", u), "acc": ("acceleration", "m/s^2", y)}, FS)
+
+
+def measured_modes(path: Path) -> dict:
+    """`labjoint modes RUN --json` of a run file, as a user gets the modes."""
+    import contextlib
+    import io
+    import json
+
+    from labjoint.cli.main import main
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["modes", str(path), "--json"]) == 0
+    return json.loads(out.getvalue())

@@ -66,17 +66,6 @@ def test_negative_energy_loss_on_a_record(tmp_path):
     assert "measurement_flags" not in fit_runs([tmp_path / "fine.csv"], "linear_stiffness+viscous", kind="record")
 
 
-def _modes_of(path):
-    from labjoint.cli.main import main
-    import contextlib
-    import io
-
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        assert main(["modes", str(path), "--json"]) == 0
-    return json.loads(out.getvalue())
-
-
 def test_complex_modes_flagged_for_the_modal_kind(tmp_path):
     """The 2-DOF chain driven through a strongly coupled coil (tests/spectra_runs.py: the
     back-EMF damps mass 1 only, so its modes are complex) measured as a user would
@@ -85,7 +74,7 @@ def test_complex_modes_flagged_for_the_modal_kind(tmp_path):
     from labjoint.compare.flags import complex_mode_flags, measurement_flags
     from labjoint.compare.modal_api import load_modal
     from labjoint.structure.nlmode import ModalBasis
-    from spectra_runs import random_force, random_voltage, state
+    from spectra_runs import measured_modes as _modes_of, random_force, random_voltage, state
 
     lam, vec = np.linalg.eig(state(True)[0])
     order = [i for i in np.argsort(np.abs(lam)) if lam[i].imag > 0]

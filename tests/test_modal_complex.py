@@ -8,24 +8,13 @@ their imaginary parts dropped); the fitted model, saved, predicts a record it ne
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 
 import numpy as np
-import pytest
 
-from labjoint.cli.main import main
 from labjoint.compare.api import fit_report
 from labjoint.compare.modal_api import predict_modal, save_modal
-from spectra_runs import random_voltage
-
-
-def _modes(path):
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        assert main(["modes", str(path), "--json"]) == 0
-    return json.loads(out.getvalue())
+from spectra_runs import measured_modes, random_voltage
 
 
 def _real(modes):
@@ -39,7 +28,7 @@ def _real(modes):
 def test_a_linear_structure_with_complex_modes_is_reproduced(tmp_path):
     fit_rec = random_voltage(tmp_path / "a.h5", 0.3, seed=3, n=1 << 13)
     new_rec = random_voltage(tmp_path / "b.h5", 0.3, seed=4, n=1 << 13)
-    modes = _modes(fit_rec)
+    modes = measured_modes(fit_rec)
     rep = fit_report([str(fit_rec)], "linear_stiffness+viscous", modal=modes)
     d = rep.to_dict()
     assert rep.fit.nrmse_ < 0.03, rep.fit.nrmse_
