@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from labjoint.compare.api import fit_report
 from labjoint.compare.modal_api import predict_modal, save_modal
@@ -40,3 +41,15 @@ def test_a_linear_structure_with_complex_modes_is_reproduced(tmp_path):
     save_modal(rep.fit, rep.evaluation.runs_measured(), tmp_path / "m.json")
     pred = predict_modal(tmp_path / "m.json", new_rec)
     assert pred["nrmse"] < 0.03, pred["nrmse"]
+
+
+def test_a_diagnosis_of_one_record_is_refused_naming_runs(tmp_path):
+    """One modal record is fitted, never validated: a diagnosis, which judges candidates on
+    records it did not fit, refuses it by name before any fit (it was a numpy error)."""
+    from labjoint.compare import diagnose_runs
+    from labjoint.errors import InputError
+
+    rec = random_voltage(tmp_path / "a.h5", 0.3, seed=3, n=1 << 12)
+    with pytest.raises(InputError) as e:
+        diagnose_runs([str(rec)], "linear_stiffness+viscous", modal=measured_modes(rec))
+    assert e.value.field == "runs" and "two or more records" in e.value.message

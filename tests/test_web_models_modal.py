@@ -4,7 +4,9 @@ both masses, lsim from rest), its FRF set stored over REST as a user would from 
 tab, then on the Models page the set chosen as the measured modes and
 the linear modal model fitted and diagnosed: the jobs ran the modal kind on the named
 response, the linear chain is reproduced (and called adequate), the ladder is drawn; a
-band that is not two numbers is refused on the page naming options.modal_band."""
+band that is not two numbers is refused on the page naming options.modal_band. The same
+chain driven through its strongly coupled coil (complex modes) shows the complex-mode
+flag beside the fit, as the CLI's warning line does."""
 
 from __future__ import annotations
 
@@ -13,7 +15,7 @@ import pytest
 from labjoint.api import ApiSettings, create_app
 from labjoint.client import Client
 from labjoint.storage import Catalog
-from spectra_runs import random_force
+from spectra_runs import random_force, random_voltage
 from test_api_helpers import CONTROL, live_server
 from test_web_support import chromium, open_page, wait_attr
 
@@ -58,3 +60,30 @@ def test_models_view_fits_and_diagnoses_on_measured_modes(tmp_path):
         page.click("#fit")
         page.wait_for_selector("#models-msg.error", timeout=60_000)
         assert "options.modal_band" in page.text_content("#models-msg")
+
+
+def test_models_view_shows_the_measurement_flags(tmp_path):
+    data = tmp_path / "data"
+    data.mkdir()
+    for seed, name in ((3, "v1"), (4, "v2")):
+        random_voltage(data / f"{name}.h5", 0.3, seed=seed, n=1 << 12)
+    Catalog(data / "catalog.sqlite").rebuild(data)
+    app = create_app(ApiSettings(data_dir=data, control_tokens=[CONTROL]))
+    with live_server(app) as url, chromium() as browser, Client(url, CONTROL) as c:
+        c.frf(["v1"], name="coupled")
+        w = open_page(browser, url, token=CONTROL)
+        page = w.page
+        page.goto(f"{url}/#/models")
+        page.wait_for_selector("#run-pick input[value='v1']")
+        for box in page.locator("#run-pick input").all():
+            box.set_checked(box.get_attribute("value") in ("v1", "v2"))
+        page.click("#modal-opts summary")
+        page.select_option("#modal-set", "coupled")
+        page.click("#limit summary")
+        page.check("#limit input[value=cubic_stiffness]")
+        page.fill("#model-expr", "linear_stiffness+viscous")
+        page.click("#fit")
+        page.wait_for_selector("#measurement-flags li[data-flag=complex_mode]", timeout=300_000)
+        text = page.text_content("#measurement-flags")
+        assert "mode 2" in text and "vel1" in text and "quadrature" in text
+        assert w.problems() == []

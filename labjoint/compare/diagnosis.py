@@ -43,6 +43,7 @@ from labjoint.compare.runs import split_by_names
 from labjoint.compare.significance import (PairedTest, SignificanceSettings, is_significant,
                                            noise_test)
 from labjoint.compare.ties import mark_ties, simpler_first
+from labjoint.errors import InputError
 from labjoint.models import FitResult, Model, ModelFitter
 from labjoint.models.asymmetry import EVEN, amplitude, asymmetry
 from labjoint.models.effects import get_effect
@@ -305,6 +306,10 @@ def diagnose_prepared(runs: Sequence[Measurement], model: Model | str, *,
     kind = kind_of(runs)
     t0 = time.perf_counter()
     fit_r, val_r, rule = split_by_names(runs, validate) if validate else kind.split(runs)
+    if not val_r:
+        raise InputError(f"a diagnosis judges every candidate on records it did not fit, and the "
+                         f"split left none ({rule}): give two or more records, or --validate",
+                         field="runs")
     runs = judged_runs(runs, fit_r, val_r)
     fit_names, val_names = [r.name for r in fit_r], [r.name for r in val_r]
     noise = noise or noise_floor(runs)

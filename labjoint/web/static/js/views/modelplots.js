@@ -39,7 +39,16 @@ export function summary(fit, diag) {
     floor ? ` (×${fmt(nr / floor, 3)})` : '', ' · ', verdict),
   diag?.verdict ? h('p', { class: 'caption', id: 'verdict-text' }, onPage(diag.verdict)) : null,
   diag?.fit_runs ? h('p', { class: 'caption' }, `Fitted on ${diag.fit_runs.length} run(s), validated on `
-    + `${(diag.validation_runs || []).length}${diag.split ? ` (${onPage(diag.split)})` : ''}.`) : null);
+    + `${(diag.validation_runs || []).length}${diag.split ? ` (${onPage(diag.split)})` : ''}.`) : null,
+  flagList(diag?.measurement_flags || fit?.measurement_flags));
+}
+
+// The data's likely mistakes and limits the pipeline found (negative energy loss, complex
+// measured modes): shown with the fit they qualify, as the CLI's "warning:" lines.
+function flagList(flags) {
+  if (!flags || !flags.length) return null;
+  return h('ul', { class: 'note error', id: 'measurement-flags' }, ...flags.map((f) => h('li',
+    { dataset: { flag: f.flag } }, `${f.run ? `${f.run}: ` : ''}${onPage(f.message)}`)));
 }
 
 // Below this relative standard error a fitted parameter's covariance is numerically
