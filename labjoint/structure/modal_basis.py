@@ -1,7 +1,8 @@
 """The measured linear modes a modal model is built on (:mod:`labjoint.structure.nlmode`,
 issue 29 item 5): natural frequency, damping ratio and shape per mode, read from the JSON
 of ``labjoint modes --json``; a shape measured complex keeps how far it is from real (the
-model takes the real parts; :mod:`labjoint.compare.flags` says so)."""
+model then adds quadrature participations, nlmode eq. 3b; :mod:`labjoint.compare.flags`
+says so)."""
 
 from __future__ import annotations
 
@@ -23,14 +24,14 @@ class MeasuredMode:
     shape: dict[str, float]
     #: how far the measured (complex) shape is from a real one: the largest phase from 0 or
     #: 180 deg over the sensors at >= 10 % of the mode's largest amplitude, and that sensor
-    #: (0 and "" for a shape given real); the model takes the real parts
+    #: (0 and "" for a shape given real); ``shape`` holds the real parts
     phase_deg: float = 0.0
     phase_sensor: str = ""
 
 
 #: a measured mode further than this from real (deg, at a sensor of >= 10 % of its largest
 #: amplitude) is complex: the modal model then gives every mode a quadrature participation
-#: per sensor (:func:`labjoint.structure.nlmode.response`) and the fit says why (flags)
+#: per sensor (nlmode eq. 3b, :func:`labjoint.structure.nlmode.lead`) and the fit says why (flags)
 COMPLEX_DEG = 10.0
 
 

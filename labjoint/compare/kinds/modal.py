@@ -222,7 +222,7 @@ class ModalMeasurement:
         """The model's reading of every channel over the segment (SI, its quantity)."""
         vals = {k: float(v.value if hasattr(v, "value") else v) for k, v in params.items()}
         q = self.states(model, vals) if q is None else q
-        out = {}
+        out, quad = {}, {}        # quad: the quadrature parts per quantity, computed once
         if self.between:           # the measured shapes read every mode (nlmode_pair)
             return {ch: pair_response(q, self.basis, ch, qty) for ch, qty in zip(self.channels, self.quantities)}
         for ch, qty in zip(self.channels, self.quantities):
@@ -232,7 +232,9 @@ class ModalMeasurement:
                 + vals.get(f"modal.r.{ch}", 0.0) * self.residual_input(qty, vals, q)
             hs = self.quadrature_gains(ch, vals)
             if any(hs):
-                out[ch] = out[ch] + sum(h * c for h, c in zip(hs, self.quadrature(qty, vals, q)))
+                if qty not in quad:
+                    quad[qty] = self.quadrature(qty, vals, q)
+                out[ch] = out[ch] + sum(h * c for h, c in zip(hs, quad[qty]))
         return out
 
     def quadrature(self, quantity: str, vals: Mapping[str, Any], q: np.ndarray) -> list[np.ndarray]:

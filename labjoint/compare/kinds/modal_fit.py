@@ -84,17 +84,20 @@ def project(ms: Sequence[ModalMeasurement], qs: Sequence[np.ndarray],
     gains: dict[str, float] = {}
     stderr: dict[str, float] = {}
     res = []
+    quad: dict[tuple[int, str], list[np.ndarray]] = {}   # per record and quantity, computed once
     for ch in ms[0].channels:
         rows, target = [], []
-        for m, q in zip(ms, qs):
+        for rec, (m, q) in enumerate(zip(ms, qs)):
             i = m.channels.index(ch)
             j, s = m.judged, m.scales[i]
             d = QUANTITY_ORDER[m.quantities[i]]
             cols = [q[j, d]] + [p[j, d] for p in m.linear(vals or {}, q)] \
                 + [m.residual_input(m.quantities[i], vals, q)[j]]
             if m.basis.complex:
-                quad = m.quadrature(m.quantities[i], vals or {}, q)
-                cols += [c[j] for c in (quad if ch != ref else quad[1:])]
+                key = (rec, m.quantities[i])
+                if key not in quad:
+                    quad[key] = m.quadrature(m.quantities[i], vals or {}, q)
+                cols += [c[j] for c in (quad[key] if ch != ref else quad[key][1:])]
             cols = [(c - c.mean()) / s for c in cols]
             n = j.stop - j.start
             y = m.data.force[i * n:(i + 1) * n]
