@@ -10,6 +10,8 @@ flag beside the fit, as the CLI's warning line does."""
 
 from __future__ import annotations
 
+import contextlib
+
 import pytest
 
 from labjoint.api import ApiSettings, create_app
@@ -22,28 +24,37 @@ from test_web_support import chromium, open_page, wait_attr
 pytestmark = pytest.mark.browser
 
 
-def test_models_view_fits_and_diagnoses_on_measured_modes(tmp_path):
+@contextlib.contextmanager
+def _models_page(tmp_path, write, names, responses=""):
+    """The Models page on the runs ``write(path, seed)`` makes (seeds 3, 4, ...), their first
+    run's FRF set made over REST as the measured modes, every run ticked, the linear model
+    and cubic_stiffness as the only candidate; yields (page, watcher, client)."""
     data = tmp_path / "data"
     data.mkdir()
-    for seed, name in ((3, "r1"), (4, "r2")):
-        random_force(data / f"{name}.h5", 2.0, seed=seed, n=1 << 13)
+    for seed, name in enumerate(names, start=3):
+        write(data / f"{name}.h5", seed)
     Catalog(data / "catalog.sqlite").rebuild(data)
     app = create_app(ApiSettings(data_dir=data, control_tokens=[CONTROL]))
     with live_server(app) as url, chromium() as browser, Client(url, CONTROL) as c:
-        c.frf(["r1"], name="chain")
+        c.frf([names[0]], name="modes_set")
         w = open_page(browser, url, token=CONTROL)
         page = w.page
         page.goto(f"{url}/#/models")
-        page.wait_for_selector("#run-pick input[value='r1']")
+        page.wait_for_selector(f"#run-pick input[value='{names[0]}']")
         for box in page.locator("#run-pick input").all():
-            box.set_checked(box.get_attribute("value") in ("r1", "r2"))
+            box.set_checked(box.get_attribute("value") in names)
         page.click("#modal-opts summary")
-        page.select_option("#modal-set", "chain")
-        page.fill("#modal-responses", "acc1, acc2")
+        page.select_option("#modal-set", "modes_set")
+        page.fill("#modal-responses", responses)
         page.click("#limit summary")
         page.check("#limit input[value=cubic_stiffness]")
         page.fill("#model-expr", "linear_stiffness+viscous")
+        yield page, w, c
 
+
+def test_models_view_fits_and_diagnoses_on_measured_modes(tmp_path):
+    force = lambda path, seed: random_force(path, 2.0, seed=seed, n=1 << 13)  # noqa: E731
+    with _models_page(tmp_path, force, ("r1", "r2"), "acc1, acc2") as (page, w, c):
         page.click("#fit")
         wait_attr(page, "svg[data-plot=ladder]", "data-values", lambda v: v != "", 600)
         jobs = c.request("GET", "/models/jobs", params={"limit": 50})["items"]
@@ -63,25 +74,8 @@ def test_models_view_fits_and_diagnoses_on_measured_modes(tmp_path):
 
 
 def test_models_view_shows_the_measurement_flags(tmp_path):
-    data = tmp_path / "data"
-    data.mkdir()
-    for seed, name in ((3, "v1"), (4, "v2")):
-        random_voltage(data / f"{name}.h5", 0.3, seed=seed, n=1 << 12)
-    Catalog(data / "catalog.sqlite").rebuild(data)
-    app = create_app(ApiSettings(data_dir=data, control_tokens=[CONTROL]))
-    with live_server(app) as url, chromium() as browser, Client(url, CONTROL) as c:
-        c.frf(["v1"], name="coupled")
-        w = open_page(browser, url, token=CONTROL)
-        page = w.page
-        page.goto(f"{url}/#/models")
-        page.wait_for_selector("#run-pick input[value='v1']")
-        for box in page.locator("#run-pick input").all():
-            box.set_checked(box.get_attribute("value") in ("v1", "v2"))
-        page.click("#modal-opts summary")
-        page.select_option("#modal-set", "coupled")
-        page.click("#limit summary")
-        page.check("#limit input[value=cubic_stiffness]")
-        page.fill("#model-expr", "linear_stiffness+viscous")
+    volts = lambda path, seed: random_voltage(path, 0.3, seed=seed, n=1 << 12)  # noqa: E731
+    with _models_page(tmp_path, volts, ("v1", "v2")) as (page, w, _):
         page.click("#fit")
         page.wait_for_selector("#measurement-flags li[data-flag=complex_mode]", timeout=300_000)
         text = page.text_content("#measurement-flags")

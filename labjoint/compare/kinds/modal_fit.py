@@ -8,7 +8,7 @@ frequency and damping (``modal.f<j>``, ``modal.zeta<j>``, from the measured ones
 (``shaker.highpass_hz``, ``shaker.lag_s``: nlmode eqs. 4, 4b). The sensors'
 participations (``modal.phi1.<s>`` and the linear modes' ``modal.g<j>.<s>``) enter the
 responses linearly (nlmode eq. 3) and are solved by linear least squares at every trial
-(variable projection), pooled over the fit records, with each sensor's residual term
+(variable projection, :mod:`.modal_project`), pooled over the fit records, with each sensor's residual term
 ``modal.r.<s>`` (the modes above the band, quasi-static: nlmode's eq. 3 plus r_s V^(d)) and,
 when the measured modes are complex, the quadrature ones ``modal.h<j>.<s>`` (eq. 3b);
 their standard errors are those of
@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from labjoint.compare.kinds.modal import ModalMeasurement
+from labjoint.compare.kinds.modal_project import gain_names, project
 from labjoint.compare.kinds.multistart import best_start_then_solve, modal_result
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model
@@ -54,77 +55,6 @@ MAX_STARTS = 24
 #: the shaker path's parameters every modal fit varies (nlmode eqs. 4, 4b)
 PATH = ("shaker.highpass_hz", "shaker.lag_s")
 MICRO_SLIP = 10.0                   # iwan's micro-slip-only start: phi_max this many x the largest amplitude
-
-
-def _gain_names(m: ModalMeasurement) -> list[str]:
-    out = []
-    for ch in m.channels:
-        if ch != m.basis.reference:
-            out.append(f"modal.phi1.{ch}")
-        out += [f"modal.g{j + 2}.{ch}" for j in range(len(m.lin))] + [f"modal.r.{ch}"] \
-            + _quadrature_names(m, ch)
-    return out
-
-
-def _quadrature_names(m: ModalMeasurement, ch: str) -> list[str]:
-    """Complex measured modes: every mode's quadrature participation at ``ch`` (nlmode eq.
-    3b; none for mode 1 at the reference, which defines it), else none."""
-    if not m.basis.complex:
-        return []
-    return ([] if ch == m.basis.reference else [f"modal.h1.{ch}"]) + \
-        [f"modal.h{j + 2}.{ch}" for j in range(len(m.lin))]
-
-
-def project(ms: Sequence[ModalMeasurement], qs: Sequence[np.ndarray],
-            vals: Mapping[str, float] | None = None
-            ) -> tuple[dict[str, float], dict[str, float], np.ndarray]:
-    """Participations by linear least squares over the records (module docstring), their
-    conditional standard errors, and the residual vector."""
-    ref = ms[0].basis.reference
-    gains: dict[str, float] = {}
-    stderr: dict[str, float] = {}
-    res = []
-    quad: dict[tuple[int, str], list[np.ndarray]] = {}   # per record and quantity, computed once
-    for ch in ms[0].channels:
-        rows, target = [], []
-        for rec, (m, q) in enumerate(zip(ms, qs)):
-            i = m.channels.index(ch)
-            j, s = m.judged, m.scales[i]
-            d = QUANTITY_ORDER[m.quantities[i]]
-            cols = [q[j, d]] + [p[j, d] for p in m.linear(vals or {}, q)] \
-                + [m.residual_input(m.quantities[i], vals, q)[j]]
-            if m.basis.complex:
-                key = (rec, m.quantities[i])
-                if key not in quad:
-                    quad[key] = m.quadrature(m.quantities[i], vals or {}, q)
-                cols += [c[j] for c in (quad[key] if ch != ref else quad[key][1:])]
-            cols = [(c - c.mean()) / s for c in cols]
-            n = j.stop - j.start
-            y = m.data.force[i * n:(i + 1) * n]
-            if ch == ref:
-                y = y - cols[0]
-                cols = cols[1:]
-            rows.append(np.column_stack(cols) if cols else np.zeros((n, 0)))
-            target.append(y)
-        A, y = np.vstack(rows), np.concatenate(target)
-        names = ([] if ch == ref else [f"modal.phi1.{ch}"]) + \
-            [f"modal.g{j + 2}.{ch}" for j in range(len(ms[0].lin))] + [f"modal.r.{ch}"] \
-            + _quadrature_names(ms[0], ch)
-        if A.shape[1]:
-            coef, *_ = np.linalg.lstsq(A, y, rcond=None)
-            r = y - A @ coef
-            dof = max(1, y.size - A.shape[1])
-            try:
-                cov = np.linalg.inv(A.T @ A) * float(r @ r) / dof
-                se = np.sqrt(np.clip(np.diag(cov), 0, None))
-            except np.linalg.LinAlgError:
-                se = np.full(A.shape[1], np.nan)
-            for k, c, e in zip(names, coef, se):
-                gains[k], stderr[k] = float(c), float(e)
-        else:
-            r = y
-        res.append(r)
-    return gains, stderr, np.concatenate(res)
 
 
 def record_amplitude(q: np.ndarray, m: ModalMeasurement) -> float:
@@ -382,7 +312,7 @@ def fit_modal(model: Model | str, fit_ms: Sequence[ModalMeasurement],
                    "m/V (residual flexibility)" if k.startswith("modal.r.") else "per V")
     for k, e in stderr.items():
         params[k].stderr = e
-    for k in _gain_names(fit_ms[0]):
+    for k in gain_names(fit_ms[0]):
         if k not in params:
             params.add(k, 0.0)
     return modal_result(model, params, names, stderr, corr, sol, r, fit_ms, val_ms)
