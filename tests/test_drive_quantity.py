@@ -5,7 +5,7 @@ voltage-driven set and by a model fitted per volt, naming the run and the channe
 import numpy as np
 import pytest
 
-from labjoint.compare.kinds.modal import prepare_modal
+from labjoint.compare.kinds.modal_prepare import prepare_modal
 from labjoint.compare.modal_api import check_drives, predict_modal, save_modal
 from labjoint.compare.kinds.modal_fit import fit_modal
 from labjoint.errors import InputError

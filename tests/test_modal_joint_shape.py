@@ -57,7 +57,8 @@ def test_fit_joint_shape_recovers_the_participation_the_pair_misses():
     come back within 2 %, and it predicts the level it never saw."""
     from dataclasses import replace
 
-    from labjoint.compare.kinds.modal import ModalSetup, prepare_modal
+    from labjoint.compare.kinds.modal import ModalSetup
+    from labjoint.compare.kinds.modal_prepare import prepare_modal
     from labjoint.compare.kinds.modal_maps import MODAL
     basis, _ = _basis_and_params()
     _, d_fit, _ = _true_participation(basis)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from labjoint.compare.kinds.modal import prepare_modal
+from labjoint.compare.kinds.modal_prepare import prepare_modal
 from labjoint.compare.kinds.modal_fit import fit_modal
 from labjoint.storage.channels import Channel, ChannelRecord
 from labjoint.structure.nlmode import Drive, ModalBasis

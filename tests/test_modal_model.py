@@ -18,7 +18,7 @@ from scipy.linalg import eig
 
 from labjoint.cli.main import main
 from labjoint.compare.diagnosis import diagnose_prepared
-from labjoint.compare.kinds.modal import prepare_modal
+from labjoint.compare.kinds.modal_prepare import prepare_modal
 from labjoint.compare.kinds.modal_fit import fit_modal
 from labjoint.errors import InputError
 from labjoint.storage.channels import Channel, ChannelRecord

@@ -19,7 +19,8 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.linalg import eigh
 
-from labjoint.compare.kinds.modal import ModalSetup, prepare_modal
+from labjoint.compare.kinds.modal import ModalSetup
+from labjoint.compare.kinds.modal_prepare import prepare_modal
 from labjoint.errors import InputError
 from labjoint.storage.channels import Channel, ChannelRecord
 from labjoint.structure.nlmode import ModalBasis

@@ -15,7 +15,8 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import eig
 
 from labjoint.cli.main import main
-from labjoint.compare.kinds.modal import ModalSetup, _drive_end, prepare_modal
+from labjoint.compare.kinds.modal import ModalSetup
+from labjoint.compare.kinds.modal_prepare import _drive_end, prepare_modal
 from labjoint.compare.kinds.modal_fit import fit_modal
 from labjoint.errors import InputError
 from labjoint.storage.channels import Channel, ChannelRecord

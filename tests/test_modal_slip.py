@@ -163,7 +163,7 @@ def test_micro_slip_named_and_its_parameters_recovered():
     between s1 and s2, from the measured (stuck) modes, names iwan over cubic stiffness and
     coulomb, and its fit recovers the joint (per unit modal mass of mode 1)."""
     from labjoint.compare.diagnosis import DiagnoseSettings, diagnose_prepared
-    from labjoint.compare.kinds.modal import prepare_modal
+    from labjoint.compare.kinds.modal_prepare import prepare_modal
     basis, law, drives = _basis_and_law()
     recs = [_record(lv, f"L{lv:g}") for lv in (0.3, 1.0, 2.5)]
     ms = [prepare_modal(r, basis, between=("s1", "s2")) for r in recs]

@@ -13,7 +13,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from labjoint.compare.diagnosis import DiagnoseSettings, diagnose_prepared
-from labjoint.compare.kinds.modal import prepare_modal
+from labjoint.compare.kinds.modal_prepare import prepare_modal
 from labjoint.compare.kinds.modal_fit import fit_modal
 from labjoint.compare.kinds.modal_maps import MODAL
 from labjoint.storage.channels import Channel, ChannelRecord

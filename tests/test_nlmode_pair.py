@@ -121,7 +121,7 @@ def test_fit_between_two_points_recovers_the_joint():
     displacement responses, 0.01 % noise) fitted through the modal kind with the joint
     between s2 and s3: the law (converted to mode 1's unit modal mass) and the drives come
     back (and the relative modal masses), validated on the level not fitted."""
-    from labjoint.compare.kinds.modal import prepare_modal
+    from labjoint.compare.kinds.modal_prepare import prepare_modal
     from labjoint.compare.kinds.modal_maps import MODAL
     basis, truth = _basis_and_params()
     recs = [_record(0.5, "low"), _record(1.0, "high")]

@@ -235,7 +235,7 @@ def _mode1_reading(ks, xs):
 def test_modal_fit_recovers_the_saturating_joint_within_10_percent():
     from test_modal_model import KJ, _basis
 
-    from labjoint.compare.kinds.modal import prepare_modal
+    from labjoint.compare.kinds.modal_prepare import prepare_modal
     from labjoint.compare.kinds.modal_fit import fit_modal
 
     ks, xs = 0.3 * KJ, 2e-5

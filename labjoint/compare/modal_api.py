@@ -19,7 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from labjoint.compare.kinds.modal import ModalMeasurement, ModalSetup, prepare_modal
+from labjoint.compare.kinds.modal import ModalMeasurement, ModalSetup
+from labjoint.compare.kinds.modal_prepare import prepare_modal
 from labjoint.compare.runs import split_by_names
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model, Parameters

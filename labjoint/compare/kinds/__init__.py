@@ -11,7 +11,8 @@
   :func:`labjoint.compare.kinds.backbone.prepare_backbones`);
 - ``modal``: records of a structure nobody can describe, inside a modal model of its
   measured modes with the joint on mode 1, judged on the measured responses
-  (:mod:`.modal`, :mod:`.modal_fit`, :mod:`.modal_maps`; prepared with :func:`.modal.prepare_modal`).
+  (:mod:`.modal`, :mod:`.modal_fit`, :mod:`.modal_project`, :mod:`.modal_maps`; prepared
+  with :func:`.modal_prepare.prepare_modal`).
 
 FRF sweeps and backbones of one structure may be judged together, in one fit and one
 diagnosis (:mod:`.combined`); any other mixture of kinds is refused.
