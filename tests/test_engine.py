@@ -576,22 +576,3 @@ def test_pause_restores_the_output_after_resume_and_is_skipped_on_the_sim():
     assert start.metadata["checkpoint"] == {"label": "before"}
     engine2, gen2, daq2, col2 = make(sim=True)
     assert engine2.run(plan).status == "complete"
-
-
-def test_stop_on_signals_turns_sigterm_into_an_emergency_stop():
-    import os
-    import signal
-
-    from labjoint.acquisition.stop_signals import stop_on_signals
-
-    def on_read(col):
-        if col.open_blocks() == 2:
-            os.kill(os.getpid(), signal.SIGTERM)
-
-    engine, gen, daq, col = make(on_read=on_read)
-    before = signal.getsignal(signal.SIGTERM)
-    with stop_on_signals(engine):
-        r = engine.run([Configure(400, 10), Output(True), Record("r", n_cycles=500)])
-    assert signal.getsignal(signal.SIGTERM) is before
-    assert r.status == "aborted" and "SIGTERM" in r.reason and gen.s.output is False
-    assert col.docs[-1][1].status == "aborted"

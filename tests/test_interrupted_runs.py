@@ -42,6 +42,12 @@ def _wait_for_samples(out, proc, timeout=120):
     raise AssertionError("no run started")
 
 
+def _reap(proc):
+    if proc.poll() is None:
+        proc.kill()
+    proc.wait(patience.s(60))
+
+
 def _statuses(out):
     out_ = {}
     for p in sorted(out.glob("*.h5")):
@@ -54,17 +60,21 @@ def _statuses(out):
 def test_sigterm_closes_the_open_run_and_kill_9_is_recovered(tmp_path, capsys):
     a = tmp_path / "term"
     proc = _start(a)
-    _wait_for_samples(a, proc)
-    proc.send_signal(signal.SIGTERM)
-    assert proc.wait(60) == 130
+    try:
+        _wait_for_samples(a, proc)
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(patience.s(6)) == 130      # 60 s at the default scale
+    finally:                           # a failed wait leaves no process behind
+        _reap(proc)
     st = _statuses(a)
     assert st and all(s != "running" for s, _ in st.values())
     assert "aborted" in {s for s, _ in st.values()}
     b = tmp_path / "kill"
     proc = _start(b)
-    hit = _wait_for_samples(b, proc)
-    proc.kill()
-    proc.wait(60)
+    try:
+        hit = _wait_for_samples(b, proc)
+    finally:
+        _reap(proc)
     assert _statuses(b)[hit.stem][0] == "running"
     assert main(["recover", "--data", str(b), "--json"]) == 0
     res = json.loads(capsys.readouterr().out)

@@ -8,6 +8,7 @@ channels first; each run's metadata records the factor it is read with.
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 import time
 from pathlib import Path
@@ -57,6 +58,7 @@ def run(args: argparse.Namespace) -> int:
     from labjoint.acquisition.admission import check_plan
     from labjoint.acquisition.plans import load_plan, read_plan_file
     from labjoint.acquisition.rig import open_rig
+    from labjoint.acquisition.stop_signals import stop_on_signals
     from labjoint.cli.cmd_analyze import analyze_paths, print_loop_table
     from labjoint.cli.signals import terminate_as_interrupt
     from labjoint.config import load_config
@@ -103,7 +105,11 @@ def run(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     with terminate_as_interrupt(), open_rig(cfg) as rig:
-        result = rig.engine([writer, progress], calibration_sources=sources).run(plan)
+        engine = rig.engine([writer, progress], calibration_sources=sources)
+        with stop_on_signals(engine, (signal.SIGTERM, signal.SIGINT)) as received:
+            result = engine.run(plan)       # a signal ends it 'aborted' at its next block
+        if received.name is not None:
+            raise KeyboardInterrupt(f"signal {received.name}")
     elapsed = time.perf_counter() - t0
     writer.retry_catalog()            # the catalog may be back after an outage mid-plan
     pending = {str(p): why for p, why in writer.catalog_pending.items()}
