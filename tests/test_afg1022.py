@@ -213,3 +213,25 @@ def test_reads_from_another_thread_never_mix_answers(gen):
         stop.set()
         t.join()
     assert seen and set(seen) <= states
+
+
+def test_a_query_cut_short_by_ctrl_c_never_hands_its_answer_to_the_next(gen, lib):
+    # Ctrl-C between a query's write and its read leaves the answer in the instrument's
+    # output queue; the output OFF that follows must not read it as its own *OPC?.
+    gen.apply(400.0, 5.0)
+    gen.set_output(True)
+    res = gen._res
+    query = res.query
+
+    def write_then_interrupt(cmd):
+        res.query = query                      # once: a second would end pytest itself
+        res.write(cmd)
+        raise KeyboardInterrupt
+
+    res.query = write_then_interrupt
+    with pytest.raises(KeyboardInterrupt):
+        gen._query("SOURce1:FREQuency:FIXed?")
+    gen.set_output(False)                      # a fresh, cleared session: no HardwareError
+    assert gen._res is not res
+    assert peek(lib, "OUTPut1:STATe?") == "OFF"
+    assert gen.read_settings().amplitude_vpp == pytest.approx(5.0)

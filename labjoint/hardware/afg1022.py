@@ -287,6 +287,9 @@ class AFG1022(SessionSteps, ArbitraryWaveforms, SignalGenerator):
             self._res.write(cmd)
         except _VISA_FAILURES as exc:
             raise self._failure(cmd, exc) from exc
+        except BaseException:       # cut short (Ctrl-C): what reached the instrument is unknown
+            self._stale = True
+            raise
 
     def _query(self, cmd: str) -> str:
         if self._stale:
@@ -297,6 +300,12 @@ class AFG1022(SessionSteps, ArbitraryWaveforms, SignalGenerator):
             return self._res.query(cmd).strip()
         except _VISA_FAILURES as exc:
             raise self._failure(cmd, exc) from exc
+        except BaseException:
+            # cut short between write and read (Ctrl-C): the answer stays in the
+            # instrument's output queue and the next query would read it as its own; the
+            # next command reopens the session, whose device clear empties the queue
+            self._stale = True
+            raise
 
     def _query_float(self, cmd: str) -> float:
         text = self._query(cmd)

@@ -60,7 +60,7 @@ def device_clear(res: Any, resource: str) -> bool:
     try:
         res.clear()
         return True
-    except NotImplementedError:  # pyvisa-sim: no viClear; its queues hold no stale answer
+    except NotImplementedError:  # a backend without viClear (plain pyvisa-sim; the twin has one)
         return False
     except Exception as exc:  # a dead link: the caller's next exchange will say so
         log.warning("%s: device clear failed: %s", resource, exc)

@@ -1,4 +1,5 @@
-"""What the AFG1022's pyvisa-sim twin needs beyond its YAML: binary waveform blocks.
+"""What the AFG1022's pyvisa-sim twin needs beyond its YAML: binary waveform blocks, and a
+device clear (:func:`_install_clear`).
 
 pyvisa-sim matches every message as UTF-8 text, so the IEEE 488.2 definite-length block
 of ``DATA:DATA EMEMory,#<n><length><bytes>`` (14-bit codes as big-endian uint16) cannot
@@ -70,4 +71,24 @@ def install() -> None:
             return original(self, data)
 
         devices.Device.write = write
+        _install_clear()
         _done = True
+
+
+def _install_clear() -> None:
+    """viClear as IEEE 488.2 device clear does on the instrument: its input and output
+    queues emptied (a half-read answer dropped), settings and error queue kept. pyvisa-sim
+    has none (NotImplementedError), so a query cut short left its answer for the next."""
+    from pyvisa import constants
+    from pyvisa_sim import highlevel
+
+    def clear(self, session):  # type: ignore[no-untyped-def]
+        try:
+            device = self.sessions[session].device
+        except (KeyError, AttributeError):
+            return constants.StatusCode.error_invalid_object
+        device._output_buffers.clear()
+        device._input_buffer = bytearray()
+        return constants.StatusCode.success
+
+    highlevel.SimVisaLibrary.clear = clear
