@@ -65,6 +65,17 @@ def test_models_view_fits_and_diagnoses_on_measured_modes(tmp_path):
         assert sorted(res["fit_runs"] + res["validation_runs"]) == ["r1", "r2"]
         values = page.get_attribute("svg[data-plot=ladder]", "data-values").split(",")
         assert float(values[0]) == pytest.approx(100 * res["nrmse"], rel=1e-3)      # drawn in %
+        # measured and model along each record, per compared sensor, in its own unit
+        page.wait_for_selector("svg[data-plot^=overlay-]")
+        overlays = page.locator("svg[data-plot^=overlay-]")
+        assert overlays.count() == 4                                      # 2 records x 2 sensors
+        assert "acceleration (m/s^2)" in overlays.first.text_content()
+        assert int(overlays.first.get_attribute("data-series")) == 2
+        # the residual per record and sensor, as the diagnosis measured it
+        drawn = page.get_attribute("svg[data-plot=residual-cells]", "data-values").split(",")
+        assert [float(v) for v in drawn] == pytest.approx(
+            [100 * c["nrmse"] for c in res["maps"]["cells"]], rel=1e-3)
+        assert len(drawn) == 4 and all(float(v) < 2 for v in drawn)
         assert w.problems() == []
 
         page.fill("#modal-band", "five:forty")

@@ -13,8 +13,10 @@ import numpy as np
 from labjoint.compare.kinds.modal import ModalMeasurement
 from labjoint.compare.kinds.modal_fit import fit_modal
 from labjoint.compare.kinds.modal_pair_fit import fit_modal_pair
+from labjoint.compare.kinds.record_maps import TRACE_POINTS
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model
+from labjoint.signal.frfset import RESPONSE_UNITS
 from labjoint.structure.nlmode import MODAL_EFFECTS
 from labjoint.vocabulary import EFFECTS
 
@@ -64,7 +66,7 @@ class ModalKind:
         return ModalMaps([])
 
     def loops(self, evals: Sequence[Any]) -> dict[str, dict[str, Any]]:
-        return {}
+        return modal_traces(evals)
 
     def failures(self, ev: Any, maps: ModalMaps, curves: Any, floor: float,
                  factor: float) -> list[dict[str, Any]]:
@@ -114,6 +116,26 @@ class ModalKind:
         return fit_modal(model, fit_ms, val_ms, init, max_nfev=self.max_nfev, **kw)
 
     max_nfev: int | None = None
+
+
+def modal_traces(evals: Sequence[Any], n_points: int = TRACE_POINTS) -> dict[str, dict[str, Any]]:
+    """Per record: every compared response, measured and model, over the judged span in
+    its own SI unit (the mean removed, as compared), every k-th sample (at most
+    ``n_points``), with their times."""
+    out = {}
+    for ev in evals:
+        m: ModalMeasurement = ev.run
+        n = m.judged.stop - m.judged.start
+        step = max(1, int(np.ceil(n / n_points)))
+        responses = {}
+        for i, (ch, qty, s) in enumerate(zip(m.channels, m.quantities, m.scales)):
+            part = slice(i * n, (i + 1) * n, step)
+            responses[ch] = {"quantity": qty, "unit": RESPONSE_UNITS.get(qty, ""),
+                             "measured": m.data.force[part] * s,
+                             "model": np.asarray(ev.model_force)[part] * s}
+        out[m.name] = {"time_s": np.arange(m.judged.start, m.judged.stop, step) / m.drive.fs,
+                       "responses": responses}
+    return out
 
 
 class ModalMaps:

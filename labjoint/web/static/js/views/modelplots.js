@@ -22,9 +22,11 @@ const scale = (xs, k) => (xs || []).map((v) => (v == null ? null : v * k));
 // at the top of the result or one level down.
 export function findMaps(result) {
   if (!result || typeof result !== 'object') return null;
-  if (result.by_run || result.by_phase) return result;
+  const isMaps = (v) => v.by_run || v.by_phase || (Array.isArray(v.cells) && v.cells.length);
+  if (isMaps(result)) return result;
+  if (result.maps && typeof result.maps === 'object' && isMaps(result.maps)) return result.maps;
   for (const v of Object.values(result)) {
-    if (v && typeof v === 'object' && !Array.isArray(v) && (v.by_run || v.by_phase)) return v;
+    if (v && typeof v === 'object' && !Array.isArray(v) && isMaps(v)) return v;
   }
   return null;
 }
@@ -97,8 +99,29 @@ function traces(byRun, names) {
   }));
 }
 
+// Measured and model response of every compared sensor along each record (kind "modal"):
+// one plot per record and sensor, in the response's own unit.
+function responseTraces(byRun, names) {
+  const figs = [];
+  for (const name of names) {
+    const lp = byRun[name];
+    for (const [ch, r] of Object.entries(lp.responses || {})) {
+      figs.push(h('figure', { class: 'small' }, plotXY({
+        id: `overlay-${figs.length}`, title: `${name} · ${ch}`, height: 300, xlabel: 'time (s)',
+        ylabel: `${r.quantity} (${r.unit})`,
+        series: [
+          { name: 'measured', x: lp.time_s, y: r.measured, color: color(0), width: 2 },
+          { name: 'model', x: lp.time_s, y: r.model, color: color(1), dash: '6 3', width: 1.5 },
+        ],
+      })));
+    }
+  }
+  return h('div', { class: 'grid2' }, figs);
+}
+
 // Measured and model loop of each run (mean steady cycle), when the result carries them;
-// for records (kind "record"), the force along the record.
+// for records (kind "record"), the force along the record; for measured modes (kind
+// "modal"), every compared response along the record.
 export function loops(fit) {
   const byRun = fit.loops || {};
   const names = (fit.runs || []).map((r) => r.run).filter((n) => byRun[n]);
@@ -106,6 +129,7 @@ export function loops(fit) {
     return h('p', { class: 'note' }, 'The result carries no loop arrays (loops) to overlay.');
   }
   if (fit.kind === 'record') return traces(byRun, names);
+  if (fit.kind === 'modal') return responseTraces(byRun, names);
   return h('div', { class: 'grid3' }, names.map((name, i) => {
     const lp = byRun[name];
     const close = (a) => (a && a.length ? [...a, a[0]] : []);   // one whole cycle: close it
@@ -190,8 +214,22 @@ function recordMaps(maps) {
   return parts;
 }
 
+// The maps of measured modes: NRMSE per record and sensor, and that residual over the
+// sensor's own noise (the failures list those above the diagnosis's factor).
+function modalMaps(maps) {
+  const cells = maps.cells || [];
+  const labels = cells.map((c) => `${c.run}\n${c.channel}`);
+  return [h('figure', {}, h('h3', {}, 'By record and sensor'), barChart({
+    id: 'residual-cells', height: 260, labels, values: cells.map((c) => P(c.nrmse)),
+    ylabel: 'NRMSE (%)', format: fmtP(2),
+  })), h('figure', {}, h('h3', {}, 'Residual over the sensor\'s noise'), barChart({
+    id: 'residual-noise', height: 260, labels, values: cells.map((c) => c.residual_over_noise),
+    ylabel: 'rms residual / noise', format: (v) => `${fmt(v, 3)}×`,
+  }))];
+}
+
 export function residualMaps(maps, failures, kind) {
-  const parts = kind === 'record' && maps ? recordMaps(maps) : [];
+  const parts = !maps ? [] : kind === 'record' ? recordMaps(maps) : kind === 'modal' ? modalMaps(maps) : [];
   if (kind !== 'record' && maps?.by_run) parts.push(h('figure', {}, h('h3', {}, 'By run: amplitude × frequency'), gridMap(maps.by_run)));
   if (maps?.by_phase) {
     const e = maps.by_phase.edges || [];
