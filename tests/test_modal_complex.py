@@ -53,3 +53,41 @@ def test_a_diagnosis_of_one_record_is_refused_naming_runs(tmp_path):
     with pytest.raises(InputError) as e:
         diagnose_runs([str(rec)], "linear_stiffness+viscous", modal=measured_modes(rec))
     assert e.value.field == "runs" and "two or more records" in e.value.message
+
+
+def test_the_joint_between_two_points_reads_complex_modes(tmp_path):
+    """The two-point form (nlmode_pair eq. 7b): nothing per sensor is fitted, so the sensors
+    must read the measured imaginary parts; the linear chain then reaches the noise and a
+    saved model (its basis with the [re, im] shapes) predicts a record it never saw. With
+    the imaginary parts dropped it cannot."""
+    fit_rec = random_voltage(tmp_path / "a.h5", 0.3, seed=3, n=1 << 13)
+    new_rec = random_voltage(tmp_path / "b.h5", 0.3, seed=4, n=1 << 13)
+    modes = measured_modes(fit_rec)
+    rep = fit_report([str(fit_rec)], "linear_stiffness+viscous", modal=modes, between=("vel1", "vel2"))
+    real = fit_report([str(fit_rec)], "linear_stiffness+viscous", modal=_real(modes),
+                      between=("vel1", "vel2"))
+    assert rep.fit.nrmse_ < 0.04, rep.fit.nrmse_
+    assert real.fit.nrmse_ > 3 * rep.fit.nrmse_, (real.fit.nrmse_, rep.fit.nrmse_)
+    save_modal(rep.fit, rep.evaluation.runs_measured(), tmp_path / "m.json")
+    saved = json.loads((tmp_path / "m.json").read_text())
+    assert any(isinstance(v, list) and v[1] != 0
+               for m in saved["basis"]["modes"] for v in m["shape"].values())
+    assert predict_modal(tmp_path / "m.json", new_rec)["nrmse"] < 0.04
+
+
+@pytest.mark.parametrize("d", [0, 1, 2])
+def test_a_complex_shape_reads_its_phasor_at_the_mode(d):
+    """Eq. 7b against the closed form: at the mode's own frequency, eta = cos(w t), a sensor
+    of shape a + i b reads Re((a + i b) (i w)^d e^{i w t}) (to sin(w h)/(w h) for d = 2)."""
+    from labjoint.structure.modal_basis import MeasuredMode
+    from labjoint.structure.nlmode_pair import mode_reading
+
+    f, fs, a, b = 12.0, 2000.0, 0.7, -0.3
+    w, t = 2 * np.pi * f, np.arange(4000) / 2000.0
+    x = np.column_stack([np.cos(w * t), -w * np.sin(w * t), -w * w * np.cos(w * t)])
+    mode = MeasuredMode(f, 0.01, {"s": a}, shape_im={"s": b})
+    got = mode_reading(x, mode, "s", d, fs)[1:-1]
+    want = np.real((a + 1j * b) * (1j * w) ** d * np.exp(1j * w * t))[1:-1]
+    assert np.max(np.abs(got - want)) < 2e-3 * np.max(np.abs(want))
+    assert np.max(np.abs(mode_reading(x, MeasuredMode(f, 0.01, {"s": a}), "s", d)
+                         - a * x[:, d])) == 0.0

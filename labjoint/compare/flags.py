@@ -12,8 +12,9 @@ diagnose and ladder JSON (``measurement_flags``) and text.
   back-EMF or a damper at one point, strong coupling through the drive). Real modes
   cannot carry it (a linear structure would be left above its floor, "structure
   remains"), so the modal model then fits a quadrature participation per mode and sensor
-  (``modal.h<j>.<s>``, nlmode eq. 3b); the joint between two points (nlmode_pair) takes
-  real modes still. The flag says which.
+  (``modal.h<j>.<s>``, nlmode eq. 3b); with the joint between two points (nlmode_pair)
+  every sensor reads the modes' measured imaginary parts on their quadrature (its eq. 7b)
+  and the joint's relative displacement their real parts. The flag says which.
 
 (A drive channel whose quantity is not the model's input, a voltage given to a
 force-input model, is refused when the run is prepared,
@@ -70,15 +71,15 @@ def energy_flag(run: str, w: float, uncertainty: float) -> dict[str, Any] | None
 COMPLEX_MODE = ("mode {j} ({f:.4g} Hz) is complex: {s}'s phase is {a:.3g} deg from real (non-proportional "
                 "damping, e.g. a shaker's back-EMF at one point); real modes cannot carry it, so ")
 CARRIED = "every mode has a quadrature participation per sensor (modal.h<j>.<s>) beside its in-phase one"
-NOT_CARRIED = ("the joint between two points, which takes the shapes' real parts, can leave part of even a "
-               "linear response unexplained")
+CARRIED_PAIR = ("every sensor reads each mode's measured imaginary part on its quadrature (nlmode_pair eq. 7b); "
+                "the joint's relative displacement takes the shapes' real parts")
 
 
 def complex_mode_flags(basis: Any, pair: bool = False) -> list[dict[str, Any]]:
     """One flag per measured mode of ``basis`` further than COMPLEX_DEG from real; ``pair``:
-    the joint acts between two points (whose form takes real modes)."""
-    tail = NOT_CARRIED if pair else CARRIED
+    the joint acts between two points (whose sensors read the measured imaginary parts)."""
+    tail = CARRIED_PAIR if pair else CARRIED
     return [{"flag": "complex_mode", "mode": j, "frequency_hz": m.frequency_hz, "sensor": m.phase_sensor,
-             "phase_deg": m.phase_deg, "carried": not pair,
+             "phase_deg": m.phase_deg, "carried": True,
              "message": COMPLEX_MODE.format(j=j, f=m.frequency_hz, s=m.phase_sensor, a=m.phase_deg) + tail}
             for j, m in enumerate(basis.modes, start=1) if m.phase_deg > COMPLEX_DEG]

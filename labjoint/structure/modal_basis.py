@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +27,9 @@ class MeasuredMode:
     #: (0 and "" for a shape given real); ``shape`` holds the real parts
     phase_deg: float = 0.0
     phase_sensor: str = ""
+    #: the shape's imaginary parts (sensors given [re, im]; empty for a shape given real):
+    #: the two-point form reads them on each mode's quadrature (nlmode_pair eq. 7b)
+    shape_im: Mapping[str, float] = field(default_factory=dict)
 
 
 #: a measured mode further than this from real (deg, at a sensor of >= 10 % of its largest
@@ -53,18 +56,30 @@ class ModalBasis:
         return any(m.phase_deg > COMPLEX_DEG for m in self.modes)
 
     def to_dict(self) -> dict[str, Any]:
+        """The basis as saved with a model: shapes as [re, im] where measured complex."""
+        def shape(m: MeasuredMode) -> dict[str, Any]:
+            if not any(m.shape_im.values()):
+                return dict(m.shape)
+            return {k: [v, float(m.shape_im.get(k, 0.0))] for k, v in m.shape.items()}
+
         return {"reference": self.reference, "source": self.source,
                 "modes": [{"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio,
-                           "shape": m.shape} for m in self.modes]}
+                           "shape": shape(m)} for m in self.modes]}
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any], source: str = "") -> ModalBasis:
-        modes = tuple(MeasuredMode(float(m["frequency_hz"]), float(m["damping_ratio"]),
-                                   {k: float(v[0] if isinstance(v, (list, tuple)) else v)
-                                    for k, v in (m.get("shape") or {}).items()},
-                                   *_complexity(m.get("shape") or {}))
-                      for m in d["modes"])
-        return cls(modes, str(d["reference"]), source or str(d.get("source", "")))
+        def part(v: Any, i: int) -> float:
+            if isinstance(v, (list, tuple)):
+                return float(v[i]) if len(v) > i else 0.0
+            return float(v) if i == 0 else 0.0
+
+        modes = []
+        for m in d["modes"]:
+            sh = m.get("shape") or {}
+            modes.append(MeasuredMode(float(m["frequency_hz"]), float(m["damping_ratio"]),
+                                      {k: part(v, 0) for k, v in sh.items()}, *_complexity(sh),
+                                      shape_im={k: part(v, 1) for k, v in sh.items() if part(v, 1)}))
+        return cls(tuple(modes), str(d["reference"]), source or str(d.get("source", "")))
 
 
 def _complexity(shape: Mapping[str, Any]) -> tuple[float, str]:
@@ -107,7 +122,8 @@ def basis_from_json(d: Any, source: str = "", reference: str | None = None) -> M
                          "`labjoint modes --json`", file=p or None, field="modal") from None
     for m in basis.modes:
         if not (np.isfinite(m.frequency_hz) and m.frequency_hz > 0 and np.isfinite(m.damping_ratio)
-                and m.damping_ratio > 0 and all(np.isfinite(v) for v in m.shape.values())):
+                and m.damping_ratio > 0 and all(np.isfinite(v) for v in m.shape.values())
+                and all(np.isfinite(v) for v in m.shape_im.values())):
             raise InputError(f"mode at {m.frequency_hz} Hz (damping {m.damping_ratio}): a modal model "
                              "needs positive finite frequencies and damping and finite shapes",
                              file=p or None, field="modal")

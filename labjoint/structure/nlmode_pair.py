@@ -28,8 +28,20 @@ adds to them (an even or cubic stiffness, slip), so a ``linear_stiffness`` in F 
 the measured modes. The hysteretic states z (Bouc-Wen, the Jenkins slider) and a Masing
 law's reversal stack (iwan, richard_abbott; carried per RK4 step) follow u.
 
-Sensors read y_s^(d) = sum_j phi_sj eta_j^(d), d = 0, 1, 2 by their quantity (eq. 3 of
-:mod:`labjoint.structure.nlmode`), from the integrated states. Integrator (stated):
+Sensors read their quantity's order d = 0, 1, 2 of the modes through the measured shapes
+
+    y_s^(d) = sum_j phi_sj eta_j^(d)                                               (7)
+
+(eq. 3 of :mod:`labjoint.structure.nlmode`), from the integrated states. A shape measured
+complex, phi_sj = a + i b, reads its imaginary part on the mode's quadrature
+
+    y_s^(d) = sum_j [a_sj eta_j^(d) + b_sj eta_j^(d+1) / w_j]                      (7b)
+
+(i times a response is its derivative over w near the mode, where the mode's part lies;
+nlmode eq. 3b with the measured b in place of a fitted h). The joint's D_j stays the real
+parts' difference: its force acts on the modes as the real shapes say (stated).
+
+Integrator (stated):
 classical RK4 on (eta, eta', z) with the drive's substeps (w h <= 0.1 at 1.5x the highest
 mode), the joint force from the forward simulator's own rates
 (:func:`labjoint.models.simulate._rates` on u, u': one source of the laws), the voltage
@@ -49,8 +61,8 @@ from labjoint.errors import InputError
 from labjoint.models import Model
 from labjoint.models.effects._masing import masing_commit, masing_eval, masing_state
 from labjoint.models.simulate import _coefficients, _rates, masing_coefficients
-from labjoint.structure.nlmode import (QUANTITY_ORDER, Drive, ModalBasis, _start,
-                                       check_modal_model)
+from labjoint.structure.nlmode import (QUANTITY_ORDER, Drive, MeasuredMode, ModalBasis, _start,
+                                       check_modal_model, lead)
 
 
 def differences(basis: ModalBasis, a: str, b: str) -> np.ndarray:
@@ -182,15 +194,33 @@ def pair_states(model: Model | str, params: Mapping[str, Any], basis: ModalBasis
                  c, k, k3, f0, bw, jk, ev, eta0, deta0, mp, mh, mst)
 
 
-def pair_response(states: np.ndarray, basis: ModalBasis, sensor: str, quantity: str) -> np.ndarray:
-    """A sensor's reading y_s^(d) = sum_j phi_sj eta_j^(d) from :func:`pair_states`."""
+def mode_reading(x: np.ndarray, mode: MeasuredMode, sensor: str, d: int,
+                 fs: float | None = None) -> np.ndarray:
+    """What mode j gives sensor s of order ``d`` per its coordinate's states ``x`` (n, 3):
+    phi_sj eta_j^(d) for a real shape (eq. 7); a complex one, phi = a + i b, adds its
+    imaginary part on the mode's quadrature, b eta_j^(d+1) / w_j (eq. 7b: nlmode eq. 3b with
+    the measured b instead of a fitted h; i times a response is its derivative over w near
+    the mode, where the mode's part of the response lies)."""
+    y = mode.shape[sensor] * x[:, d]
+    b = float(mode.shape_im.get(sensor, 0.0))
+    if b:
+        if fs is None:
+            raise InputError("a complex mode's reading needs the states' sample rate", field="fs")
+        y = y + b * lead(x, d, 2 * np.pi * mode.frequency_hz, fs)
+    return y
+
+
+def pair_response(states: np.ndarray, basis: ModalBasis, sensor: str, quantity: str,
+                  fs: float | None = None) -> np.ndarray:
+    """A sensor's reading y_s^(d) = sum_j phi_sj eta_j^(d) from :func:`pair_states` (eqs. 7,
+    7b; ``fs``: the states' sample rate)."""
     if quantity not in QUANTITY_ORDER:
         raise InputError(f"must be one of {', '.join(QUANTITY_ORDER)}, got {quantity!r}", field="quantity")
     if any(sensor not in m.shape for m in basis.modes):
         raise InputError(f"no sensor {sensor!r} in the modes; sensors: {sorted(basis.modes[0].shape)}",
                          field="sensor")
-    phi = np.array([m.shape[sensor] for m in basis.modes])
-    return states[:, :, QUANTITY_ORDER[quantity]] @ phi
+    d = QUANTITY_ORDER[quantity]
+    return sum(mode_reading(states[:, j, :], m, sensor, d, fs) for j, m in enumerate(basis.modes))
 
 
 def relative_displacement(states: np.ndarray, basis: ModalBasis, between: tuple[str, str],
@@ -199,4 +229,4 @@ def relative_displacement(states: np.ndarray, basis: ModalBasis, between: tuple[
     return states[:, :, 0] @ joint_participation(basis, between, vals)
 
 
-__all__ = ["differences", "joint_participation", "pair_response", "pair_states", "parameter_names", "relative_displacement"]
+__all__ = ["differences", "joint_participation", "mode_reading", "pair_response", "pair_states", "parameter_names", "relative_displacement"]

@@ -221,7 +221,8 @@ class ModalMeasurement:
         q = self.states(model, vals) if q is None else q
         out, quad = {}, {}        # quad: the quadrature parts per quantity, computed once
         if self.between:           # the measured shapes read every mode (nlmode_pair)
-            return {ch: pair_response(q, self.basis, ch, qty) for ch, qty in zip(self.channels, self.quantities)}
+            return {ch: pair_response(q, self.basis, ch, qty, self.drive.fs)
+                    for ch, qty in zip(self.channels, self.quantities)}
         for ch, qty in zip(self.channels, self.quantities):
             phi = 1.0 if ch == self.basis.reference else vals[f"modal.phi1.{ch}"]
             gains = [vals[f"modal.g{j + 2}.{ch}"] for j in range(len(self.lin))]

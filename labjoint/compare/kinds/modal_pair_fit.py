@@ -41,7 +41,7 @@ from labjoint.compare.kinds.multistart import best_start_then_solve, modal_resul
 from labjoint.errors import InputError
 from labjoint.models import FitResult, Model
 from labjoint.structure.nlmode import QUANTITY_ORDER, check_modal_model, linear_states
-from labjoint.structure.nlmode_pair import differences
+from labjoint.structure.nlmode_pair import differences, mode_reading
 
 MASS_RANGE = (1e-3, 1e3)
 LINEAR_TERMS = ("linear_stiffness.k", "viscous.c")
@@ -59,8 +59,8 @@ def _linear_drives(fit_ms: Sequence[ModalMeasurement], d: np.ndarray
         blocks = []
         for ch, qty, sc in zip(m.channels, m.quantities, m.scales):
             o = QUANTITY_ORDER[qty]
-            blocks.append(np.column_stack([mode.shape[ch] * (x[j, o] - x[j, o].mean()) / sc
-                                           for mode, x in zip(basis.modes, p)]))
+            reads = [mode_reading(x, mode, ch, o, m.drive.fs)[j] for mode, x in zip(basis.modes, p)]
+            blocks.append(np.column_stack([(r - r.mean()) / sc for r in reads]))
         cols.append(np.vstack(blocks))
         ys.append(m.data.force)
         us.append(np.column_stack([x[j, 0] for x in p]))
