@@ -203,13 +203,12 @@ def predict_modal(model_path: str | Path, record: str | Path) -> dict[str, Any]:
     pred = m.normalized(series)
     if not np.all(np.isfinite(pred)):
         raise InputError("the model diverges on this record", file=str(record), field="model")
-    n = m.judged.stop - m.judged.start
     e = pred - m.data.force
     chans = {}
     for i, ch in enumerate(m.channels):
-        ei, yi = e[i * n:(i + 1) * n], m.data.force[i * n:(i + 1) * n]
+        ei, yi = e[m.channel_part(i)], m.data.force[m.channel_part(i)]
         chans[ch] = {"quantity": m.quantities[i], "nrmse": float(np.sqrt(np.mean(ei**2) / np.mean(yi**2))),
-                     "measured": (yi * m.scales[i]).tolist(), "model": (pred[i * n:(i + 1) * n] * m.scales[i]).tolist()}
+                     "measured": m.in_units(i, m.data.force).tolist(), "model": m.in_units(i, pred).tolist()}
     out = {"model": d["model"], "record": str(record), "kind": "modal",
            "nrmse": float(np.sqrt(np.mean(e**2) / np.mean(m.data.force**2))),
            "sample_rate_hz": m.drive.fs, "channels": chans}

@@ -27,16 +27,12 @@ import threading
 from dataclasses import replace
 from pathlib import Path
 
-import pyvisa
-import pyvisa.constants
-import pyvisa.errors
-
-from labjoint.errors import HardwareError, InputError, InstrumentTimeout
+from labjoint.errors import HardwareError, InputError
 from labjoint.hardware.afg1022_arb import ArbitraryWaveforms, codes_14bit, shape_name  # noqa: F401
-from labjoint.hardware.afg1022_session import SessionSteps
+from labjoint.hardware.afg1022_session import CHANNELS, SessionSteps
 from labjoint.hardware.interfaces import GeneratorSettings, SignalGenerator
-from labjoint.hardware.visa_session import (CONFIG_DIR, VISA_FAILURES, device_clear,  # noqa: F401
-                                            open_session, probe_query, resolve_visa_library)
+from labjoint.hardware.visa_session import (CONFIG_DIR, device_clear, open_session,  # noqa: F401
+                                            probe_query, resolve_visa_library)
 
 log = logging.getLogger(__name__)
 
@@ -56,8 +52,6 @@ OFFSET_RESOLUTION_V = 1e-3
 HIGHZ_OHM = 9.9e37  # SCPI encoding of INFinity
 #: Per load: (min Vpp, max Vpp, max |offset| + Vpp/2) (AFG1000 specifications).
 LOADS = {"INF": (MIN_VPP_HIGHZ, MAX_VPP_HIGHZ, MAX_ENVELOPE_V_HIGHZ), "50": (1e-3, 10.0, 5.0)}
-CHANNELS = (1, 2)
-_VISA_FAILURES = VISA_FAILURES
 
 
 def _locked(method):
@@ -277,44 +271,7 @@ class AFG1022(SessionSteps, ArbitraryWaveforms, SignalGenerator):
         self._known = replace(known, amplitude_vpp=have)
         return self._known
 
-    # ---- SCPI plumbing ------------------------------------------------------------
-    def _write(self, cmd: str) -> None:
-        if self._stale:
-            self._reopen()
-        if self._res is None:
-            raise HardwareError(f"{self.resource}: not connected (sending {cmd!r})")
-        try:
-            self._res.write(cmd)
-        except _VISA_FAILURES as exc:
-            raise self._failure(cmd, exc) from exc
-        except BaseException:       # cut short (Ctrl-C): what reached the instrument is unknown
-            self._stale = True
-            raise
-
-    def _query(self, cmd: str) -> str:
-        if self._stale:
-            self._reopen()
-        if self._res is None:
-            raise HardwareError(f"{self.resource}: not connected (sending {cmd!r})")
-        try:
-            return self._res.query(cmd).strip()
-        except _VISA_FAILURES as exc:
-            raise self._failure(cmd, exc) from exc
-        except BaseException:
-            # cut short between write and read (Ctrl-C): the answer stays in the
-            # instrument's output queue and the next query would read it as its own; the
-            # next command reopens the session, whose device clear empties the queue
-            self._stale = True
-            raise
-
-    def _query_float(self, cmd: str) -> float:
-        text = self._query(cmd)
-        try:
-            value = float(text)
-        except ValueError:
-            raise HardwareError(f"{self.resource}: {cmd!r} answered {text!r}, not a number") from None
-        return value
-
+    # ---- SCPI answers ------------------------------------------------------------
     def _output_state(self, channel: int | None = None) -> bool:
         cmd = f"OUTPut{channel or self.channel}:STATe?"
         text = self._query(cmd).upper()
@@ -330,34 +287,6 @@ class AFG1022(SessionSteps, ArbitraryWaveforms, SignalGenerator):
         if errors:
             raise HardwareError(f"{self.resource}: instrument reported during {during}: "
                                 + "; ".join(errors))
-
-    def _failure(self, cmd: str, exc: Exception) -> HardwareError:
-        """Map a VISA failure to a labjoint error, after trying to leave the output OFF."""
-        timed_out = (isinstance(exc, pyvisa.errors.VisaIOError)
-                     and exc.error_code == pyvisa.constants.StatusCode.error_timeout)
-        if timed_out and self._res is not None:  # drop a half-read answer before OFF
-            device_clear(self._res, self.resource)
-        off = self._safe_off()
-        self._stale, self._known = True, None
-        state = "output switched OFF (both channels)" if off else "could not switch the output OFF"
-        if timed_out:
-            return InstrumentTimeout(f"{self.resource}: no answer to {cmd!r} within "
-                                     f"{self.timeout_ms} ms ({state})")
-        return HardwareError(f"{self.resource}: {cmd!r} failed: {exc} ({state})")
-
-    def _safe_off(self) -> bool:
-        """Try ``OUTPut<n>:STATe OFF`` on both channels; True if sent, False (logged) if
-        the link is dead."""
-        res = self._res
-        if res is None:
-            return False
-        try:
-            for ch in CHANNELS:
-                res.write(f"OUTPut{ch}:STATe OFF")
-            return True
-        except Exception as exc:  # the safe state must never raise
-            log.error("%s: could not switch the output OFF: %s", self.resource, exc)
-            return False
 
 
 def check_sine(frequency_hz: float, amplitude_vpp: float, offset_v: float,

@@ -15,7 +15,6 @@ import numpy as np
 
 from labjoint.errors import HardwareError, InputError
 from labjoint.hardware.interfaces import GeneratorSettings
-from labjoint.hardware.visa_session import VISA_FAILURES
 
 #: 14-bit waveform codes: 0 is the waveform's -peak, 16382 its +peak, 8191 zero.
 CODE_ZERO = 8191
@@ -55,9 +54,8 @@ def shape_name(text: str) -> str:
 
 
 class ArbitraryWaveforms:
-    """Mixed into :class:`~labjoint.hardware.afg1022.AFG1022` (uses its ``_res``,
-    ``_write``, ``_query_float``, ``_opc``, ``_check_errors``, ``_failure`` and
-    ``_apply_shape``)."""
+    """Mixed into :class:`~labjoint.hardware.afg1022.AFG1022` (uses its ``_exchange``,
+    ``_write``, ``_query_float``, ``_opc``, ``_check_errors`` and ``_apply_shape``)."""
 
     _wave: np.ndarray | None = None
 
@@ -65,15 +63,9 @@ class ArbitraryWaveforms:
         """Load one period (module doc); the number of points the instrument holds."""
         codes = codes_14bit(points)
         with self._lock:
-            if self._stale:
-                self._reopen()
-            if self._res is None:
-                raise HardwareError(f"{self.resource}: not connected (loading a waveform)")
             cmd = "DATA:DATA EMEMory,"
-            try:
-                self._res.write_binary_values(cmd, codes.tolist(), datatype="H", is_big_endian=True)
-            except VISA_FAILURES as exc:
-                raise self._failure(cmd + "<block>", exc) from exc
+            with self._exchange(cmd + "<block>") as res:
+                res.write_binary_values(cmd, codes.tolist(), datatype="H", is_big_endian=True)
             self._write(f"DATA:COPY USER{self.channel},EMEMory")
             self._opc("waveform load")
             self._check_errors("waveform load")

@@ -1,4 +1,5 @@
-"""Session steps of the AFG1022 driver: the load probe, reopening a stale session,
+"""Session steps of the AFG1022 driver: every exchange with the instrument (a write, a query,
+a waveform block) and what a failed one does, the load probe, reopening a stale session,
 ``*OPC?`` and draining the error queue (the driver class mixes these in).
 
 Why each exists is in docs/bench-bringup.md (issue 18): the load is reported not
@@ -9,9 +10,15 @@ a dead USB link leaves a stale session, and back-to-back USB writes can be dropp
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
 
-from labjoint.errors import HardwareError
-from labjoint.hardware.visa_session import probe_query
+import pyvisa.constants
+import pyvisa.errors
+
+from labjoint.errors import HardwareError, InstrumentTimeout
+from labjoint.hardware.visa_session import VISA_FAILURES, device_clear, probe_query
 
 log = logging.getLogger("labjoint.hardware.afg1022")
 
@@ -20,10 +27,77 @@ log = logging.getLogger("labjoint.hardware.afg1022")
 #: an instrument and firmware answer the same way every time; reconnects skip the wait.
 _LOAD_PROBES: dict[tuple, bool] = {}
 
+CHANNELS = (1, 2)
+
 
 class SessionSteps:
-    """Mixed into :class:`~labjoint.hardware.afg1022.AFG1022` (uses its ``_query``,
-    ``release`` and ``connect``)."""
+    """Mixed into :class:`~labjoint.hardware.afg1022.AFG1022` (uses its ``_res``,
+    ``_stale``, ``_known``, ``release`` and ``connect``)."""
+
+    @contextmanager
+    def _exchange(self, what: str) -> Iterator[Any]:
+        """The open session for one exchange (``what``: the command, for messages), reopened
+        first if stale. A VISA failure becomes a labjoint error (:meth:`_failure`); an
+        exchange cut short otherwise (Ctrl-C between a query's write and its read) leaves
+        the session stale: what reached the instrument is unknown and an answer may wait in
+        its output queue, which the next exchange would read as its own; reopening device-
+        clears it."""
+        if self._stale:
+            self._reopen()
+        if self._res is None:
+            raise HardwareError(f"{self.resource}: not connected (sending {what!r})")
+        try:
+            yield self._res
+        except VISA_FAILURES as exc:
+            raise self._failure(what, exc) from exc
+        except BaseException:
+            self._stale = True
+            raise
+
+    def _write(self, cmd: str) -> None:
+        with self._exchange(cmd) as res:
+            res.write(cmd)
+
+    def _query(self, cmd: str) -> str:
+        with self._exchange(cmd) as res:
+            return res.query(cmd).strip()
+
+    def _query_float(self, cmd: str) -> float:
+        text = self._query(cmd)
+        try:
+            value = float(text)
+        except ValueError:
+            raise HardwareError(f"{self.resource}: {cmd!r} answered {text!r}, not a number") from None
+        return value
+
+
+    def _failure(self, cmd: str, exc: Exception) -> HardwareError:
+        """Map a VISA failure to a labjoint error, after trying to leave the output OFF."""
+        timed_out = (isinstance(exc, pyvisa.errors.VisaIOError)
+                     and exc.error_code == pyvisa.constants.StatusCode.error_timeout)
+        if timed_out and self._res is not None:  # drop a half-read answer before OFF
+            device_clear(self._res, self.resource)
+        off = self._safe_off()
+        self._stale, self._known = True, None
+        state = "output switched OFF (both channels)" if off else "could not switch the output OFF"
+        if timed_out:
+            return InstrumentTimeout(f"{self.resource}: no answer to {cmd!r} within "
+                                     f"{self.timeout_ms} ms ({state})")
+        return HardwareError(f"{self.resource}: {cmd!r} failed: {exc} ({state})")
+
+    def _safe_off(self) -> bool:
+        """Try ``OUTPut<n>:STATe OFF`` on both channels; True if sent, False (logged) if
+        the link is dead."""
+        res = self._res
+        if res is None:
+            return False
+        try:
+            for ch in CHANNELS:
+                res.write(f"OUTPut{ch}:STATe OFF")
+            return True
+        except Exception as exc:  # the safe state must never raise
+            log.error("%s: could not switch the output OFF: %s", self.resource, exc)
+            return False
 
     def _probe_load(self, idn: str) -> bool:
         """Does ``OUTPut<n>:IMPedance?`` answer? Asked once per instrument and process,

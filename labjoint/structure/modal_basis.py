@@ -76,9 +76,10 @@ class ModalBasis:
         modes = []
         for m in d["modes"]:
             sh = m.get("shape") or {}
+            z = {k: (part(v, 0), part(v, 1)) for k, v in sh.items()}
             modes.append(MeasuredMode(float(m["frequency_hz"]), float(m["damping_ratio"]),
-                                      {k: part(v, 0) for k, v in sh.items()}, *_complexity(sh),
-                                      shape_im={k: part(v, 1) for k, v in sh.items() if part(v, 1)}))
+                                      {k: a for k, (a, _) in z.items()}, *_complexity(sh),
+                                      shape_im={k: b for k, (_, b) in z.items() if b}))
         return cls(tuple(modes), str(d["reference"]), source or str(d.get("source", "")))
 
 

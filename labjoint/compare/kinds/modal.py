@@ -263,9 +263,18 @@ class ModalMeasurement:
         return {"response_rms_measured": float(np.sqrt(np.mean(self.data.force[:n] ** 2))),
                 "response_rms_model": float(np.sqrt(np.mean(model_force[:n] ** 2)))}
 
-    def channel_noise(self) -> np.ndarray:
+    def channel_part(self, i: int, step: int = 1) -> slice:
+        """Channel ``i``'s samples in a stacked series over the judged samples (the record's
+        normalized responses ``data.force``, a model's :meth:`predict`)."""
         n = self.judged.stop - self.judged.start
-        return np.array([np.sqrt(difference_variance(self.data.force[i * n:(i + 1) * n]))
+        return slice(i * n, (i + 1) * n, step)
+
+    def in_units(self, i: int, stacked: np.ndarray, step: int = 1) -> np.ndarray:
+        """Channel ``i`` of a stacked normalized series in its own SI unit (mean removed)."""
+        return np.asarray(stacked)[self.channel_part(i, step)] * self.scales[i]
+
+    def channel_noise(self) -> np.ndarray:
+        return np.array([np.sqrt(difference_variance(self.data.force[self.channel_part(i)]))
                          for i in range(len(self.channels))])
 
     def noise(self) -> RunNoise:

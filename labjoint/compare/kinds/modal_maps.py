@@ -52,10 +52,9 @@ class ModalKind:
         cells = []
         for ev in evals:
             m: ModalMeasurement = ev.run
-            n = m.judged.stop - m.judged.start
             sd = m.channel_noise()
             for i, ch in enumerate(m.channels):
-                e = ev.model_force[i * n:(i + 1) * n] - m.data.force[i * n:(i + 1) * n]
+                e = ev.model_force[m.channel_part(i)] - m.data.force[m.channel_part(i)]
                 r = float(np.sqrt(np.mean(e * e))) if np.all(np.isfinite(e)) else float("inf")
                 cells.append({"run": m.name, "channel": ch, "quantity": m.quantities[i],
                               "frequency_hz": m.frequency_hz, "level": m.level,
@@ -128,11 +127,10 @@ def modal_traces(evals: Sequence[Any], n_points: int = TRACE_POINTS) -> dict[str
         n = m.judged.stop - m.judged.start
         step = max(1, int(np.ceil(n / n_points)))
         responses = {}
-        for i, (ch, qty, s) in enumerate(zip(m.channels, m.quantities, m.scales)):
-            part = slice(i * n, (i + 1) * n, step)
+        for i, (ch, qty) in enumerate(zip(m.channels, m.quantities)):
             responses[ch] = {"quantity": qty, "unit": RESPONSE_UNITS.get(qty, ""),
-                             "measured": m.data.force[part] * s,
-                             "model": np.asarray(ev.model_force)[part] * s}
+                             "measured": m.in_units(i, m.data.force, step),
+                             "model": m.in_units(i, ev.model_force, step)}
         out[m.name] = {"time_s": np.arange(m.judged.start, m.judged.stop, step) / m.drive.fs,
                        "responses": responses}
     return out

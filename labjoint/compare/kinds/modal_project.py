@@ -58,7 +58,7 @@ def project(ms: Sequence[ModalMeasurement], qs: Sequence[np.ndarray],
                 cols += [c[j] for c in (quad[key] if ch != ref else quad[key][1:])]
             cols = [(c - c.mean()) / s for c in cols]
             n = j.stop - j.start
-            y = m.data.force[i * n:(i + 1) * n]
+            y = m.data.force[m.channel_part(i)]
             if ch == ref:
                 y = y - cols[0]
                 cols = cols[1:]

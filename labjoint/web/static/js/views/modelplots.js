@@ -24,7 +24,6 @@ export function findMaps(result) {
   if (!result || typeof result !== 'object') return null;
   const isMaps = (v) => v.by_run || v.by_phase || (Array.isArray(v.cells) && v.cells.length);
   if (isMaps(result)) return result;
-  if (result.maps && typeof result.maps === 'object' && isMaps(result.maps)) return result.maps;
   for (const v of Object.values(result)) {
     if (v && typeof v === 'object' && !Array.isArray(v) && isMaps(v)) return v;
   }
@@ -85,17 +84,22 @@ export function perRun(fit) {
   return table(['Run', 'NRMSE', 'Energy-loss error', 'Stiffness error'], rows, { class: 'per-run' });
 }
 
+// One measured-and-model overlay along time.
+function timeOverlay(id, title, ylabel, x, measured, model) {
+  return h('figure', { class: 'small' }, plotXY({
+    id, title, height: 300, xlabel: 'time (s)', ylabel,
+    series: [
+      { name: 'measured', x, y: measured, color: color(0), width: 2 },
+      { name: 'model', x, y: model, color: color(1), dash: '6 3', width: 1.5 },
+    ],
+  }));
+}
+
 // Measured and model force along a record (any excitation): every k-th judged sample.
 function traces(byRun, names) {
   return h('div', { class: 'grid2' }, names.map((name, i) => {
     const lp = byRun[name];
-    return h('figure', { class: 'small' }, plotXY({
-      id: `overlay-${i}`, title: name, height: 300, xlabel: 'time (s)', ylabel: 'joint force (N)',
-      series: [
-        { name: 'measured', x: lp.time_s, y: lp.force_measured_n, color: color(0), width: 2 },
-        { name: 'model', x: lp.time_s, y: lp.force_model_n, color: color(1), dash: '6 3', width: 1.5 },
-      ],
-    }));
+    return timeOverlay(`overlay-${i}`, name, 'joint force (N)', lp.time_s, lp.force_measured_n, lp.force_model_n);
   }));
 }
 
@@ -106,14 +110,8 @@ function responseTraces(byRun, names) {
   for (const name of names) {
     const lp = byRun[name];
     for (const [ch, r] of Object.entries(lp.responses || {})) {
-      figs.push(h('figure', { class: 'small' }, plotXY({
-        id: `overlay-${figs.length}`, title: `${name} · ${ch}`, height: 300, xlabel: 'time (s)',
-        ylabel: `${r.quantity} (${r.unit})`,
-        series: [
-          { name: 'measured', x: lp.time_s, y: r.measured, color: color(0), width: 2 },
-          { name: 'model', x: lp.time_s, y: r.model, color: color(1), dash: '6 3', width: 1.5 },
-        ],
-      })));
+      figs.push(timeOverlay(`overlay-${figs.length}`, `${name} · ${ch}`, `${r.quantity} (${r.unit})`,
+        lp.time_s, r.measured, r.model));
     }
   }
   return h('div', { class: 'grid2' }, figs);
